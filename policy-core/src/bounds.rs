@@ -1,0 +1,82 @@
+//! Action bounds: the box the actuator accepts, and the scaling from the network's `[-1, 1]`.
+
+use nalgebra::{ArrayStorage, SVector};
+
+use crate::Error;
+
+/// Per-dimension action bounds `low[i] <= a[i] <= high[i]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ActionBounds<const A: usize> {
+    /// Lower bound of each action dimension.
+    pub low: SVector<f32, A>,
+    /// Upper bound of each action dimension.
+    pub high: SVector<f32, A>,
+}
+
+impl<const A: usize> ActionBounds<A> {
+    /// The degenerate box `[0, 0]`: every action is zero (the safe state).
+    pub const ZERO: Self = Self {
+        low: SVector::from_array_storage(ArrayStorage([[0.0; A]; 1])),
+        high: SVector::from_array_storage(ArrayStorage([[0.0; A]; 1])),
+    };
+
+    /// The symmetric box `[-limit, limit]` in every dimension.
+    pub fn symmetric(limit: f32) -> Self {
+        Self { low: SVector::repeat(-limit), high: SVector::repeat(limit) }
+    }
+
+    /// Maps a unit action `u ∈ [-1, 1]^A` linearly onto the box; the result is clamped into the
+    /// box, and a non-finite `u[i]` maps to the middle of dimension `i`.
+    ///
+    /// ```
+    /// use policy_core::ActionBounds;
+    /// let b = ActionBounds::<2>::symmetric(0.25);
+    /// assert_eq!(b.scale(&[1.0, -1.0]), [0.25, -0.25]);
+    /// assert_eq!(b.scale(&[f32::NAN, 0.0]), [0.0, 0.0]);
+    /// ```
+    #[inline]
+    pub fn scale(&self, unit: &[f32; A]) -> [f32; A] {
+        let mut out = [0.0; A];
+        for (((o, &u), &lo), &hi) in out.iter_mut().zip(unit).zip(&self.low).zip(&self.high) {
+            let u = if u.is_finite() { u.clamp(-1.0, 1.0) } else { 0.0 };
+            let a = lo + (u + 1.0) * 0.5 * (hi - lo);
+            *o = a.clamp(lo, hi);
+        }
+        out
+    }
+
+    /// Maps an action in the box back to `[-1, 1]` (the inverse of [`ActionBounds::scale`] up to
+    /// rounding); a zero-width dimension maps to 0.
+    pub fn unscale(&self, action: &[f32; A]) -> [f32; A] {
+        let mut out = [0.0; A];
+        for (((o, &a), &lo), &hi) in out.iter_mut().zip(action).zip(&self.low).zip(&self.high) {
+            let width = hi - lo;
+            let u = if width > 0.0 { 2.0 * (a - lo) / width - 1.0 } else { 0.0 };
+            *o = if u.is_finite() { u.clamp(-1.0, 1.0) } else { 0.0 };
+        }
+        out
+    }
+
+    /// Checks `low <= high` and that the box's width and midpoint are representable.
+    pub fn validate(&self) -> Result<(), Error> {
+        for (index, (&lo, &hi)) in self.low.iter().zip(&self.high).enumerate() {
+            if lo > hi {
+                return Err(Error::InvalidParameter { what: "action bound low > high", index });
+            }
+            if !(hi - lo).is_finite() || !(hi + lo).is_finite() {
+                return Err(Error::InvalidParameter { what: "action bounds too wide for f32", index });
+            }
+        }
+        Ok(())
+    }
+
+    /// Parameters in blob order: low, then high.
+    pub fn params(&self) -> [&[f32]; 2] {
+        [self.low.as_slice(), self.high.as_slice()]
+    }
+
+    /// Mutable parameters, in the order of [`ActionBounds::params`].
+    pub fn params_mut(&mut self) -> [&mut [f32]; 2] {
+        [self.low.as_mut_slice(), self.high.as_mut_slice()]
+    }
+}

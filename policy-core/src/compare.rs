@@ -1,0 +1,105 @@
+//! DCP's compare step on the device: propose actions around the actor's, keep the best under Q.
+//!
+//! In training, DCP regresses the actor toward the best of T Gaussian proposals around its own
+//! action, scored by the critic against Q(s, P(s)). The same rule can run on the chip: at a
+//! margin where the actor's action makes no progress, firmware may ask the critic for a better
+//! adjacent action without any gradient.
+
+use rand_core::Rng;
+
+use crate::{Critic, Policy};
+
+/// The outcome of one compare step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Refined<const A: usize> {
+    /// The chosen action, scaled into the policy's bounds.
+    pub action: [f32; A],
+    /// The chosen action in the unit box `[-1, 1]^A`.
+    pub unit: [f32; A],
+    /// `Q(s, chosen) - Q(s, P(s))`; 0 when the actor's own action was kept.
+    pub advantage: f32,
+    /// Which proposal won (1..=T), or 0 for the actor's own action.
+    pub winner: usize,
+}
+
+/// A standard normal sample by the Box–Muller transform (one of the pair; `libm` only).
+///
+/// ```
+/// use policy_core::compare::standard_normal;
+/// use rand_core::{Infallible, TryRng};
+/// struct Counter(u32);
+/// impl TryRng for Counter {
+///     type Error = Infallible;
+///     fn try_next_u32(&mut self) -> Result<u32, Infallible> { self.0 = self.0.wrapping_mul(747796405).wrapping_add(2891336453); Ok(self.0) }
+///     fn try_next_u64(&mut self) -> Result<u64, Infallible> { Ok(self.try_next_u32()? as u64) }
+///     fn try_fill_bytes(&mut self, d: &mut [u8]) -> Result<(), Infallible> { d.fill(0); Ok(()) }
+/// }
+/// let mut rng = Counter(1);
+/// let n = 10_000;
+/// let mean = (0..n).map(|_| standard_normal(&mut rng)).sum::<f32>() / n as f32;
+/// assert!(mean.abs() < 0.05);
+/// ```
+pub fn standard_normal<R: Rng + ?Sized>(rng: &mut R) -> f32 {
+    // Uniforms strictly inside (0, 1): the log never sees 0.
+    let u1 = ((rng.next_u32() >> 8) as f32 + 0.5) * (1.0 / 16_777_216.0);
+    let u2 = ((rng.next_u32() >> 8) as f32 + 0.5) * (1.0 / 16_777_216.0);
+    libm::sqrtf(-2.0 * libm::logf(u1)) * libm::cosf(core::f32::consts::TAU * u2)
+}
+
+/// Proposes `t` actions `clip(P(s) + N(0, sigma²), -1, 1)` around the actor's unit action and
+/// returns the one with the highest Q, or the actor's own action if none beats it.
+///
+/// The result is never worse under the critic than the actor's own action: a proposal replaces
+/// the incumbent only when its Q is strictly greater (a NaN never is). A non-finite or
+/// non-positive `sigma`, or `t == 0`, returns the actor's action.
+///
+/// ```
+/// use policy_core::{compare::refine, Critic, Policy};
+/// use rand_core::{Infallible, TryRng};
+/// # struct Lcg(u64);
+/// # impl TryRng for Lcg {
+/// #     type Error = Infallible;
+/// #     fn try_next_u32(&mut self) -> Result<u32, Infallible> { Ok((self.try_next_u64()? >> 32) as u32) }
+/// #     fn try_next_u64(&mut self) -> Result<u64, Infallible> { self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407); Ok(self.0) }
+/// #     fn try_fill_bytes(&mut self, d: &mut [u8]) -> Result<(), Infallible> { d.fill(0); Ok(()) }
+/// # }
+/// static ACTOR: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+/// static CRITIC: &[u8] = include_bytes!("../tests/golden/critic_2x32.postcard");
+/// let policy = Policy::<2, 32, 1, 2>::from_blob(ACTOR).unwrap();
+/// let critic = Critic::<2, 2, 32, 1>::from_blob(CRITIC).unwrap();
+/// let obs = [3.0, -1.0];
+/// let r = refine(&policy, &critic, &obs, &mut Lcg(7), 16, 0.2);
+/// assert!(r.advantage >= 0.0);
+/// assert!(critic.q(&obs, &r.unit) >= critic.q(&obs, &policy.act_unit(&obs)));
+/// ```
+pub fn refine<const S: usize, const H: usize, const L: usize, const A: usize, const CH: usize, const CL: usize, R>(
+    policy: &Policy<S, H, L, A>,
+    critic: &Critic<S, A, CH, CL>,
+    obs: &[f32; S],
+    rng: &mut R,
+    t: usize,
+    sigma: f32,
+) -> Refined<A>
+where
+    R: Rng + ?Sized,
+{
+    let a0 = policy.act_unit(obs);
+    let z = critic.normalizer.normalize(obs);
+    let z = &z.data.0[0];
+    let q0 = critic.q_normalized(z, &a0);
+    let mut best = Refined { action: [0.0; A], unit: a0, advantage: 0.0, winner: 0 };
+    if sigma.is_finite() && sigma > 0.0 {
+        for winner in 1..=t {
+            let mut unit = a0;
+            for u in &mut unit {
+                *u = (*u + sigma * standard_normal(rng)).clamp(-1.0, 1.0);
+            }
+            let advantage = critic.q_normalized(z, &unit) - q0;
+            if advantage > best.advantage {
+                best = Refined { action: [0.0; A], unit, advantage, winner };
+            }
+        }
+    }
+    best.action = policy.bounds.scale(&best.unit);
+    best
+}

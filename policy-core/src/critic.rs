@@ -1,0 +1,129 @@
+//! The critic Q(s, a), stored in the same blob format as the actor.
+
+use nalgebra::{ArrayStorage, SMatrix};
+
+use crate::blob::{self, Model, ModelKind, Shape};
+use crate::mlp::accumulate;
+use crate::{Activation, Dense, Error, Normalizer, Trunk};
+
+/// A critic `Q(s, a)` over `S` observations and `A` actions, with hidden width `H` and `L`
+/// hidden-to-hidden layers (`L + 1` hidden layers in all).
+///
+/// The action is taken in the actor's unit box `[-1, 1]^A`, before scaling, as in training. The
+/// first layer is stored as one `H × (S + A)` matrix split in two: observation columns, then
+/// action columns, which is exactly the layer a trainer builds on the concatenated input.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Critic<const S: usize, const A: usize, const H: usize, const L: usize> {
+    /// Observation normaliser frozen at export (the actor's).
+    pub normalizer: Normalizer<S>,
+    /// First layer: observation weights and the layer's biases.
+    pub input: Dense<S, H>,
+    /// First layer: action weights.
+    pub action_w: SMatrix<f32, H, A>,
+    /// The remaining hidden layers and the single linear output.
+    pub trunk: Trunk<H, L, 1>,
+}
+
+impl<const S: usize, const A: usize, const H: usize, const L: usize> Critic<S, A, H, L> {
+    /// The all-zero critic: Q is 0 everywhere.
+    pub const ZERO: Self = Self {
+        normalizer: Normalizer::ZERO,
+        input: Dense::ZERO,
+        action_w: SMatrix::from_array_storage(ArrayStorage([[0.0; H]; A])),
+        trunk: Trunk::ZERO,
+    };
+
+    /// Loads a blob into this slot; on error the slot is left as it was.
+    pub fn load_into(&mut self, bytes: &[u8]) -> Result<(), Error> {
+        blob::load_into(self, bytes)
+    }
+
+    /// Loads a blob into a new value.
+    ///
+    /// ```
+    /// use policy_core::Critic;
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/critic_2x32.postcard");
+    /// let critic = Critic::<2, 2, 32, 1>::from_blob(BLOB).unwrap();
+    /// assert!(critic.q(&[1.0, -2.0], &[0.5, 0.5]).is_finite());
+    /// ```
+    pub fn from_blob(bytes: &[u8]) -> Result<Self, Error> {
+        let mut critic = Self::ZERO;
+        critic.load_into(bytes)?;
+        Ok(critic)
+    }
+
+    /// Writes this critic as a blob into `out`; returns the bytes written.
+    pub fn write_blob(&self, label: &str, out: &mut [u8]) -> Result<usize, Error> {
+        blob::write_into(self, label, out)
+    }
+
+    /// Writes this critic as a blob into a new vector.
+    #[cfg(feature = "std")]
+    pub fn to_blob(&self, label: &str) -> Result<std::vec::Vec<u8>, Error> {
+        blob::to_vec(self, label)
+    }
+
+    /// Q of an observation and a unit-box action. Non-finite inputs are treated as by the
+    /// normaliser (observation) or replaced by 0 (action); the result may still be large but is
+    /// never NaN for finite weights.
+    #[inline]
+    pub fn q(&self, obs: &[f32; S], unit_action: &[f32; A]) -> f32 {
+        let z = self.normalizer.normalize(obs);
+        self.q_normalized(&z.data.0[0], unit_action)
+    }
+
+    /// Q of an already normalised observation (the compare step normalises once, scores many).
+    #[inline]
+    pub fn q_normalized(&self, z: &[f32; S], unit_action: &[f32; A]) -> f32 {
+        let mut a = [0.0; A];
+        for (d, &u) in a.iter_mut().zip(unit_action) {
+            *d = if u.is_finite() { u.clamp(-1.0, 1.0) } else { 0.0 };
+        }
+        let mut pre = self.input.b;
+        self.input.accumulate(z, &mut pre);
+        accumulate(&self.action_w, &a, &mut pre);
+        self.trunk.run(pre)[0]
+    }
+}
+
+impl<const S: usize, const A: usize, const H: usize, const L: usize> Model for Critic<S, A, H, L> {
+    const KIND: ModelKind = ModelKind::Critic;
+    const SHAPE: Shape = Shape {
+        observations: S as u16,
+        actions: A as u16,
+        width: H as u16,
+        depth: (L + 1) as u8,
+    };
+
+    fn activation(&self) -> Activation {
+        self.trunk.activation
+    }
+
+    fn set_activation(&mut self, activation: Activation) {
+        self.trunk.activation = activation;
+    }
+
+    fn params<'a>(&'a self, f: &mut dyn FnMut(&'a [f32])) {
+        self.normalizer.params().into_iter().for_each(&mut *f);
+        f(self.input.w.as_slice());
+        f(self.action_w.as_slice());
+        f(self.input.b.as_slice());
+        self.trunk.params(f);
+    }
+
+    fn params_mut(&mut self, f: &mut dyn FnMut(&mut [f32])) {
+        self.normalizer.params_mut().into_iter().for_each(&mut *f);
+        f(self.input.w.as_mut_slice());
+        f(self.action_w.as_mut_slice());
+        f(self.input.b.as_mut_slice());
+        self.trunk.params_mut(f);
+    }
+
+    fn validate_prefix(values: &mut dyn Iterator<Item = f32>) -> Result<(), Error> {
+        let mut normalizer = Normalizer::<S>::ZERO;
+        for dst in normalizer.params_mut() {
+            dst.iter_mut().zip(&mut *values).for_each(|(d, v)| *d = v);
+        }
+        normalizer.validate()
+    }
+}

@@ -1,0 +1,126 @@
+//! The one error type of policy-core.
+
+use core::fmt;
+
+use crate::blob::{ModelKind, Shape};
+
+/// Everything that can go wrong when loading or writing a blob.
+///
+/// Every variant says what was expected and what was found, so a firmware log line or a CLI
+/// message is enough to diagnose a bad blob without a debugger.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Error {
+    /// The first four bytes are not the blob magic `DCPB`.
+    WrongMagic {
+        /// The four bytes found at the start.
+        found: [u8; 4],
+    },
+    /// The blob's format version is not one this build reads.
+    UnsupportedVersion {
+        /// The version this build reads.
+        supported: u16,
+        /// The version in the blob.
+        found: u16,
+    },
+    /// The blob holds an actor where a critic was asked for, or the reverse.
+    WrongKind {
+        /// The kind the caller asked for.
+        expected: ModelKind,
+        /// The kind in the blob.
+        found: ModelKind,
+    },
+    /// The blob's network shape differs from the compiled one.
+    ShapeMismatch {
+        /// The shape this code was compiled for.
+        expected: Shape,
+        /// The shape named by the blob.
+        found: Shape,
+    },
+    /// The bytes end before the blob does.
+    Truncated {
+        /// Bytes the blob needs.
+        needed: usize,
+        /// Bytes given.
+        found: usize,
+    },
+    /// The bytes go on after the blob's checksum.
+    TrailingBytes {
+        /// Bytes the blob occupies.
+        expected: usize,
+        /// Bytes given.
+        found: usize,
+    },
+    /// The header cannot be decoded or contradicts itself.
+    Malformed {
+        /// Which part of the header is wrong.
+        what: &'static str,
+    },
+    /// The CRC-32 stored in the blob differs from the one computed over its bytes.
+    ChecksumMismatch {
+        /// CRC-32 stored in the last four bytes.
+        stored: u32,
+        /// CRC-32 computed over the bytes before it.
+        computed: u32,
+    },
+    /// A parameter is NaN or infinite.
+    NonFiniteParameter {
+        /// Index of the parameter in the payload (0 = first `f32` after the header).
+        index: usize,
+    },
+    /// A parameter is finite but not allowed (for example an action bound with low > high).
+    InvalidParameter {
+        /// Which rule the parameter breaks.
+        what: &'static str,
+        /// Index of the offending component (observation or action dimension).
+        index: usize,
+    },
+    /// The output buffer is too small for the blob being written.
+    BufferTooSmall {
+        /// Bytes the blob needs.
+        needed: usize,
+        /// Bytes available.
+        found: usize,
+    },
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::WrongMagic { found } => {
+                write!(f, "not a policy blob: expected magic \"DCPB\", found {found:02x?}")
+            }
+            Error::UnsupportedVersion { supported, found } => {
+                write!(f, "unsupported blob format version {found} (this build reads version {supported})")
+            }
+            Error::WrongKind { expected, found } => {
+                write!(f, "wrong model kind: expected {expected}, found {found}")
+            }
+            Error::ShapeMismatch { expected, found } => {
+                write!(f, "shape mismatch: compiled for {expected}, blob holds {found}")
+            }
+            Error::Truncated { needed, found } => {
+                write!(f, "blob truncated: needs {needed} bytes, found {found}")
+            }
+            Error::TrailingBytes { expected, found } => {
+                write!(f, "trailing bytes after the blob: expected {expected} bytes, found {found}")
+            }
+            Error::Malformed { what } => write!(f, "malformed blob header: {what}"),
+            Error::ChecksumMismatch { stored, computed } => write!(
+                f,
+                "checksum mismatch: stored CRC-32 {stored:#010x}, computed {computed:#010x}"
+            ),
+            Error::NonFiniteParameter { index } => {
+                write!(f, "parameter {index} of the payload is NaN or infinite")
+            }
+            Error::InvalidParameter { what, index } => {
+                write!(f, "invalid parameter in dimension {index}: {what}")
+            }
+            Error::BufferTooSmall { needed, found } => {
+                write!(f, "output buffer too small: needs {needed} bytes, found {found}")
+            }
+        }
+    }
+}
+
+impl core::error::Error for Error {}

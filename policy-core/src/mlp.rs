@@ -1,0 +1,180 @@
+//! The fixed-size multilayer perceptron: dense layers in nalgebra static matrices.
+//!
+//! The forward pass fixes its summation order (bias first, then input columns in increasing
+//! order) so that the host trainer can reproduce it bit for bit: what the trainer evaluates and
+//! what the chip runs is the same arithmetic, not merely the same maths.
+
+use nalgebra::{ArrayStorage, SMatrix, SVector};
+use serde::{Deserialize, Serialize};
+
+/// Activation of the hidden layers. The actor's output is always squashed by tanh; the critic's
+/// output is linear.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Activation {
+    /// Hyperbolic tangent (`libm::tanhf`).
+    Tanh,
+    /// Rectified linear unit, `max(x, 0)`; NaN maps to 0.
+    Relu,
+}
+
+impl Activation {
+    /// Applies the activation to one value.
+    ///
+    /// ```
+    /// use policy_core::Activation;
+    /// assert_eq!(Activation::Relu.apply(-2.0), 0.0);
+    /// assert_eq!(Activation::Relu.apply(1.5), 1.5);
+    /// assert_eq!(Activation::Tanh.apply(0.0), 0.0);
+    /// ```
+    #[inline]
+    pub fn apply(self, x: f32) -> f32 {
+        match self {
+            Activation::Tanh => libm::tanhf(x),
+            Activation::Relu => {
+                if x > 0.0 {
+                    x
+                } else {
+                    0.0
+                }
+            }
+        }
+    }
+}
+
+impl core::fmt::Display for Activation {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Activation::Tanh => "tanh",
+            Activation::Relu => "relu",
+        })
+    }
+}
+
+/// Adds `W x` to `y`, one input column at a time in increasing order:
+/// `y[o] += W[o, j] * x[j]` for `j = 0, 1, ...`.
+///
+/// This order is part of the contract with the trainer (it is what makes exported and trained
+/// outputs bit-identical). Column-wise accumulation reads `W` contiguously and vectorises over
+/// the outputs.
+#[inline]
+pub fn accumulate<const I: usize, const O: usize>(
+    w: &SMatrix<f32, O, I>,
+    x: &[f32],
+    y: &mut SVector<f32, O>,
+) {
+    for (col, &xj) in w.as_slice().chunks_exact(O).zip(x) {
+        for (yo, &wo) in y.iter_mut().zip(col) {
+            *yo += wo * xj;
+        }
+    }
+}
+
+/// A dense layer `y = b + W x` with `I` inputs and `O` outputs.
+///
+/// `w` is stored column-major (nalgebra's layout): column `j` holds the weights from input `j`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Dense<const I: usize, const O: usize> {
+    /// Weights, `O` rows by `I` columns.
+    pub w: SMatrix<f32, O, I>,
+    /// Biases.
+    pub b: SVector<f32, O>,
+}
+
+impl<const I: usize, const O: usize> Dense<I, O> {
+    /// The all-zero layer; usable in `const` and `static` initialisers.
+    pub const ZERO: Self = Self {
+        w: SMatrix::from_array_storage(ArrayStorage([[0.0; O]; I])),
+        b: SVector::from_array_storage(ArrayStorage([[0.0; O]; 1])),
+    };
+
+    /// Adds `W x` to `y`; see [`accumulate`].
+    #[inline]
+    pub fn accumulate(&self, x: &[f32], y: &mut SVector<f32, O>) {
+        accumulate(&self.w, x, y);
+    }
+
+    /// `b + W x`.
+    ///
+    /// ```
+    /// use policy_core::mlp::Dense;
+    /// let mut d = Dense::<2, 1>::ZERO;
+    /// d.w[(0, 0)] = 2.0;
+    /// d.w[(0, 1)] = -1.0;
+    /// d.b[0] = 0.5;
+    /// let y = d.affine(&[3.0, 4.0]);
+    /// assert_eq!(y[0], 0.5 + 6.0 - 4.0);
+    /// ```
+    #[inline]
+    pub fn affine(&self, x: &[f32; I]) -> SVector<f32, O> {
+        let mut y = self.b;
+        self.accumulate(x, &mut y);
+        y
+    }
+
+    /// The parameters as slices, in blob order: weights (column-major), then biases.
+    pub fn params(&self) -> [&[f32]; 2] {
+        [self.w.as_slice(), self.b.as_slice()]
+    }
+
+    /// The parameters as mutable slices, in the same order as [`Dense::params`].
+    pub fn params_mut(&mut self) -> [&mut [f32]; 2] {
+        [self.w.as_mut_slice(), self.b.as_mut_slice()]
+    }
+}
+
+/// Everything after the first layer's pre-activation: `L` hidden `H → H` layers and the output
+/// layer `H → O`, all with one hidden activation.
+///
+/// The first layer is kept outside so the critic can take its observation and action inputs
+/// through one layer without const-generic arithmetic (`S + A` is not a stable const expression).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Trunk<const H: usize, const L: usize, const O: usize> {
+    /// Activation after every hidden layer.
+    pub activation: Activation,
+    /// Hidden-to-hidden layers.
+    pub hidden: [Dense<H, H>; L],
+    /// Output layer (linear).
+    pub output: Dense<H, O>,
+}
+
+impl<const H: usize, const L: usize, const O: usize> Trunk<H, L, O> {
+    /// The all-zero trunk with tanh activations.
+    pub const ZERO: Self = Self {
+        activation: Activation::Tanh,
+        hidden: [Dense::ZERO; L],
+        output: Dense::ZERO,
+    };
+
+    /// Runs the trunk on the first layer's pre-activation; returns the linear output.
+    ///
+    /// Two `H`-vectors live on the stack whatever the depth, so stack use is bounded by the
+    /// width alone.
+    #[inline]
+    pub fn run(&self, mut pre: SVector<f32, H>) -> SVector<f32, O> {
+        for layer in &self.hidden {
+            let act = pre.map(|v| self.activation.apply(v));
+            pre = layer.b;
+            layer.accumulate(act.as_slice(), &mut pre);
+        }
+        let act = pre.map(|v| self.activation.apply(v));
+        let mut out = self.output.b;
+        self.output.accumulate(act.as_slice(), &mut out);
+        out
+    }
+
+    /// Visits every parameter slice in blob order.
+    pub fn params<'a>(&'a self, f: &mut dyn FnMut(&'a [f32])) {
+        for layer in &self.hidden {
+            layer.params().into_iter().for_each(&mut *f);
+        }
+        self.output.params().into_iter().for_each(f);
+    }
+
+    /// Visits every parameter slice mutably, in the order of [`Trunk::params`].
+    pub fn params_mut(&mut self, f: &mut dyn FnMut(&mut [f32])) {
+        for layer in &mut self.hidden {
+            layer.params_mut().into_iter().for_each(&mut *f);
+        }
+        self.output.params_mut().into_iter().for_each(f);
+    }
+}

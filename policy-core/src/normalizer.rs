@@ -1,0 +1,82 @@
+//! Observation normalisation, frozen at export: `z = clip((x - mean) * inv_std)`.
+
+use nalgebra::{ArrayStorage, SVector};
+
+use crate::Error;
+
+/// Per-dimension affine normalisation of observations, clipped to `[-clip, clip]`.
+///
+/// A non-finite observation component (a sensor dropout reported as NaN or ±Inf) is replaced by
+/// the mean, i.e. it normalises to exactly 0: the network sees "no information" on that input
+/// rather than an extreme value, and nothing non-finite ever enters the forward pass.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Normalizer<const S: usize> {
+    /// Mean subtracted from each observation component.
+    pub mean: SVector<f32, S>,
+    /// Reciprocal of the standard deviation of each component (`>= 0`).
+    pub inv_std: SVector<f32, S>,
+    /// Normalised values are clipped to `[-clip, clip]` (`> 0`).
+    pub clip: f32,
+}
+
+impl<const S: usize> Normalizer<S> {
+    /// Maps every observation to zero; the state of a slot before a blob is loaded.
+    pub const ZERO: Self = Self {
+        mean: SVector::from_array_storage(ArrayStorage([[0.0; S]; 1])),
+        inv_std: SVector::from_array_storage(ArrayStorage([[0.0; S]; 1])),
+        clip: 0.0,
+    };
+
+    /// The identity normaliser (mean 0, inverse std 1) with the given clip.
+    ///
+    /// ```
+    /// use policy_core::Normalizer;
+    /// let n = Normalizer::<2>::identity(5.0);
+    /// let z = n.normalize(&[1.0, 9.0]);
+    /// assert_eq!(z.as_slice(), &[1.0, 5.0]);
+    /// ```
+    pub fn identity(clip: f32) -> Self {
+        Self { mean: SVector::zeros(), inv_std: SVector::repeat(1.0), clip }
+    }
+
+    /// Normalises one observation; the result is always finite and inside `[-clip, clip]`.
+    ///
+    /// ```
+    /// use policy_core::Normalizer;
+    /// let n = Normalizer::<2>::identity(5.0);
+    /// let z = n.normalize(&[f32::NAN, f32::NEG_INFINITY]);
+    /// assert_eq!(z.as_slice(), &[0.0, 0.0]);
+    /// ```
+    #[inline]
+    pub fn normalize(&self, obs: &[f32; S]) -> SVector<f32, S> {
+        let mut z = SVector::<f32, S>::zeros();
+        for (((zi, &x), &m), &k) in z.iter_mut().zip(obs).zip(&self.mean).zip(&self.inv_std) {
+            let v = (x - m) * k;
+            // A non-finite input, or 0 * inf after an overflowing subtraction, carries no
+            // information: it becomes the mean. Everything else is clipped.
+            *zi = if !x.is_finite() || v.is_nan() { 0.0 } else { v.clamp(-self.clip, self.clip) };
+        }
+        z
+    }
+
+    /// Checks the rules a loaded normaliser must obey (finite values are checked by the loader).
+    pub fn validate(&self) -> Result<(), Error> {
+        if let Some(index) = self.inv_std.iter().position(|&k| k < 0.0) {
+            return Err(Error::InvalidParameter { what: "negative inverse standard deviation", index });
+        }
+        if self.clip <= 0.0 {
+            return Err(Error::InvalidParameter { what: "normaliser clip must be > 0", index: 0 });
+        }
+        Ok(())
+    }
+
+    /// Visits the parameters in blob order: mean, inverse std, clip.
+    pub fn params(&self) -> [&[f32]; 3] {
+        [self.mean.as_slice(), self.inv_std.as_slice(), core::slice::from_ref(&self.clip)]
+    }
+
+    /// Mutable parameters, in the order of [`Normalizer::params`].
+    pub fn params_mut(&mut self) -> [&mut [f32]; 3] {
+        [self.mean.as_mut_slice(), self.inv_std.as_mut_slice(), core::slice::from_mut(&mut self.clip)]
+    }
+}

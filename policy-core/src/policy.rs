@@ -1,0 +1,150 @@
+//! The policy a chip runs: normaliser, actor network, action bounds.
+
+use nalgebra::SVector;
+
+use crate::blob::{self, Model, ModelKind, Shape};
+use crate::{ActionBounds, Activation, Dense, Error, Normalizer, Trunk};
+
+/// A DCP (or DDPG) actor ready to run: `act(obs) = scale(tanh(mlp(normalize(obs))))`.
+///
+/// Const generics fix every size: `S` observations, hidden width `H`, `L` hidden-to-hidden
+/// layers (the network has `L + 1` hidden layers: the paper's 4×48 is `Policy<S, 48, 3, A>`),
+/// and `A` actions. The value is about `4 * (S*H + L*H*H + H*A)` bytes, so on a chip load it
+/// into a `static` slot with [`Policy::load_into`] rather than returning it by value.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Policy<const S: usize, const H: usize, const L: usize, const A: usize> {
+    /// Observation normaliser frozen at export.
+    pub normalizer: Normalizer<S>,
+    /// The box the actions are scaled into.
+    pub bounds: ActionBounds<A>,
+    /// First layer, observations to the first hidden layer.
+    pub input: Dense<S, H>,
+    /// The remaining hidden layers and the output layer.
+    pub trunk: Trunk<H, L, A>,
+}
+
+impl<const S: usize, const H: usize, const L: usize, const A: usize> Policy<S, H, L, A> {
+    /// The safe state before a blob is loaded: bounds `[0, 0]`, so every action is 0.
+    pub const ZERO: Self = Self {
+        normalizer: Normalizer::ZERO,
+        bounds: ActionBounds::ZERO,
+        input: Dense::ZERO,
+        trunk: Trunk::ZERO,
+    };
+
+    /// Loads a blob into this slot. On error the slot is left exactly as it was.
+    ///
+    /// ```
+    /// use policy_core::{Error, Policy};
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+    /// let mut slot = Policy::<2, 32, 1, 2>::ZERO;
+    /// slot.load_into(BLOB).unwrap();
+    /// let mut wrong = Policy::<2, 48, 3, 2>::ZERO;
+    /// assert!(matches!(wrong.load_into(BLOB), Err(Error::ShapeMismatch { .. })));
+    /// assert_eq!(wrong, Policy::ZERO);
+    /// ```
+    pub fn load_into(&mut self, bytes: &[u8]) -> Result<(), Error> {
+        blob::load_into(self, bytes)
+    }
+
+    /// Loads a blob into a new value (convenient on the host; on a chip prefer
+    /// [`Policy::load_into`] into a `static`).
+    pub fn from_blob(bytes: &[u8]) -> Result<Self, Error> {
+        let mut policy = Self::ZERO;
+        policy.load_into(bytes)?;
+        Ok(policy)
+    }
+
+    /// Writes this policy as a blob into `out`; returns the bytes written.
+    pub fn write_blob(&self, label: &str, out: &mut [u8]) -> Result<usize, Error> {
+        blob::write_into(self, label, out)
+    }
+
+    /// Writes this policy as a blob into a new vector.
+    #[cfg(feature = "std")]
+    pub fn to_blob(&self, label: &str) -> Result<std::vec::Vec<u8>, Error> {
+        blob::to_vec(self, label)
+    }
+
+    /// The actor's output in the unit box `[-1, 1]^A`, before scaling. Always finite.
+    ///
+    /// Non-finite observation components normalise to 0 (see [`Normalizer::normalize`]); a
+    /// non-finite network output (possible only if activations overflow) becomes 0.
+    #[inline]
+    pub fn act_unit(&self, obs: &[f32; S]) -> [f32; A] {
+        let z = self.normalizer.normalize(obs);
+        self.act_unit_normalized(&z)
+    }
+
+    /// [`Policy::act_unit`] on an already normalised observation.
+    #[inline]
+    pub fn act_unit_normalized(&self, z: &SVector<f32, S>) -> [f32; A] {
+        let pre = self.input.affine(&z.data.0[0]);
+        let out = self.trunk.run(pre);
+        let mut unit = [0.0; A];
+        for (u, &y) in unit.iter_mut().zip(out.iter()) {
+            let t = libm::tanhf(y);
+            *u = if t.is_finite() { t } else { 0.0 };
+        }
+        unit
+    }
+
+    /// The action for an observation: finite and inside the bounds for every input, NaN and
+    /// infinities included.
+    ///
+    /// ```
+    /// use policy_core::Policy;
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+    /// let policy = Policy::<2, 32, 1, 2>::from_blob(BLOB).unwrap();
+    /// for obs in [[0.0, 0.0], [5.9, -5.9], [f32::NAN, f32::INFINITY]] {
+    ///     let a = policy.act(&obs);
+    ///     assert!(a.iter().all(|v| v.is_finite() && v.abs() <= 0.25));
+    /// }
+    /// ```
+    #[inline]
+    pub fn act(&self, obs: &[f32; S]) -> [f32; A] {
+        self.bounds.scale(&self.act_unit(obs))
+    }
+}
+
+impl<const S: usize, const H: usize, const L: usize, const A: usize> Model for Policy<S, H, L, A> {
+    const KIND: ModelKind = ModelKind::Actor;
+    const SHAPE: Shape = Shape {
+        observations: S as u16,
+        actions: A as u16,
+        width: H as u16,
+        depth: (L + 1) as u8,
+    };
+
+    fn activation(&self) -> Activation {
+        self.trunk.activation
+    }
+
+    fn set_activation(&mut self, activation: Activation) {
+        self.trunk.activation = activation;
+    }
+
+    fn params<'a>(&'a self, f: &mut dyn FnMut(&'a [f32])) {
+        self.normalizer.params().into_iter().for_each(&mut *f);
+        self.bounds.params().into_iter().for_each(&mut *f);
+        self.input.params().into_iter().for_each(&mut *f);
+        self.trunk.params(f);
+    }
+
+    fn params_mut(&mut self, f: &mut dyn FnMut(&mut [f32])) {
+        self.normalizer.params_mut().into_iter().for_each(&mut *f);
+        self.bounds.params_mut().into_iter().for_each(&mut *f);
+        self.input.params_mut().into_iter().for_each(&mut *f);
+        self.trunk.params_mut(f);
+    }
+
+    fn validate_prefix(values: &mut dyn Iterator<Item = f32>) -> Result<(), Error> {
+        let mut normalizer = Normalizer::<S>::ZERO;
+        let mut bounds = ActionBounds::<A>::ZERO;
+        for dst in normalizer.params_mut().into_iter().chain(bounds.params_mut()) {
+            dst.iter_mut().zip(&mut *values).for_each(|(d, v)| *d = v);
+        }
+        normalizer.validate()?;
+        bounds.validate()
+    }
+}
