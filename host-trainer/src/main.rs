@@ -1,0 +1,2 @@
+//! `host-trainer`: the command line (being written).
+fn main() {}
