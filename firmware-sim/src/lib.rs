@@ -1,7 +1,29 @@
 //! # firmware-sim
 //!
 //! Runs the exact bytes that would be flashed, through policy-core, in a closed loop against
-//! plants with hard margins, and measures how the policy behaves there.
+//! plants with hard margins, and measures how the policy behaves there: does it slide along a
+//! wall to the gap, or push against it forever?
+//!
+//! - [`mod@env`]: the Gymnasium-style plant interface shared with the trainer.
+//! - [`nav`]: the navigation plant of experiment 1; [`scenario`]: its layouts as TOML data;
+//!   [`geometry`]: exact sliding motion among zero-thickness walls.
+//! - [`harness`]: the firmware loop (boot from a blob, sensor, actuator, faults) and its margin
+//!   metrics; [`controller`]: blob policies of every compiled shape and reference controllers.
 #![deny(missing_docs)]
 
+pub mod actuator;
+pub mod controller;
 pub mod env;
+pub mod error;
+pub mod faults;
+pub mod geometry;
+pub mod harness;
+pub mod metrics;
+pub mod nav;
+pub mod oracle;
+pub mod scenario;
+pub mod seed;
+pub mod sensor;
+pub mod svg;
+
+pub use error::Error;

@@ -1,1 +1,527 @@
-//! (being written)
+//! The actor-critic machinery that DDPG and DCP share, so neither re-implements it.
+//!
+//! DCP keeps DDPG's actor P, critic Q, replay buffer and target networks and changes only the
+//! actor update (DESIGN.md section 1). Everything common lives here: the networks and their
+//! optimisers, the running observation normaliser, the replay buffer, exploration in the unit
+//! action box, the critic's Bellman update and the soft target updates. `ddpg.rs` and `dcp.rs`
+//! each add one function: how the actor learns.
+//!
+//! Conventions: the actor outputs a *unit* action in `[-1, 1]^n` (tanh output); the plant's
+//! bounds are applied only when acting, exactly as policy-core's `act` does. The critic scores
+//! `[normalised observation, unit action]`. The replay buffer stores raw observations and unit
+//! actions; observations are normalised at sampling time with the current statistics (the
+//! paper's "dynamic input normalisation").
+
+use std::fmt;
+use std::str::FromStr;
+
+use policy_core::Activation;
+use serde::{Deserialize, Serialize};
+
+use crate::adam::Adam;
+use crate::export::{self, ActorParts};
+use crate::net::{soft_update, Grads, Matrix, Net, NetConfig, Output, Tape};
+use crate::normalize::RunningNorm;
+use crate::replay::{Replay, Transition};
+use crate::seed::{self, Rng};
+use crate::Error;
+
+/// Hyper-parameters shared by every actor-critic algorithm. Defaults are the paper's values
+/// where it gives them ([paper]) and ours where it is silent ([ours]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Config {
+    /// Hidden layers of actor and critic, `DEPTHxWIDTH` [paper: 4x48].
+    pub hidden: Hidden,
+    /// Hidden activation [ours: ReLU; the paper does not say].
+    pub activation: Activation,
+    /// Actor learning rate [paper: 1/4096].
+    pub lr_actor: f32,
+    /// Critic learning rate [paper: 1/4096].
+    pub lr_critic: f32,
+    /// L2 weight decay on weights, not biases [paper: 1e-4].
+    pub l2: f32,
+    /// Dropout probability on hidden activations while training [paper: 0.5; see
+    /// `Config::default` for the value we use].
+    pub dropout: f32,
+    /// Minibatch size [paper: 64].
+    pub batch: usize,
+    /// Discount factor γ [ours: 0.99].
+    pub gamma: f32,
+    /// Soft target update rate τ [ours: 0.005].
+    pub tau: f32,
+    /// Exploration noise σ in the unit action box [ours: 0.2].
+    pub sigma: f32,
+    /// Replay buffer capacity in transitions [ours: 1,000,000, i.e. every step of 3,000 episodes].
+    pub replay_capacity: usize,
+    /// Environment steps collected before the first update [ours: 1,000].
+    pub warmup_steps: usize,
+    /// Updates (critic + actor) per environment step after the warm-up [ours: 1].
+    pub updates_per_step: usize,
+    /// Normalised observations are clipped to ±clip [ours: 5].
+    pub norm_clip: f32,
+    /// Rewards are multiplied by this before they are stored [ours]. A constant factor changes
+    /// no optimal policy; it sets the scale the critic must reach from its ±3e-3 initial output.
+    pub reward_scale: f32,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            hidden: Hidden {
+                depth: 4,
+                width: 48,
+            },
+            activation: Activation::Relu,
+            lr_actor: 1.0 / 4096.0,
+            lr_critic: 1.0 / 4096.0,
+            l2: 1e-4,
+            dropout: DEFAULT_DROPOUT,
+            batch: 64,
+            gamma: 0.99,
+            tau: 0.005,
+            sigma: 0.2,
+            replay_capacity: 1_000_000,
+            warmup_steps: 1_000,
+            updates_per_step: 1,
+            norm_clip: 5.0,
+            reward_scale: DEFAULT_REWARD_SCALE,
+        }
+    }
+}
+
+/// The default reward scale; see the README section "Reward scale" for the measurement.
+pub const DEFAULT_REWARD_SCALE: f32 = 1.0;
+
+/// The default dropout probability. The paper trains with 0.5; see the README section
+/// "Dropout" for the measured comparison behind the value used here.
+pub const DEFAULT_DROPOUT: f32 = 0.0;
+
+impl Config {
+    /// Checks every value's range, naming the offending setting.
+    pub fn validate(&self) -> Result<(), Error> {
+        let unit = |what: &str, v: f32, lo: f32, hi: f32, hi_open: bool| {
+            let ok = v.is_finite() && v >= lo && if hi_open { v < hi } else { v <= hi };
+            let close = if hi_open { ")" } else { "]" };
+            ok.then_some(())
+                .ok_or_else(|| invalid(what, format!("a number in [{lo}, {hi}{close}"), v))
+        };
+        unit("agent.dropout", self.dropout, 0.0, 1.0, true)?;
+        unit("agent.gamma", self.gamma, 0.0, 1.0, true)?;
+        unit("agent.tau", self.tau, 0.0, 1.0, false)?;
+        unit("agent.sigma", self.sigma, 0.0, f32::MAX, false)?;
+        unit("agent.l2", self.l2, 0.0, f32::MAX, false)?;
+        unit(
+            "agent.norm_clip",
+            self.norm_clip,
+            f32::MIN_POSITIVE,
+            f32::MAX,
+            false,
+        )?;
+        for (what, lr) in [
+            ("agent.lr_actor", self.lr_actor),
+            ("agent.lr_critic", self.lr_critic),
+        ] {
+            unit(what, lr, f32::MIN_POSITIVE, f32::MAX, false)?;
+        }
+        for (what, n) in [
+            ("agent.batch", self.batch),
+            ("agent.replay_capacity", self.replay_capacity),
+            ("agent.updates_per_step", self.updates_per_step),
+        ] {
+            if n == 0 {
+                return Err(invalid(what, "a positive integer".into(), n));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn invalid(what: &str, expected: String, found: impl fmt::Display) -> Error {
+    Error::InvalidConfig {
+        what: what.into(),
+        expected,
+        found: found.to_string(),
+    }
+}
+
+/// A hidden-layer shape, written `DEPTHxWIDTH` as in the paper ("4x48": four hidden layers of
+/// 48 units).
+///
+/// ```
+/// use host_trainer::agent::Hidden;
+/// let h: Hidden = "4x48".parse().unwrap();
+/// assert_eq!((h.depth, h.width), (4, 48));
+/// assert_eq!(h.to_string(), "4x48");
+/// assert!("4by48".parse::<Hidden>().is_err());
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
+pub struct Hidden {
+    /// Number of hidden layers (>= 1).
+    pub depth: usize,
+    /// Units per hidden layer (>= 1).
+    pub width: usize,
+}
+
+impl FromStr for Hidden {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self, Error> {
+        let bad = || {
+            invalid(
+                "hidden",
+                "DEPTHxWIDTH with positive integers, e.g. 4x48".into(),
+                s,
+            )
+        };
+        let (d, w) = s.split_once('x').ok_or_else(bad)?;
+        let depth: usize = d.trim().parse().map_err(|_| bad())?;
+        let width: usize = w.trim().parse().map_err(|_| bad())?;
+        if depth == 0 || width == 0 {
+            return Err(bad());
+        }
+        Ok(Hidden { depth, width })
+    }
+}
+
+impl TryFrom<String> for Hidden {
+    type Error = Error;
+    fn try_from(s: String) -> Result<Self, Error> {
+        s.parse()
+    }
+}
+
+impl From<Hidden> for String {
+    fn from(h: Hidden) -> String {
+        h.to_string()
+    }
+}
+
+impl fmt::Display for Hidden {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}x{}", self.depth, self.width)
+    }
+}
+
+/// A minibatch with observations already normalised by the current statistics.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sample {
+    /// Normalised observations z(s), rows = samples.
+    pub z: Matrix,
+    /// The stored (noisy, executed) unit actions ã.
+    pub action: Matrix,
+    /// Rewards.
+    pub reward: Vec<f32>,
+    /// Normalised next observations z(s').
+    pub z_next: Matrix,
+    /// 1.0 for terminal transitions, else 0.0.
+    pub terminal: Vec<f32>,
+}
+
+/// Actor, critic, their targets and optimisers, the normaliser and the replay buffer.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Agent {
+    /// The hyper-parameters. Not part of the binary checkpoint encoding: the checkpoint keeps
+    /// them in its TOML config, so adding a setting does not silently shift the binary layout.
+    #[serde(skip)]
+    pub config: Config,
+    /// The actor P: normalised observation -> unit action (tanh output).
+    pub actor: Net,
+    /// The critic Q: [normalised observation, unit action] -> value (linear output).
+    pub critic: Net,
+    /// The target actor P'.
+    pub actor_target: Net,
+    /// The target critic Q'.
+    pub critic_target: Net,
+    /// Adam for the actor.
+    pub actor_opt: Adam,
+    /// Adam for the critic.
+    pub critic_opt: Adam,
+    /// Running observation statistics (exported into the blob's normaliser).
+    pub norm: RunningNorm,
+    /// Transitions with raw observations and unit actions.
+    pub replay: Replay,
+    /// Lower action bounds of the plant.
+    pub low: Vec<f32>,
+    /// Upper action bounds of the plant.
+    pub high: Vec<f32>,
+    #[serde(skip)]
+    scratch: Scratch,
+}
+
+/// Buffers reused between updates; rebuilt empty after a clone or a checkpoint load.
+#[derive(Debug, Default)]
+struct Scratch {
+    actor_tape: Tape,
+    critic_tape: Tape,
+    target_tape: Tape,
+    actor_grads: Option<Grads>,
+    critic_grads: Option<Grads>,
+    spare_grads: Option<Grads>,
+}
+
+impl Clone for Scratch {
+    fn clone(&self) -> Self {
+        Scratch::default()
+    }
+}
+
+impl Agent {
+    /// Fresh networks (DDPG initialisation) for a plant with `obs_dim` observations and the
+    /// action box `low..high`. All initial weights come from `rng`.
+    pub fn new(
+        config: Config,
+        obs_dim: usize,
+        low: &[f32],
+        high: &[f32],
+        rng: &mut Rng,
+    ) -> Result<Agent, Error> {
+        config.validate()?;
+        if low.len() != high.len() {
+            return Err(Error::ShapeMismatch {
+                what: "action bounds",
+                expected: low.len(),
+                found: high.len(),
+            });
+        }
+        let act_dim = low.len();
+        let net_config = |inputs, outputs, output| NetConfig {
+            inputs,
+            width: config.hidden.width,
+            depth: config.hidden.depth,
+            outputs,
+            activation: config.activation,
+            output,
+            dropout: config.dropout,
+        };
+        let actor = Net::new(net_config(obs_dim, act_dim, Output::Tanh), rng);
+        let critic = Net::new(net_config(obs_dim + act_dim, 1, Output::Linear), rng);
+        Ok(Agent {
+            actor_opt: Adam::new(&actor, config.lr_actor, config.l2),
+            critic_opt: Adam::new(&critic, config.lr_critic, config.l2),
+            actor_target: actor.clone(),
+            critic_target: critic.clone(),
+            norm: RunningNorm::new(obs_dim, config.norm_clip),
+            replay: Replay::new(config.replay_capacity, obs_dim, act_dim),
+            low: low.to_vec(),
+            high: high.to_vec(),
+            actor,
+            critic,
+            config,
+            scratch: Scratch::default(),
+        })
+    }
+
+    /// Observation size.
+    pub fn obs_dim(&self) -> usize {
+        self.actor.config.inputs
+    }
+
+    /// Action size.
+    pub fn act_dim(&self) -> usize {
+        self.actor.config.outputs
+    }
+
+    /// What export and evaluation see: the actor, the frozen normaliser, the bounds.
+    pub fn parts(&self) -> ActorParts<'_> {
+        ActorParts {
+            net: &self.actor,
+            norm: &self.norm,
+            low: &self.low,
+            high: &self.high,
+        }
+    }
+
+    /// The greedy action in plant units, bit-exact with the exported blob's `Policy::act`.
+    pub fn greedy(&self, obs: &[f32]) -> Vec<f32> {
+        export::act(&self.parts(), obs)
+    }
+
+    /// Exploration: ã = clip(P(s) + N(0, σ²), -1, 1) in the unit box.
+    pub fn explore(&self, obs: &[f32], rng: &mut Rng) -> Vec<f32> {
+        let mut unit = export::act_unit(&self.parts(), obs);
+        for u in &mut unit {
+            *u = (*u + self.config.sigma * seed::normal(rng)).clamp(-1.0, 1.0);
+        }
+        unit
+    }
+
+    /// Maps a unit action to the plant's box, with policy-core's formula.
+    pub fn scale(&self, unit: &[f32]) -> Vec<f32> {
+        unit.iter()
+            .zip(self.low.iter().zip(&self.high))
+            .map(|(&u, (&lo, &hi))| (lo + (u + 1.0) * 0.5 * (hi - lo)).clamp(lo, hi))
+            .collect()
+    }
+
+    /// Stores a transition and feeds its observation to the normaliser.
+    pub fn remember(&mut self, t: &Transition) {
+        self.norm.update(&t.obs);
+        self.replay.push(t);
+    }
+
+    /// Samples a minibatch and normalises it with the current statistics.
+    pub fn sample(&self, rng: &mut Rng) -> Sample {
+        let b = self.replay.sample(self.config.batch, rng);
+        Sample {
+            z: self.norm.normalize_batch(&b.obs),
+            action: b.action,
+            reward: b.reward,
+            z_next: self.norm.normalize_batch(&b.next_obs),
+            terminal: b.terminal,
+        }
+    }
+
+    /// One critic step on the Bellman target y = r + γ(1 - terminal) Q'(s', P'(s')); returns
+    /// the mean squared TD error before the step.
+    pub fn critic_update(&mut self, s: &Sample, dropout_rng: &mut Rng) -> f32 {
+        let y = self.bellman_targets(s);
+        let input = critic_input(&s.z, &s.action, 1);
+        let q = self
+            .critic
+            .forward(&input, &mut self.scratch.critic_tape, Some(dropout_rng))
+            .clone();
+        let n = y.len() as f32;
+        let mut grad = Matrix::zeros(q.rows, 1);
+        let mut loss = 0.0;
+        for (i, &target) in y.iter().enumerate() {
+            let err = q.data[i] - target;
+            loss += err * err / n;
+            grad.data[i] = 2.0 * err / n;
+        }
+        let grads = self
+            .scratch
+            .critic_grads
+            .get_or_insert_with(|| self.critic.zero_grads());
+        grads.zero();
+        self.critic
+            .backward(&self.scratch.critic_tape, &grad, grads);
+        self.critic_opt.step(&mut self.critic, grads);
+        loss
+    }
+
+    fn bellman_targets(&mut self, s: &Sample) -> Vec<f32> {
+        let next_action = self
+            .actor_target
+            .forward(&s.z_next, &mut self.scratch.target_tape, None)
+            .clone();
+        let input = critic_input(&s.z_next, &next_action, 1);
+        let q_next = self
+            .critic_target
+            .forward(&input, &mut self.scratch.target_tape, None);
+        let gamma = self.config.gamma;
+        (0..s.reward.len())
+            .map(|i| s.reward[i] + gamma * (1.0 - s.terminal[i]) * q_next.data[i])
+            .collect()
+    }
+
+    /// Q for each row of a critic input built by [`critic_input`] (inference: no dropout).
+    pub fn q_values(&mut self, input: &Matrix) -> Vec<f32> {
+        self.critic
+            .forward(input, &mut self.scratch.critic_tape, None)
+            .data
+            .clone()
+    }
+
+    /// The actor's unit actions on a batch, inference mode (no dropout).
+    pub fn actor_eval(&mut self, z: &Matrix) -> Matrix {
+        self.actor
+            .forward(z, &mut self.scratch.actor_tape, None)
+            .clone()
+    }
+
+    /// Q(s, a) and ∇aQ(s, a) for each row (critic in inference mode). DDPG's actor gradient.
+    pub fn action_gradient(&mut self, z: &Matrix, action: &Matrix) -> (Vec<f32>, Matrix) {
+        let input = critic_input(z, action, 1);
+        let q = self
+            .critic
+            .forward(&input, &mut self.scratch.critic_tape, None)
+            .data
+            .clone();
+        let ones = Matrix {
+            rows: q.len(),
+            cols: 1,
+            data: vec![1.0; q.len()],
+        };
+        // The critic's own parameter gradients are a by-product here and are thrown away.
+        let spare = self
+            .scratch
+            .spare_grads
+            .get_or_insert_with(|| self.critic.zero_grads());
+        spare.zero();
+        let d_input = self
+            .critic
+            .backward(&self.scratch.critic_tape, &ones, spare);
+        let obs_dim = z.cols;
+        let mut d_action = Matrix::zeros(q.len(), action.cols);
+        for i in 0..q.len() {
+            d_action
+                .row_mut(i)
+                .copy_from_slice(&d_input.row(i)[obs_dim..]);
+        }
+        (q, d_action)
+    }
+
+    /// The training-mode actor forward (dropout on); its tape is kept for [`Agent::actor_step`].
+    pub fn actor_forward_train(&mut self, z: &Matrix, dropout_rng: &mut Rng) -> Matrix {
+        self.actor
+            .forward(z, &mut self.scratch.actor_tape, Some(dropout_rng))
+            .clone()
+    }
+
+    /// One Adam step of the actor from dL/d(output) of the last [`Agent::actor_forward_train`].
+    pub fn actor_step(&mut self, grad_out: &Matrix) {
+        let grads = self
+            .scratch
+            .actor_grads
+            .get_or_insert_with(|| self.actor.zero_grads());
+        grads.zero();
+        self.actor
+            .backward(&self.scratch.actor_tape, grad_out, grads);
+        self.actor_opt.step(&mut self.actor, grads);
+    }
+
+    /// θ' ← τθ + (1-τ)θ' for both target networks.
+    pub fn soft_update(&mut self) {
+        soft_update(&mut self.actor_target, &self.actor, self.config.tau);
+        soft_update(&mut self.critic_target, &self.critic, self.config.tau);
+    }
+
+    /// Whether every weight of every network is finite.
+    pub fn is_finite(&self) -> bool {
+        self.actor.is_finite()
+            && self.critic.is_finite()
+            && self.actor_target.is_finite()
+            && self.critic_target.is_finite()
+    }
+
+    /// The actor blob (what gets flashed).
+    pub fn actor_blob(&self, label: &str) -> Result<Vec<u8>, Error> {
+        export::actor_blob(&self.parts(), label)
+    }
+
+    /// The critic blob (for the on-device compare step).
+    pub fn critic_blob(&self, label: &str) -> Result<Vec<u8>, Error> {
+        export::critic_blob(&self.critic, &self.norm, self.act_dim(), label)
+    }
+}
+
+/// The critic's input rows `[z, a]`. Row `r` pairs action row `r` with observation row
+/// `r / repeat`, so `repeat` candidate actions per observation are scored in one forward pass.
+///
+/// ```
+/// use host_trainer::{agent::critic_input, net::Matrix};
+/// let z = Matrix { rows: 1, cols: 2, data: vec![0.5, -0.5] };
+/// let a = Matrix { rows: 2, cols: 1, data: vec![0.1, 0.2] };
+/// let x = critic_input(&z, &a, 2);
+/// assert_eq!(x.data, vec![0.5, -0.5, 0.1, 0.5, -0.5, 0.2]);
+/// ```
+pub fn critic_input(z: &Matrix, action: &Matrix, repeat: usize) -> Matrix {
+    let mut x = Matrix::zeros(action.rows, z.cols + action.cols);
+    for r in 0..action.rows {
+        let row = x.row_mut(r);
+        row[..z.cols].copy_from_slice(z.row(r / repeat));
+        row[z.cols..].copy_from_slice(action.row(r));
+    }
+    x
+}

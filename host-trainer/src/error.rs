@@ -32,6 +32,45 @@ pub enum Error {
         /// The cause.
         source: std::io::Error,
     },
+    /// A configuration value (CLI flag or config file entry) is out of range or malformed.
+    InvalidConfig {
+        /// Which setting, e.g. "--hidden" or "agent.batch".
+        what: String,
+        /// What is accepted.
+        expected: String,
+        /// What was given.
+        found: String,
+    },
+    /// A config file could not be parsed.
+    ConfigFile {
+        /// The file.
+        path: PathBuf,
+        /// The parser's message (one line).
+        message: String,
+    },
+    /// A checkpoint could not be encoded or decoded.
+    Checkpoint {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// firmware-sim refused a scenario, an environment or an evaluation.
+    Sim {
+        /// What was being done, e.g. "scenario nav-walls".
+        context: String,
+        /// firmware-sim's message.
+        message: String,
+    },
+    /// Training produced a non-finite loss or non-finite weights and was stopped.
+    Diverged {
+        /// The episode (1-based) during which it happened.
+        episode: usize,
+        /// What became non-finite, e.g. "critic loss".
+        what: String,
+        /// The last good checkpoint, kept on disk.
+        checkpoint: Option<PathBuf>,
+    },
 }
 
 impl fmt::Display for Error {
@@ -39,12 +78,47 @@ impl fmt::Display for Error {
         match self {
             Error::Blob(e) => write!(f, "blob: {e}"),
             Error::UnsupportedShape { shape, supported } => {
-                write!(f, "unsupported network shape {shape} (compiled shapes: {supported})")
+                write!(
+                    f,
+                    "unsupported network shape {shape} (compiled shapes: {supported})"
+                )
             }
-            Error::ShapeMismatch { what, expected, found } => {
+            Error::ShapeMismatch {
+                what,
+                expected,
+                found,
+            } => {
                 write!(f, "{what}: expected size {expected}, found {found}")
             }
             Error::Io { path, source } => write!(f, "{}: {source}", path.display()),
+            Error::InvalidConfig {
+                what,
+                expected,
+                found,
+            } => {
+                write!(f, "{what}: expected {expected}, found {found:?}")
+            }
+            Error::ConfigFile { path, message } => {
+                write!(f, "config file {}: {message}", path.display())
+            }
+            Error::Checkpoint { path, message } => {
+                write!(f, "checkpoint {}: {message}", path.display())
+            }
+            Error::Sim { context, message } => write!(f, "{context}: {message}"),
+            Error::Diverged {
+                episode,
+                what,
+                checkpoint,
+            } => {
+                write!(
+                    f,
+                    "training diverged in episode {episode}: {what} is not finite; "
+                )?;
+                match checkpoint {
+                    Some(path) => write!(f, "last good checkpoint kept at {}", path.display()),
+                    None => write!(f, "no checkpoint was written before it"),
+                }
+            }
         }
     }
 }

@@ -2,6 +2,30 @@
 //!
 //! Trains Deep Comparative Policy (DCP) and its baselines on firmware-sim's plants, and exports
 //! the result as a postcard blob that policy-core runs bit for bit as the trainer evaluated it.
+//!
+//! Why a trainer of its own rather than PyTorch: the exported policy must act *exactly* as the
+//! trainer evaluated it, down to the bit, on the same arithmetic the microcontroller runs; and a
+//! 4×48 network on batches of 64 is far too small for a deep-learning framework to pay off.
+//!
+//! The pieces, in the order data flows:
+//! - [`seed`]: one seed, one named random stream per component (same seed ⇒ same bytes).
+//! - [`net`], [`adam`], [`normalize`], [`replay`]: the MLP with back-propagation, its optimiser,
+//!   the running observation normaliser and the replay buffer.
+//! - [`agent`]: the actor-critic machinery DDPG and DCP share (critic Bellman update, targets,
+//!   exploration in the unit action box).
+//! - [`ddpg`] and [`dcp`]: the two actor updates, one file each, config first.
+//! - [`train`]: the episode loop on a firmware-sim plant, metrics, checkpoints, divergence stop.
+//! - [`export`]: actor and critic blobs for policy-core; [`checkpoint`], [`run_dir`], [`plot`]:
+//!   the files of a run folder `{task}__{algo}__{seed}/`.
+//!
+//! ```no_run
+//! use host_trainer::{run_dir::RunDir, train::{self, TrainConfig, Trainer}};
+//! let mut trainer = Trainer::new(TrainConfig::default())?; // nav-walls, DCP, 4x48, GR, 3000 episodes
+//! let run = RunDir::create("runs".as_ref(), &trainer.config.run_name())?;
+//! train::run(&mut trainer, &run, &mut |_, _| {})?;
+//! let blob = trainer.export(&run)?; // policy.postcard: flash it, or run it in firmware-sim
+//! # Ok::<(), host_trainer::Error>(())
+//! ```
 #![deny(missing_docs)]
 
 // Network machinery (shared by every algorithm).

@@ -1,1 +1,692 @@
-//! (being written)
+//! The training run: configuration, the episode loop, metrics, checkpoints, divergence checks.
+//!
+//! One seed drives everything: every random stream (initial weights, exploration, replay
+//! sampling, dropout masks, DCP proposals, episode starts) is `seed::stream(seed, name)` with
+//! its own name, and the loop is single-threaded, so the same seed and configuration give the
+//! same blob bytes. Wall-clock times appear only in `metrics.csv`'s `steps_per_s` column.
+
+use std::fmt;
+use std::path::Path;
+use std::time::Instant;
+
+use firmware_sim::env::Env;
+use firmware_sim::nav::{NavEnv, Reward};
+use firmware_sim::scenario::Scenario;
+use rand_core::Rng as _;
+use serde::{Deserialize, Serialize};
+
+use crate::agent::{self, Agent};
+use crate::checkpoint::{Checkpoint, RngState};
+use crate::dcp::{self, Dcp};
+use crate::ddpg::{self, Ddpg};
+use crate::plot::{self, Panel, Series};
+use crate::replay::Transition;
+use crate::run_dir::{self, RunDir};
+use crate::seed::{self, Rng};
+use crate::Error;
+
+/// Everything that defines a run (saved as the run's `config.toml`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrainConfig {
+    /// Built-in scenario name (`nav-walls`, `nav-open`) or a scenario TOML file.
+    pub task: String,
+    /// The learning algorithm.
+    pub algo: Algo,
+    /// The reward, overriding the scenario's [paper: GR for the headline results].
+    pub reward: RewardKind,
+    /// The one seed of the run.
+    pub seed: u64,
+    /// Training episodes [paper: 3,000 for navigation].
+    pub episodes: usize,
+    /// Write a checkpoint (and metrics, plot) every this many episodes.
+    pub checkpoint_every: usize,
+    /// Test starts for the final firmware-sim evaluation [paper: 100].
+    pub eval_episodes: usize,
+    /// Shared actor-critic settings.
+    pub agent: agent::Config,
+    /// DCP settings (used when `algo = "dcp"`).
+    pub dcp: dcp::Config,
+    /// DDPG settings (used when `algo = "ddpg"`).
+    pub ddpg: ddpg::Config,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        TrainConfig {
+            task: "nav-walls".into(),
+            algo: Algo::Dcp,
+            reward: RewardKind::Gr,
+            seed: 0,
+            episodes: 3000,
+            checkpoint_every: 100,
+            eval_episodes: 100,
+            agent: agent::Config::default(),
+            dcp: dcp::Config::default(),
+            ddpg: ddpg::Config::default(),
+        }
+    }
+}
+
+impl TrainConfig {
+    /// Parses a config file: TOML, or JSON when the name ends in `.json`. Unknown keys are
+    /// errors; missing keys take their defaults.
+    pub fn from_file(path: &Path) -> Result<TrainConfig, Error> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let parsed = if path.extension().is_some_and(|e| e == "json") {
+            serde_json::from_str(&text).map_err(|e| e.to_string())
+        } else {
+            toml::from_str(&text).map_err(|e| e.to_string())
+        };
+        parsed.map_err(|message| Error::ConfigFile {
+            path: path.to_path_buf(),
+            message: one_line(&message),
+        })
+    }
+
+    /// The config as TOML text.
+    pub fn to_toml(&self) -> String {
+        // Serialising plain data with string keys cannot fail; fall back to Debug rather than panic.
+        toml::to_string(self)
+            .unwrap_or_else(|e| format!("# could not serialise config: {e}\n# {self:?}\n"))
+    }
+
+    /// Checks ranges that the types do not.
+    pub fn validate(&self) -> Result<(), Error> {
+        self.agent.validate()?;
+        let positive = |what: &str, n: usize| {
+            (n > 0).then_some(()).ok_or_else(|| Error::InvalidConfig {
+                what: what.into(),
+                expected: "a positive integer".into(),
+                found: n.to_string(),
+            })
+        };
+        positive("episodes", self.episodes)?;
+        positive("checkpoint_every", self.checkpoint_every)?;
+        positive("eval_episodes", self.eval_episodes)?;
+        if self.algo == Algo::Dcp {
+            positive("dcp.t", self.dcp.t)?;
+            if let Some(s) = self.dcp.sigma_c.filter(|s| !(s.is_finite() && *s > 0.0)) {
+                return Err(Error::InvalidConfig {
+                    what: "dcp.sigma_c".into(),
+                    expected: "a positive number".into(),
+                    found: s.to_string(),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The run folder's name, `{task}__{algo}__{seed}` (a scenario file contributes its stem).
+    pub fn run_name(&self) -> String {
+        let task = Path::new(&self.task)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| self.task.clone());
+        run_dir::run_name(&task, &self.algo.to_string(), self.seed)
+    }
+}
+
+fn one_line(s: &str) -> String {
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+/// The learning algorithm.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Algo {
+    /// Deep Comparative Policy.
+    Dcp,
+    /// Deep Deterministic Policy Gradient.
+    Ddpg,
+}
+
+impl fmt::Display for Algo {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Algo::Dcp => "dcp",
+            Algo::Ddpg => "ddpg",
+        })
+    }
+}
+
+/// The navigation reward (DESIGN.md section 2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum RewardKind {
+    /// Local reward: progress toward the centre per step.
+    Lr,
+    /// Global reward: minus the distance to the centre / 6.
+    Gr,
+    /// The mean of LR and GR.
+    Lrgr,
+}
+
+impl From<RewardKind> for Reward {
+    fn from(r: RewardKind) -> Reward {
+        match r {
+            RewardKind::Lr => Reward::Lr,
+            RewardKind::Gr => Reward::Gr,
+            RewardKind::Lrgr => Reward::LrGr,
+        }
+    }
+}
+
+/// The scenario of a task (a built-in name or a scenario file), with the reward and the
+/// discount of the exit penalty overridden when given.
+pub fn scenario(
+    task: &str,
+    reward: Option<RewardKind>,
+    gamma: Option<f32>,
+) -> Result<Scenario, Error> {
+    let mut scenario = Scenario::resolve(task).map_err(|e| Error::Sim {
+        context: format!("task {task:?}"),
+        message: e.to_string(),
+    })?;
+    if let Some(r) = reward {
+        scenario.reward = r.into();
+    }
+    if let Some(g) = gamma {
+        // Leaving the arena pays worst/(1 - γ): use the learner's γ so leaving never pays.
+        scenario.gamma = g;
+    }
+    Ok(scenario)
+}
+
+/// One row of `metrics.csv`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeRow {
+    /// Episode number, from 1.
+    pub episode: usize,
+    /// Sum of rewards.
+    pub ret: f32,
+    /// Steps taken.
+    pub steps: usize,
+    /// Reached the centre, or settled within 2 units of it (DESIGN.md section 2's test rule,
+    /// applied to however many of the last 20 positions the episode has).
+    pub success: bool,
+    /// Distance from the centre at the end.
+    pub final_distance: f32,
+    /// Mean critic loss over the episode's updates (NaN before the first update).
+    pub critic_loss: f32,
+    /// Mean actor loss (NaN before the first update).
+    pub actor_loss: f32,
+    /// DCP: mean fraction of the minibatch with a winning proposal (NaN for DDPG).
+    pub dcp_kept: f32,
+    /// Environment steps since the start of the run.
+    pub total_steps: u64,
+    /// Environment steps per second in this episode, updates included (wall clock).
+    pub steps_per_s: f32,
+}
+
+/// The header of `metrics.csv`.
+pub const CSV_HEADER: &str = "episode,return,steps,success,final_distance,critic_loss,actor_loss,dcp_kept,total_steps,steps_per_s";
+
+impl EpisodeRow {
+    /// The row as CSV (NaN written as an empty field).
+    pub fn csv(&self) -> String {
+        let f = |v: f32| {
+            if v.is_nan() {
+                String::new()
+            } else {
+                format!("{v}")
+            }
+        };
+        format!(
+            "{},{},{},{},{},{},{},{},{},{}",
+            self.episode,
+            f(self.ret),
+            self.steps,
+            u8::from(self.success),
+            f(self.final_distance),
+            f(self.critic_loss),
+            f(self.actor_loss),
+            f(self.dcp_kept),
+            self.total_steps,
+            f(self.steps_per_s)
+        )
+    }
+}
+
+/// The actor learner of the configured algorithm.
+#[derive(Clone, Debug)]
+enum Learner {
+    Dcp(Dcp),
+    Ddpg(Ddpg),
+}
+
+/// The independent random streams, each `seed::stream(seed, name)`.
+#[derive(Clone, Debug)]
+struct Rngs {
+    explore: Rng,
+    replay: Rng,
+    dropout: Rng,
+    proposals: Rng,
+    env: Rng,
+}
+
+const RNG_NAMES: [&str; 5] = ["explore", "replay", "dropout", "proposals", "env"];
+
+impl Rngs {
+    fn new(seed: u64) -> Rngs {
+        let [explore, replay, dropout, proposals, env] = RNG_NAMES.map(|n| seed::stream(seed, n));
+        Rngs {
+            explore,
+            replay,
+            dropout,
+            proposals,
+            env,
+        }
+    }
+    fn states(&self) -> Vec<RngState> {
+        [
+            &self.explore,
+            &self.replay,
+            &self.dropout,
+            &self.proposals,
+            &self.env,
+        ]
+        .map(RngState::of)
+        .to_vec()
+    }
+    fn restore(states: &[RngState]) -> Option<Rngs> {
+        let [explore, replay, dropout, proposals, env] =
+            <[RngState; 5]>::try_from(states).ok()?.map(|s| s.restore());
+        Some(Rngs {
+            explore,
+            replay,
+            dropout,
+            proposals,
+            env,
+        })
+    }
+}
+
+/// Losses of one update.
+#[derive(Clone, Copy, Debug, Default)]
+struct UpdateStats {
+    critic_loss: f32,
+    actor_loss: f32,
+    kept: Option<f32>,
+}
+
+/// Running sums of an episode's update statistics.
+#[derive(Clone, Copy, Debug, Default)]
+struct Totals {
+    updates: u32,
+    critic: f64,
+    actor: f64,
+    kept: f64,
+}
+
+impl Totals {
+    fn add(&mut self, u: UpdateStats) {
+        self.updates += 1;
+        self.critic += f64::from(u.critic_loss);
+        self.actor += f64::from(u.actor_loss);
+        self.kept += f64::from(u.kept.unwrap_or(f32::NAN));
+    }
+    fn mean(&self, sum: f64) -> f32 {
+        if self.updates == 0 {
+            f32::NAN
+        } else {
+            (sum / f64::from(self.updates)) as f32
+        }
+    }
+}
+
+/// A training run in progress.
+#[derive(Debug)]
+pub struct Trainer {
+    /// The configuration.
+    pub config: TrainConfig,
+    /// Networks, optimisers, normaliser, replay.
+    pub agent: Agent,
+    /// Completed episodes.
+    pub episode: usize,
+    /// Environment steps so far.
+    pub total_steps: u64,
+    /// One row per completed episode.
+    pub metrics: Vec<EpisodeRow>,
+    learner: Learner,
+    env: NavEnv,
+    rngs: Rngs,
+}
+
+/// Positions over which an episode's end is judged (DESIGN.md: the last 20 steps).
+const SETTLE_WINDOW: usize = 20;
+/// "Settled near the centre" radius of the success rule.
+const SUCCESS_RADIUS: f32 = 2.0;
+
+impl Trainer {
+    /// A fresh run: networks initialised from `seed::stream(seed, "init")`.
+    pub fn new(config: TrainConfig) -> Result<Trainer, Error> {
+        config.validate()?;
+        let env = make_env(&config)?;
+        let mut init = seed::stream(config.seed, "init");
+        let space = env.action_space().clone();
+        let agent = Agent::new(
+            config.agent.clone(),
+            env.observation_space().dim(),
+            &space.low,
+            &space.high,
+            &mut init,
+        )?;
+        // Fail before training if the shape cannot be exported.
+        agent.actor_blob("shape check")?;
+        Ok(Trainer {
+            learner: learner(&config),
+            rngs: Rngs::new(config.seed),
+            env,
+            agent,
+            config,
+            episode: 0,
+            total_steps: 0,
+            metrics: Vec::new(),
+        })
+    }
+
+    /// Continues a run from its checkpoint; `episodes` (if given) replaces the episode budget.
+    pub fn resume(
+        checkpoint: Checkpoint,
+        episodes: Option<usize>,
+        path: &Path,
+    ) -> Result<Trainer, Error> {
+        let bad = |message: String| Error::Checkpoint {
+            path: path.to_path_buf(),
+            message,
+        };
+        let mut config: TrainConfig =
+            toml::from_str(&checkpoint.config_toml).map_err(|e| bad(one_line(&e.to_string())))?;
+        if let Some(n) = episodes {
+            config.episodes = n;
+        }
+        config.validate()?;
+        let rngs = Rngs::restore(&checkpoint.rngs).ok_or_else(|| {
+            bad(format!(
+                "expected {} random streams, found {}",
+                RNG_NAMES.len(),
+                checkpoint.rngs.len()
+            ))
+        })?;
+        let mut agent = checkpoint.agent;
+        agent.config = config.agent.clone();
+        Ok(Trainer {
+            learner: learner(&config),
+            env: make_env(&config)?,
+            rngs,
+            agent,
+            episode: checkpoint.episode,
+            total_steps: checkpoint.total_steps,
+            metrics: checkpoint.metrics,
+            config,
+        })
+    }
+
+    /// The state to save.
+    pub fn checkpoint(&self) -> Checkpoint {
+        Checkpoint {
+            config_toml: self.config.to_toml(),
+            agent: self.agent.clone(),
+            episode: self.episode,
+            total_steps: self.total_steps,
+            metrics: self.metrics.clone(),
+            rngs: self.rngs.states(),
+        }
+    }
+
+    /// Whether the episode budget is used up.
+    pub fn done(&self) -> bool {
+        self.episode >= self.config.episodes
+    }
+
+    /// Success rate over the last `window` episodes.
+    pub fn recent_success(&self, window: usize) -> f32 {
+        let recent = &self.metrics[self.metrics.len().saturating_sub(window)..];
+        recent.iter().filter(|r| r.success).count() as f32 / recent.len().max(1) as f32
+    }
+
+    /// Runs one episode with exploration and updates. On a non-finite loss or weight it returns
+    /// `Error::Diverged` (without a checkpoint path: [`run`] adds it) and the trainer must be
+    /// dropped: its state is no longer good.
+    pub fn run_episode(&mut self) -> Result<&EpisodeRow, Error> {
+        let started = Instant::now();
+        let mut obs = self.env.reset(self.rngs.env.next_u64());
+        let (mut ret, mut steps, mut totals) = (0.0f32, 0usize, Totals::default());
+        let mut recent = Vec::with_capacity(SETTLE_WINDOW);
+        let reached = loop {
+            let unit = self.agent.explore(&obs, &mut self.rngs.explore);
+            let step = self.env.step(&self.agent.scale(&unit));
+            self.agent.remember(&Transition {
+                obs,
+                action: unit,
+                reward: step.reward * self.agent.config.reward_scale,
+                next_obs: step.observation.clone(),
+                terminal: step.terminated,
+            });
+            obs = step.observation;
+            ret += step.reward;
+            steps += 1;
+            self.total_steps += 1;
+            push_recent(&mut recent, distance(&obs));
+            for _ in 0..self.updates_due() {
+                totals.add(self.update().map_err(|what| self.diverged(what))?);
+            }
+            if step.terminated || step.truncated {
+                break step.terminated && distance(&obs) < SUCCESS_RADIUS;
+            }
+        };
+        if !self.agent.is_finite() {
+            return Err(self.diverged("network weights"));
+        }
+        let settled = recent.iter().all(|&d| d < SUCCESS_RADIUS);
+        self.episode += 1;
+        self.metrics.push(EpisodeRow {
+            episode: self.episode,
+            ret,
+            steps,
+            success: reached || settled,
+            final_distance: distance(&obs),
+            critic_loss: totals.mean(totals.critic),
+            actor_loss: totals.mean(totals.actor),
+            dcp_kept: totals.mean(totals.kept),
+            total_steps: self.total_steps,
+            steps_per_s: steps as f32 / started.elapsed().as_secs_f32().max(1e-9),
+        });
+        Ok(&self.metrics[self.metrics.len() - 1])
+    }
+
+    fn diverged(&self, what: &str) -> Error {
+        Error::Diverged {
+            episode: self.episode + 1,
+            what: what.into(),
+            checkpoint: None,
+        }
+    }
+
+    fn updates_due(&self) -> usize {
+        let warm = self.total_steps >= self.agent.config.warmup_steps as u64
+            && self.agent.replay.len() >= self.agent.config.batch;
+        if warm {
+            self.agent.config.updates_per_step
+        } else {
+            0
+        }
+    }
+
+    /// One critic step and one actor step on the same minibatch, then the soft target update.
+    fn update(&mut self) -> Result<UpdateStats, &'static str> {
+        let s = self.agent.sample(&mut self.rngs.replay);
+        let critic_loss = self.agent.critic_update(&s, &mut self.rngs.dropout);
+        if !critic_loss.is_finite() {
+            return Err("critic loss");
+        }
+        let (actor_loss, kept) = match &self.learner {
+            Learner::Dcp(d) => {
+                let st = d.actor_update(
+                    &mut self.agent,
+                    &s,
+                    &mut self.rngs.proposals,
+                    &mut self.rngs.dropout,
+                );
+                (st.loss, Some(st.kept))
+            }
+            Learner::Ddpg(d) => (
+                d.actor_update(&mut self.agent, &s, &mut self.rngs.dropout)
+                    .loss,
+                None,
+            ),
+        };
+        if !actor_loss.is_finite() {
+            return Err("actor loss");
+        }
+        self.agent.soft_update();
+        Ok(UpdateStats {
+            critic_loss,
+            actor_loss,
+            kept,
+        })
+    }
+
+    /// Writes checkpoint, metrics and plot of the current state.
+    pub fn save(&self, run: &RunDir) -> Result<(), Error> {
+        self.checkpoint().save(&run.file(run_dir::CHECKPOINT))?;
+        self.save_metrics(run)
+    }
+
+    /// Writes `metrics.csv` and the learning-curve SVG.
+    pub fn save_metrics(&self, run: &RunDir) -> Result<(), Error> {
+        run.write(run_dir::METRICS, metrics_csv(&self.metrics).as_bytes())?;
+        run.write(
+            run_dir::CURVE,
+            learning_curve(&self.config.run_name(), &self.metrics).as_bytes(),
+        )
+    }
+
+    /// Exports `policy.postcard` and `critic.postcard`; returns the actor blob.
+    pub fn export(&self, run: &RunDir) -> Result<Vec<u8>, Error> {
+        let label = self.config.run_name();
+        let actor = self.agent.actor_blob(&label)?;
+        run.write(run_dir::POLICY, &actor)?;
+        run.write(run_dir::CRITIC, &self.agent.critic_blob(&label)?)?;
+        Ok(actor)
+    }
+}
+
+fn learner(config: &TrainConfig) -> Learner {
+    match config.algo {
+        Algo::Dcp => Learner::Dcp(Dcp::new(config.dcp.clone(), config.agent.sigma)),
+        Algo::Ddpg => Learner::Ddpg(Ddpg::new(config.ddpg.clone())),
+    }
+}
+
+fn make_env(config: &TrainConfig) -> Result<NavEnv, Error> {
+    let scenario = scenario(&config.task, Some(config.reward), Some(config.agent.gamma))?;
+    NavEnv::new(&scenario).map_err(|e| Error::Sim {
+        context: format!("task {:?}", config.task),
+        message: e.to_string(),
+    })
+}
+
+/// Distance of a navigation observation (the position) from the goal at the origin.
+fn distance(obs: &[f32]) -> f32 {
+    obs.iter().map(|x| x * x).sum::<f32>().sqrt()
+}
+
+fn push_recent(recent: &mut Vec<f32>, d: f32) {
+    if recent.len() == SETTLE_WINDOW {
+        recent.remove(0);
+    }
+    recent.push(d);
+}
+
+/// Trains until the budget is used, checkpointing every `checkpoint_every` episodes.
+///
+/// A fresh run writes its config and an episode-0 checkpoint first, so a diverged run always
+/// has a last good checkpoint to keep. On divergence, the metrics of the completed episodes are
+/// written, the checkpoint is left untouched, and `Error::Diverged` names it.
+pub fn run(
+    trainer: &mut Trainer,
+    run: &RunDir,
+    on_episode: &mut dyn FnMut(&EpisodeRow, &Trainer),
+) -> Result<(), Error> {
+    if trainer.episode == 0 {
+        run.write(run_dir::CONFIG, trainer.config.to_toml().as_bytes())?;
+        trainer.save(run)?;
+    }
+    while !trainer.done() {
+        match trainer.run_episode() {
+            Ok(row) => {
+                let row = *row;
+                on_episode(&row, trainer);
+            }
+            Err(Error::Diverged { episode, what, .. }) => {
+                trainer.save_metrics(run)?;
+                return Err(Error::Diverged {
+                    episode,
+                    what,
+                    checkpoint: Some(run.file(run_dir::CHECKPOINT)),
+                });
+            }
+            Err(e) => return Err(e),
+        }
+        if trainer.episode % trainer.config.checkpoint_every == 0 || trainer.done() {
+            trainer.save(run)?;
+        }
+    }
+    Ok(())
+}
+
+/// The whole `metrics.csv`.
+pub fn metrics_csv(rows: &[EpisodeRow]) -> String {
+    let mut out = String::from(CSV_HEADER);
+    out.push('\n');
+    for r in rows {
+        out.push_str(&r.csv());
+        out.push('\n');
+    }
+    out
+}
+
+/// The learning curve: return (raw and 100-episode average) and the 100-episode success rate.
+pub fn learning_curve(title: &str, rows: &[EpisodeRow]) -> String {
+    let x: Vec<f64> = rows.iter().map(|r| r.episode as f64).collect();
+    let ret: Vec<f64> = rows.iter().map(|r| f64::from(r.ret)).collect();
+    let success: Vec<f64> = rows
+        .iter()
+        .map(|r| f64::from(u8::from(r.success)))
+        .collect();
+    let zip = |ys: Vec<f64>| x.iter().copied().zip(ys).collect::<Vec<_>>();
+    let returns = Panel {
+        y_label: "return".into(),
+        y_range: None,
+        series: vec![
+            Series {
+                name: "episode".into(),
+                color: "#1f77b4",
+                opacity: 0.25,
+                points: zip(ret.clone()),
+            },
+            Series {
+                name: "mean of 100".into(),
+                color: "#1f77b4",
+                opacity: 1.0,
+                points: zip(plot::moving_average(&ret, 100)),
+            },
+        ],
+    };
+    let rate = Panel {
+        y_label: "success rate".into(),
+        y_range: Some((0.0, 1.0)),
+        series: vec![Series {
+            name: "mean of 100".into(),
+            color: "#2ca02c",
+            opacity: 1.0,
+            points: zip(plot::moving_average(&success, 100)),
+        }],
+    };
+    plot::svg(title, "episode", &[returns, rate])
+}

@@ -2,6 +2,7 @@
 
 use nalgebra::{ArrayStorage, SVector};
 
+use crate::clamp::clamp;
 use crate::Error;
 
 /// Per-dimension action bounds `low[i] <= a[i] <= high[i]`.
@@ -22,11 +23,17 @@ impl<const A: usize> ActionBounds<A> {
 
     /// The symmetric box `[-limit, limit]` in every dimension.
     pub fn symmetric(limit: f32) -> Self {
-        Self { low: SVector::repeat(-limit), high: SVector::repeat(limit) }
+        Self {
+            low: SVector::repeat(-limit),
+            high: SVector::repeat(limit),
+        }
     }
 
     /// Maps a unit action `u ∈ [-1, 1]^A` linearly onto the box; the result is clamped into the
     /// box, and a non-finite `u[i]` maps to the middle of dimension `i`.
+    ///
+    /// For bounds that pass [`ActionBounds::validate`] the result is finite and inside the box.
+    /// Bounds that do not (set by hand) never make it panic, but then nothing is promised.
     ///
     /// ```
     /// use policy_core::ActionBounds;
@@ -38,33 +45,71 @@ impl<const A: usize> ActionBounds<A> {
     pub fn scale(&self, unit: &[f32; A]) -> [f32; A] {
         let mut out = [0.0; A];
         for (((o, &u), &lo), &hi) in out.iter_mut().zip(unit).zip(&self.low).zip(&self.high) {
-            let u = if u.is_finite() { u.clamp(-1.0, 1.0) } else { 0.0 };
+            let u = if u.is_finite() {
+                u.clamp(-1.0, 1.0)
+            } else {
+                0.0
+            };
             let a = lo + (u + 1.0) * 0.5 * (hi - lo);
-            *o = a.clamp(lo, hi);
+            *o = clamp(a, lo, hi);
         }
         out
     }
 
     /// Maps an action in the box back to `[-1, 1]` (the inverse of [`ActionBounds::scale`] up to
     /// rounding); a zero-width dimension maps to 0.
+    ///
+    /// ```
+    /// use policy_core::ActionBounds;
+    /// let b = ActionBounds::<2>::symmetric(0.25);
+    /// assert_eq!(b.unscale(&[0.125, -0.25]), [0.5, -1.0]);
+    /// ```
     pub fn unscale(&self, action: &[f32; A]) -> [f32; A] {
         let mut out = [0.0; A];
         for (((o, &a), &lo), &hi) in out.iter_mut().zip(action).zip(&self.low).zip(&self.high) {
             let width = hi - lo;
-            let u = if width > 0.0 { 2.0 * (a - lo) / width - 1.0 } else { 0.0 };
-            *o = if u.is_finite() { u.clamp(-1.0, 1.0) } else { 0.0 };
+            let u = if width > 0.0 {
+                2.0 * (a - lo) / width - 1.0
+            } else {
+                0.0
+            };
+            *o = if u.is_finite() {
+                u.clamp(-1.0, 1.0)
+            } else {
+                0.0
+            };
         }
         out
     }
 
-    /// Checks `low <= high` and that the box's width and midpoint are representable.
+    /// Checks `low <= high` (both finite) and that the box's width and midpoint are
+    /// representable.
+    ///
+    /// ```
+    /// use policy_core::{ActionBounds, Error};
+    /// assert_eq!(ActionBounds::<2>::symmetric(0.25).validate(), Ok(()));
+    /// let inverted = ActionBounds::<2>::symmetric(-0.25);
+    /// assert!(matches!(inverted.validate(), Err(Error::InvalidParameter { index: 0, .. })));
+    /// ```
     pub fn validate(&self) -> Result<(), Error> {
         for (index, (&lo, &hi)) in self.low.iter().zip(&self.high).enumerate() {
+            if !lo.is_finite() || !hi.is_finite() {
+                return Err(Error::InvalidParameter {
+                    what: "non-finite action bound",
+                    index,
+                });
+            }
             if lo > hi {
-                return Err(Error::InvalidParameter { what: "action bound low > high", index });
+                return Err(Error::InvalidParameter {
+                    what: "action bound low > high",
+                    index,
+                });
             }
             if !(hi - lo).is_finite() || !(hi + lo).is_finite() {
-                return Err(Error::InvalidParameter { what: "action bounds too wide for f32", index });
+                return Err(Error::InvalidParameter {
+                    what: "action bounds too wide for f32",
+                    index,
+                });
             }
         }
         Ok(())

@@ -72,7 +72,15 @@ pub fn standard_normal<R: Rng + ?Sized>(rng: &mut R) -> f32 {
 /// assert!(r.advantage >= 0.0);
 /// assert!(critic.q(&obs, &r.unit) >= critic.q(&obs, &policy.act_unit(&obs)));
 /// ```
-pub fn refine<const S: usize, const H: usize, const L: usize, const A: usize, const CH: usize, const CL: usize, R>(
+pub fn refine<
+    const S: usize,
+    const H: usize,
+    const L: usize,
+    const A: usize,
+    const CH: usize,
+    const CL: usize,
+    R,
+>(
     policy: &Policy<S, H, L, A>,
     critic: &Critic<S, A, CH, CL>,
     obs: &[f32; S],
@@ -87,7 +95,12 @@ where
     let z = critic.normalizer.normalize(obs);
     let z = &z.data.0[0];
     let q0 = critic.q_normalized(z, &a0);
-    let mut best = Refined { action: [0.0; A], unit: a0, advantage: 0.0, winner: 0 };
+    let mut best = Refined {
+        action: [0.0; A],
+        unit: a0,
+        advantage: 0.0,
+        winner: 0,
+    };
     if sigma.is_finite() && sigma > 0.0 {
         for winner in 1..=t {
             let mut unit = a0;
@@ -96,7 +109,12 @@ where
             }
             let advantage = critic.q_normalized(z, &unit) - q0;
             if advantage > best.advantage {
-                best = Refined { action: [0.0; A], unit, advantage, winner };
+                best = Refined {
+                    action: [0.0; A],
+                    unit,
+                    advantage,
+                    winner,
+                };
             }
         }
     }

@@ -34,6 +34,15 @@ impl<const S: usize, const A: usize, const H: usize, const L: usize> Critic<S, A
     };
 
     /// Loads a blob into this slot; on error the slot is left as it was.
+    ///
+    /// ```
+    /// use policy_core::{Critic, Error, ModelKind};
+    /// static ACTOR: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+    /// let mut slot = Critic::<2, 2, 32, 1>::ZERO;
+    /// let err = slot.load_into(ACTOR).unwrap_err();
+    /// assert_eq!(err, Error::WrongKind { expected: ModelKind::Critic, found: ModelKind::Actor });
+    /// assert_eq!(slot, Critic::ZERO);
+    /// ```
     pub fn load_into(&mut self, bytes: &[u8]) -> Result<(), Error> {
         blob::load_into(self, bytes)
     }
@@ -53,11 +62,26 @@ impl<const S: usize, const A: usize, const H: usize, const L: usize> Critic<S, A
     }
 
     /// Writes this critic as a blob into `out`; returns the bytes written.
+    ///
+    /// ```
+    /// use policy_core::Critic;
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/critic_2x32.postcard");
+    /// let critic = Critic::<2, 2, 32, 1>::from_blob(BLOB).unwrap();
+    /// let mut out = [0u8; 8192];
+    /// let n = critic.write_blob("golden critic 2x32 relu", &mut out).unwrap();
+    /// assert_eq!(&out[..n], BLOB);
+    /// ```
     pub fn write_blob(&self, label: &str, out: &mut [u8]) -> Result<usize, Error> {
         blob::write_into(self, label, out)
     }
 
     /// Writes this critic as a blob into a new vector.
+    ///
+    /// ```
+    /// use policy_core::Critic;
+    /// let blob = Critic::<2, 2, 8, 0>::ZERO.to_blob("").unwrap();
+    /// assert_eq!(&blob[..4], b"DCPB");
+    /// ```
     #[cfg(feature = "std")]
     pub fn to_blob(&self, label: &str) -> Result<std::vec::Vec<u8>, Error> {
         blob::to_vec(self, label)
@@ -66,6 +90,14 @@ impl<const S: usize, const A: usize, const H: usize, const L: usize> Critic<S, A
     /// Q of an observation and a unit-box action. Non-finite inputs are treated as by the
     /// normaliser (observation) or replaced by 0 (action); the result may still be large but is
     /// never NaN for finite weights.
+    ///
+    /// ```
+    /// use policy_core::Critic;
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/critic_2x32.postcard");
+    /// let critic = Critic::<2, 2, 32, 1>::from_blob(BLOB).unwrap();
+    /// // The action is clamped into the unit box and a NaN action component reads as 0.
+    /// assert_eq!(critic.q(&[1.0, 2.0], &[5.0, f32::NAN]), critic.q(&[1.0, 2.0], &[1.0, 0.0]));
+    /// ```
     #[inline]
     pub fn q(&self, obs: &[f32; S], unit_action: &[f32; A]) -> f32 {
         let z = self.normalizer.normalize(obs);
@@ -73,11 +105,23 @@ impl<const S: usize, const A: usize, const H: usize, const L: usize> Critic<S, A
     }
 
     /// Q of an already normalised observation (the compare step normalises once, scores many).
+    ///
+    /// ```
+    /// use policy_core::Critic;
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/critic_2x32.postcard");
+    /// let critic = Critic::<2, 2, 32, 1>::from_blob(BLOB).unwrap();
+    /// let z = critic.normalizer.normalize(&[1.0, 2.0]);
+    /// assert_eq!(critic.q_normalized(&z.into(), &[0.5, 0.5]), critic.q(&[1.0, 2.0], &[0.5, 0.5]));
+    /// ```
     #[inline]
     pub fn q_normalized(&self, z: &[f32; S], unit_action: &[f32; A]) -> f32 {
         let mut a = [0.0; A];
         for (d, &u) in a.iter_mut().zip(unit_action) {
-            *d = if u.is_finite() { u.clamp(-1.0, 1.0) } else { 0.0 };
+            *d = if u.is_finite() {
+                u.clamp(-1.0, 1.0)
+            } else {
+                0.0
+            };
         }
         let mut pre = self.input.b;
         self.input.accumulate(z, &mut pre);
@@ -88,12 +132,7 @@ impl<const S: usize, const A: usize, const H: usize, const L: usize> Critic<S, A
 
 impl<const S: usize, const A: usize, const H: usize, const L: usize> Model for Critic<S, A, H, L> {
     const KIND: ModelKind = ModelKind::Critic;
-    const SHAPE: Shape = Shape {
-        observations: S as u16,
-        actions: A as u16,
-        width: H as u16,
-        depth: (L + 1) as u8,
-    };
+    const SHAPE: Shape = Shape::compiled(S, A, H, L);
 
     fn activation(&self) -> Activation {
         self.trunk.activation

@@ -88,7 +88,10 @@ impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Error::WrongMagic { found } => {
-                write!(f, "not a policy blob: expected magic \"DCPB\", found {found:02x?}")
+                write!(
+                    f,
+                    "not a policy blob: expected magic \"DCPB\", found {found:02x?}"
+                )
             }
             Error::UnsupportedVersion { supported, found } => {
                 write!(f, "unsupported blob format version {found} (this build reads version {supported})")
@@ -97,13 +100,19 @@ impl fmt::Display for Error {
                 write!(f, "wrong model kind: expected {expected}, found {found}")
             }
             Error::ShapeMismatch { expected, found } => {
-                write!(f, "shape mismatch: compiled for {expected}, blob holds {found}")
+                write!(
+                    f,
+                    "shape mismatch: compiled for {expected}, blob holds {found}"
+                )
             }
             Error::Truncated { needed, found } => {
                 write!(f, "blob truncated: needs {needed} bytes, found {found}")
             }
             Error::TrailingBytes { expected, found } => {
-                write!(f, "trailing bytes after the blob: expected {expected} bytes, found {found}")
+                write!(
+                    f,
+                    "trailing bytes after the blob: expected {expected} bytes, found {found}"
+                )
             }
             Error::Malformed { what } => write!(f, "malformed blob header: {what}"),
             Error::ChecksumMismatch { stored, computed } => write!(
@@ -117,7 +126,10 @@ impl fmt::Display for Error {
                 write!(f, "invalid parameter in dimension {index}: {what}")
             }
             Error::BufferTooSmall { needed, found } => {
-                write!(f, "output buffer too small: needs {needed} bytes, found {found}")
+                write!(
+                    f,
+                    "output buffer too small: needs {needed} bytes, found {found}"
+                )
             }
         }
     }

@@ -11,24 +11,47 @@
 //! - [`blob`]: the one definition of the weight-blob format (postcard header, `f32` payload,
 //!   CRC-32), read on the chip and written on the host. See `docs/blob-format.md`.
 //!
+//! Guarantees, each backed by tests in `tests/`: loading never panics and rejects every
+//! truncation and every 1- and 2-bit corruption of a blob with a typed [`Error`], leaving the
+//! slot untouched; `act` never panics and returns a finite, in-bounds action for any
+//! observation; the forward pass's arithmetic (summation order, `libm::tanhf`, no fused
+//! multiply-add) is fixed, so the committed golden vectors (`tests/golden/vectors.txt`) hold
+//! bit for bit, and a trainer that follows [`mlp::accumulate`]'s order reproduces them.
+//!
 //! Sizes are const generics: `Policy<S, H, L, A>` has `S` observations, `L + 1` hidden layers of
 //! width `H`, and `A` actions; the paper's 4×48 actor for the navigation task is
 //! `Policy<2, 48, 3, 2>`.
 //!
 //! ```
-//! use policy_core::Policy;
-//! // A blob as it sits in flash.
-//! static BLOB: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
-//! let mut policy = Policy::<2, 32, 1, 2>::ZERO; // a `static` slot on a chip
-//! policy.load_into(BLOB).unwrap();
-//! let action = policy.act(&[4.0, -2.5]);
-//! assert!(action.iter().all(|a| a.abs() <= 0.25));
+//! use policy_core::{Error, Policy};
+//!
+//! /// The blob exported by the trainer, linked into flash (or a slice of flash).
+//! static BLOB: &[u8] = include_bytes!("../tests/golden/actor_4x48.postcard");
+//!
+//! /// The paper's 4×48 navigation actor: 2 observations (x, y), 2 actions (a step in ±0.25).
+//! type NavPolicy = Policy<2, 48, 3, 2>;
+//!
+//! fn boot(slot: &mut NavPolicy) -> Result<(), Error> {
+//!     // Checks magic, version, kind, shape, length, CRC-32, finiteness and bounds; on any
+//!     // error the slot keeps its contents (`Policy::ZERO`: every action 0, the safe state).
+//!     slot.load_into(BLOB)
+//! }
+//!
+//! fn control_step(slot: &NavPolicy, position: [f32; 2]) -> [f32; 2] {
+//!     slot.act(&position) // finite and inside the bounds, even for NaN or infinite inputs
+//! }
+//!
+//! let mut slot = NavPolicy::ZERO; // on a chip: a `static` slot, loaded once at boot
+//! boot(&mut slot).unwrap();
+//! let step = control_step(&slot, [4.0, -2.5]);
+//! assert!(step.iter().all(|s| s.is_finite() && s.abs() <= 0.25));
 //! ```
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![deny(missing_docs)]
 
 pub mod blob;
 pub mod bounds;
+mod clamp;
 pub mod compare;
 pub mod crc32;
 pub mod critic;
@@ -36,6 +59,7 @@ pub mod error;
 pub mod mlp;
 pub mod normalizer;
 pub mod policy;
+pub mod tanh;
 
 pub use blob::{ModelKind, Shape};
 pub use bounds::ActionBounds;

@@ -2,6 +2,7 @@
 
 use nalgebra::{ArrayStorage, SVector};
 
+use crate::clamp::clamp;
 use crate::Error;
 
 /// Per-dimension affine normalisation of observations, clipped to `[-clip, clip]`.
@@ -36,7 +37,11 @@ impl<const S: usize> Normalizer<S> {
     /// assert_eq!(z.as_slice(), &[1.0, 5.0]);
     /// ```
     pub fn identity(clip: f32) -> Self {
-        Self { mean: SVector::zeros(), inv_std: SVector::repeat(1.0), clip }
+        Self {
+            mean: SVector::zeros(),
+            inv_std: SVector::repeat(1.0),
+            clip,
+        }
     }
 
     /// Normalises one observation; the result is always finite and inside `[-clip, clip]`.
@@ -54,29 +59,65 @@ impl<const S: usize> Normalizer<S> {
             let v = (x - m) * k;
             // A non-finite input, or 0 * inf after an overflowing subtraction, carries no
             // information: it becomes the mean. Everything else is clipped.
-            *zi = if !x.is_finite() || v.is_nan() { 0.0 } else { v.clamp(-self.clip, self.clip) };
+            *zi = if !x.is_finite() || v.is_nan() {
+                0.0
+            } else {
+                clamp(v, -self.clip, self.clip)
+            };
         }
         z
     }
 
-    /// Checks the rules a loaded normaliser must obey (finite values are checked by the loader).
+    /// Checks the rules a loaded normaliser obeys: every value finite, `inv_std >= 0`,
+    /// `clip > 0`. The loader calls it; a host building a normaliser by hand may too.
+    ///
+    /// ```
+    /// use policy_core::{Error, Normalizer};
+    /// assert_eq!(Normalizer::<2>::identity(5.0).validate(), Ok(()));
+    /// assert!(matches!(Normalizer::<2>::ZERO.validate(), Err(Error::InvalidParameter { .. })));
+    /// ```
     pub fn validate(&self) -> Result<(), Error> {
-        if let Some(index) = self.inv_std.iter().position(|&k| k < 0.0) {
-            return Err(Error::InvalidParameter { what: "negative inverse standard deviation", index });
+        if let Some(index) = self.mean.iter().position(|m| !m.is_finite()) {
+            return Err(Error::InvalidParameter {
+                what: "non-finite observation mean",
+                index,
+            });
         }
-        if self.clip <= 0.0 {
-            return Err(Error::InvalidParameter { what: "normaliser clip must be > 0", index: 0 });
+        // `!(k >= 0)` also rejects NaN.
+        if let Some(index) = self
+            .inv_std
+            .iter()
+            .position(|&k| !(k >= 0.0 && k.is_finite()))
+        {
+            return Err(Error::InvalidParameter {
+                what: "inverse standard deviation must be finite and >= 0",
+                index,
+            });
+        }
+        if !(self.clip > 0.0 && self.clip.is_finite()) {
+            return Err(Error::InvalidParameter {
+                what: "normaliser clip must be finite and > 0",
+                index: 0,
+            });
         }
         Ok(())
     }
 
     /// Visits the parameters in blob order: mean, inverse std, clip.
     pub fn params(&self) -> [&[f32]; 3] {
-        [self.mean.as_slice(), self.inv_std.as_slice(), core::slice::from_ref(&self.clip)]
+        [
+            self.mean.as_slice(),
+            self.inv_std.as_slice(),
+            core::slice::from_ref(&self.clip),
+        ]
     }
 
     /// Mutable parameters, in the order of [`Normalizer::params`].
     pub fn params_mut(&mut self) -> [&mut [f32]; 3] {
-        [self.mean.as_mut_slice(), self.inv_std.as_mut_slice(), core::slice::from_mut(&mut self.clip)]
+        [
+            self.mean.as_mut_slice(),
+            self.inv_std.as_mut_slice(),
+            core::slice::from_mut(&mut self.clip),
+        ]
     }
 }

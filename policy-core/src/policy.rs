@@ -49,18 +49,45 @@ impl<const S: usize, const H: usize, const L: usize, const A: usize> Policy<S, H
 
     /// Loads a blob into a new value (convenient on the host; on a chip prefer
     /// [`Policy::load_into`] into a `static`).
+    ///
+    /// ```
+    /// use policy_core::{Error, Policy};
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+    /// let policy = Policy::<2, 32, 1, 2>::from_blob(BLOB).unwrap();
+    /// assert_eq!(policy.bounds.high[0], 0.25);
+    /// let truncated = Policy::<2, 32, 1, 2>::from_blob(&BLOB[..100]);
+    /// assert!(matches!(truncated, Err(Error::Truncated { needed: 4948, found: 100 })));
+    /// ```
     pub fn from_blob(bytes: &[u8]) -> Result<Self, Error> {
         let mut policy = Self::ZERO;
         policy.load_into(bytes)?;
         Ok(policy)
     }
 
-    /// Writes this policy as a blob into `out`; returns the bytes written.
+    /// Writes this policy as a blob into `out`; returns the bytes written. The label (at most
+    /// 32 bytes) is free text stored in the header, e.g. task, algorithm and seed.
+    ///
+    /// ```
+    /// use policy_core::{blob, ActionBounds, Policy};
+    /// let mut policy = Policy::<2, 8, 0, 2>::ZERO;
+    /// policy.bounds = ActionBounds::symmetric(0.25);
+    /// let mut flash = [0u8; 512];
+    /// let n = policy.write_blob("nav dcp seed 1", &mut flash).unwrap();
+    /// assert_eq!(n, blob::blob_len(&policy, "nav dcp seed 1").unwrap());
+    /// assert_eq!(blob::verify(&flash[..n]).unwrap().header.label.as_str(), "nav dcp seed 1");
+    /// ```
     pub fn write_blob(&self, label: &str, out: &mut [u8]) -> Result<usize, Error> {
         blob::write_into(self, label, out)
     }
 
     /// Writes this policy as a blob into a new vector.
+    ///
+    /// ```
+    /// use policy_core::Policy;
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+    /// let policy = Policy::<2, 32, 1, 2>::from_blob(BLOB).unwrap();
+    /// assert_eq!(policy.to_blob("golden actor 2x32 tanh").unwrap(), BLOB);
+    /// ```
     #[cfg(feature = "std")]
     pub fn to_blob(&self, label: &str) -> Result<std::vec::Vec<u8>, Error> {
         blob::to_vec(self, label)
@@ -70,6 +97,16 @@ impl<const S: usize, const H: usize, const L: usize, const A: usize> Policy<S, H
     ///
     /// Non-finite observation components normalise to 0 (see [`Normalizer::normalize`]); a
     /// non-finite network output (possible only if activations overflow) becomes 0.
+    ///
+    /// ```
+    /// use policy_core::Policy;
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+    /// let policy = Policy::<2, 32, 1, 2>::from_blob(BLOB).unwrap();
+    /// let obs = [1.0, 2.0];
+    /// let unit = policy.act_unit(&obs);
+    /// assert!(unit.iter().all(|u| u.abs() <= 1.0));
+    /// assert_eq!(policy.bounds.scale(&unit), policy.act(&obs));
+    /// ```
     #[inline]
     pub fn act_unit(&self, obs: &[f32; S]) -> [f32; A] {
         let z = self.normalizer.normalize(obs);
@@ -77,6 +114,14 @@ impl<const S: usize, const H: usize, const L: usize, const A: usize> Policy<S, H
     }
 
     /// [`Policy::act_unit`] on an already normalised observation.
+    ///
+    /// ```
+    /// use policy_core::Policy;
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+    /// let policy = Policy::<2, 32, 1, 2>::from_blob(BLOB).unwrap();
+    /// let z = policy.normalizer.normalize(&[3.0, -1.0]);
+    /// assert_eq!(policy.act_unit_normalized(&z), policy.act_unit(&[3.0, -1.0]));
+    /// ```
     #[inline]
     pub fn act_unit_normalized(&self, z: &SVector<f32, S>) -> [f32; A] {
         let pre = self.input.affine(&z.data.0[0]);
@@ -109,12 +154,7 @@ impl<const S: usize, const H: usize, const L: usize, const A: usize> Policy<S, H
 
 impl<const S: usize, const H: usize, const L: usize, const A: usize> Model for Policy<S, H, L, A> {
     const KIND: ModelKind = ModelKind::Actor;
-    const SHAPE: Shape = Shape {
-        observations: S as u16,
-        actions: A as u16,
-        width: H as u16,
-        depth: (L + 1) as u8,
-    };
+    const SHAPE: Shape = Shape::compiled(S, A, H, L);
 
     fn activation(&self) -> Activation {
         self.trunk.activation
@@ -141,7 +181,11 @@ impl<const S: usize, const H: usize, const L: usize, const A: usize> Model for P
     fn validate_prefix(values: &mut dyn Iterator<Item = f32>) -> Result<(), Error> {
         let mut normalizer = Normalizer::<S>::ZERO;
         let mut bounds = ActionBounds::<A>::ZERO;
-        for dst in normalizer.params_mut().into_iter().chain(bounds.params_mut()) {
+        for dst in normalizer
+            .params_mut()
+            .into_iter()
+            .chain(bounds.params_mut())
+        {
             dst.iter_mut().zip(&mut *values).for_each(|(d, v)| *d = v);
         }
         normalizer.validate()?;

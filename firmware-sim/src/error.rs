@@ -1,0 +1,99 @@
+//! The one error type of firmware-sim.
+
+use std::fmt;
+
+/// Everything that can go wrong when loading a scenario, building a plant or running the loop.
+///
+/// Every variant renders as one line that says where the problem is and what was expected, so
+/// the CLI can print it as is.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum Error {
+    /// A scenario file could not be read.
+    Io {
+        /// The file.
+        path: String,
+        /// The operating system's message.
+        message: String,
+    },
+    /// A scenario is not valid TOML or has an unknown, missing or mistyped key.
+    Parse {
+        /// Where: the file (or `<string>`), line and column.
+        location: String,
+        /// What the parser expected and found.
+        message: String,
+    },
+    /// A scenario parsed but one of its values breaks a rule.
+    Invalid {
+        /// The scenario.
+        scenario: String,
+        /// The offending field, e.g. `walls[3]` or `time_limit`.
+        field: String,
+        /// The rule and the value found.
+        message: String,
+    },
+    /// No built-in scenario has this name and no file with this path exists.
+    UnknownScenario {
+        /// The name given.
+        name: String,
+    },
+    /// A blob was rejected by policy-core.
+    Blob(policy_core::Error),
+    /// A blob's shape is valid but this build has no compiled type for it.
+    UnsupportedShape {
+        /// The shape the blob names.
+        found: policy_core::Shape,
+        /// The shapes this build supports.
+        supported: String,
+    },
+    /// A controller or blob does not fit the plant's observation or action size.
+    SizeMismatch {
+        /// What does not fit.
+        what: &'static str,
+        /// The size the plant has.
+        expected: usize,
+        /// The size found.
+        found: usize,
+    },
+    /// An evaluation or fault setting is out of range.
+    Config {
+        /// The setting.
+        field: &'static str,
+        /// The rule and the value found.
+        message: String,
+    },
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::Io { path, message } => write!(f, "cannot read {path}: {message}"),
+            Error::Parse { location, message } => write!(f, "{location}: {message}"),
+            Error::Invalid { scenario, field, message } => {
+                write!(f, "scenario {scenario}: {field}: {message}")
+            }
+            Error::UnknownScenario { name } => write!(
+                f,
+                "unknown scenario {name:?}: expected a built-in name ({}) or a TOML file path",
+                crate::scenario::BUILTIN_NAMES.join(", ")
+            ),
+            Error::Blob(e) => write!(f, "blob rejected: {e}"),
+            Error::UnsupportedShape { found, supported } => write!(
+                f,
+                "no compiled policy type for the blob's shape ({found}); this build supports {supported}"
+            ),
+            Error::SizeMismatch { what, expected, found } => {
+                write!(f, "{what}: the plant needs {expected}, found {found}")
+            }
+            Error::Config { field, message } => write!(f, "{field}: {message}"),
+        }
+    }
+}
+
+impl std::error::Error for Error {}
+
+impl From<policy_core::Error> for Error {
+    fn from(e: policy_core::Error) -> Self {
+        Error::Blob(e)
+    }
+}

@@ -1,0 +1,218 @@
+//! Fault injection for the firmware loop: sensor dropouts, a stuck actuator, a wall that
+//! appears or moves during the episode.
+//!
+//! Faults are written as a comma-separated list (the CLI's `--faults`):
+//!
+//! | item                      | meaning                                                        |
+//! |---------------------------|----------------------------------------------------------------|
+//! | `dropout-nan:P`           | each tick, with probability P, the sensor reads NaN            |
+//! | `dropout-stale:P`         | each tick, with probability P, the sensor repeats its last value |
+//! | `stuck:D@T`               | from tick T on, actuator dimension D holds its last output     |
+//! | `wall:T@X0/Y0/X1/Y1`      | at tick T a wall from (X0, Y0) to (X1, Y1) appears             |
+//! | `wall:T@X0/Y0/X1/Y1@I`    | at tick T wall number I of the scenario moves there            |
+//!
+//! ```
+//! use firmware_sim::faults::{DropoutMode, Faults};
+//! let f: Faults = "dropout-nan:0.1,stuck:0@50,wall:20@-2/0/2/0".parse().unwrap();
+//! assert_eq!(f.dropout.unwrap().mode, DropoutMode::Nan);
+//! assert_eq!(f.stuck.unwrap().from_tick, 50);
+//! assert_eq!(f.wall.unwrap().wall.to, [2.0, 0.0]);
+//! assert!("stuck:x@3".parse::<Faults>().is_err());
+//! ```
+
+use std::str::FromStr;
+
+use serde::{Deserialize, Serialize};
+
+use crate::scenario::{Scenario, Wall};
+use crate::Error;
+
+/// Every fault of one evaluation (none by default).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Faults {
+    /// Sensor dropouts.
+    pub dropout: Option<Dropout>,
+    /// An actuator dimension that freezes.
+    pub stuck: Option<ActuatorStuck>,
+    /// A wall that appears or moves.
+    pub wall: Option<WallChange>,
+}
+
+/// Sensor dropouts: each tick, independently, the reading is lost with `probability`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Dropout {
+    /// Chance per tick, in `[0, 1]`.
+    pub probability: f64,
+    /// What the firmware reads instead.
+    pub mode: DropoutMode,
+}
+
+/// What a lost sensor reading looks like to the firmware.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DropoutMode {
+    /// Every component is NaN.
+    Nan,
+    /// The previous reading, again.
+    Stale,
+}
+
+/// From `from_tick` on, actuator dimension `dim` keeps the value it had just before.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ActuatorStuck {
+    /// The stuck dimension.
+    pub dim: usize,
+    /// First tick (0-based) at which it is stuck.
+    pub from_tick: u32,
+}
+
+/// At `at_tick`, `wall` appears (or replaces the scenario's wall number `replaces`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WallChange {
+    /// Tick (0-based) before whose step the change happens.
+    pub at_tick: u32,
+    /// The new wall.
+    pub wall: Wall,
+    /// Index of the scenario wall it replaces (moves), or `None` to add it.
+    pub replaces: Option<usize>,
+}
+
+impl Faults {
+    /// Checks the faults against the plant: probabilities, dimensions, wall positions.
+    ///
+    /// ```
+    /// use firmware_sim::faults::Faults;
+    /// use firmware_sim::scenario::Scenario;
+    /// let s = Scenario::builtin("nav-walls").unwrap();
+    /// let ok: Faults = "wall:10@-1/-3/1/-3@8".parse().unwrap();
+    /// assert!(ok.validate(&s, 2).is_ok());
+    /// assert_eq!(ok.changed_walls(&s).unwrap()[8].from, [-1.0, -3.0]);
+    /// let outside: Faults = "wall:10@0/0/0/9".parse().unwrap();
+    /// assert!(outside.validate(&s, 2).unwrap_err().to_string().contains("outside the arena"));
+    /// ```
+    pub fn validate(&self, scenario: &Scenario, actions: usize) -> Result<(), Error> {
+        if let Some(d) = self.dropout {
+            if !(0.0..=1.0).contains(&d.probability) {
+                return Err(bad(format!(
+                    "dropout probability must be in [0, 1], found {}",
+                    d.probability
+                )));
+            }
+        }
+        if let Some(s) = self.stuck {
+            if s.dim >= actions {
+                return Err(bad(format!(
+                    "stuck dimension must be below {actions}, found {}",
+                    s.dim
+                )));
+            }
+        }
+        if let Some(w) = self.wall {
+            let mut changed = scenario.clone();
+            match w.replaces {
+                Some(i) if i >= scenario.walls.len() => {
+                    return Err(bad(format!(
+                        "wall to move must be below {}, found {i}",
+                        scenario.walls.len()
+                    )))
+                }
+                Some(i) => changed.walls[i] = w.wall,
+                None => changed.walls.push(w.wall),
+            }
+            changed
+                .validate()
+                .map_err(|e| bad(format!("the changed wall is invalid: {e}")))?;
+        }
+        Ok(())
+    }
+
+    /// The scenario's walls after the wall change.
+    pub fn changed_walls(&self, scenario: &Scenario) -> Option<Vec<Wall>> {
+        let w = self.wall?;
+        let mut walls = scenario.walls.clone();
+        match w.replaces {
+            Some(i) => *walls.get_mut(i)? = w.wall,
+            None => walls.push(w.wall),
+        }
+        Some(walls)
+    }
+}
+
+fn bad(message: String) -> Error {
+    Error::Config {
+        field: "faults",
+        message,
+    }
+}
+
+impl FromStr for Faults {
+    type Err = Error;
+
+    fn from_str(spec: &str) -> Result<Faults, Error> {
+        let mut faults = Faults::default();
+        for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+            let (kind, arg) = item.split_once(':').ok_or_else(|| unknown(item))?;
+            match kind {
+                "dropout-nan" | "dropout-stale" => {
+                    let mode = if kind == "dropout-nan" {
+                        DropoutMode::Nan
+                    } else {
+                        DropoutMode::Stale
+                    };
+                    faults.dropout = Some(Dropout {
+                        probability: number(arg, item)?,
+                        mode,
+                    });
+                }
+                "stuck" => {
+                    let (dim, tick) = arg.split_once('@').ok_or_else(|| unknown(item))?;
+                    faults.stuck = Some(ActuatorStuck {
+                        dim: number(dim, item)?,
+                        from_tick: number(tick, item)?,
+                    });
+                }
+                "wall" => faults.wall = Some(parse_wall(arg, item)?),
+                _ => return Err(unknown(item)),
+            }
+        }
+        Ok(faults)
+    }
+}
+
+fn parse_wall(arg: &str, item: &str) -> Result<WallChange, Error> {
+    let mut parts = arg.split('@');
+    let at_tick = number(parts.next().unwrap_or(""), item)?;
+    let coords: Vec<f64> = parts
+        .next()
+        .unwrap_or("")
+        .split('/')
+        .map(|c| number(c, item))
+        .collect::<Result<_, _>>()?;
+    let [x0, y0, x1, y1] = coords[..] else {
+        return Err(unknown(item));
+    };
+    let replaces = parts.next().map(|i| number(i, item)).transpose()?;
+    if parts.next().is_some() {
+        return Err(unknown(item));
+    }
+    Ok(WallChange {
+        at_tick,
+        wall: Wall {
+            from: [x0, y0],
+            to: [x1, y1],
+        },
+        replaces,
+    })
+}
+
+fn number<T: FromStr>(text: &str, item: &str) -> Result<T, Error> {
+    text.trim()
+        .parse()
+        .map_err(|_| bad(format!("cannot read {text:?} in fault {item:?}")))
+}
+
+fn unknown(item: &str) -> Error {
+    bad(format!(
+        "unknown fault {item:?}: expected dropout-nan:P, dropout-stale:P, stuck:D@T, wall:T@X0/Y0/X1/Y1[@I]"
+    ))
+}

@@ -1,0 +1,555 @@
+//! The firmware loop and its test protocol.
+//!
+//! [`evaluate`] boots from blob bytes the way the chip does (header check, compiled-shape
+//! dispatch, load into a slot); a blob that fails to load leaves the loop in the safe state
+//! (zero action) and the report says why. Then, for each of `episodes` test starts, every tick:
+//! the sensor reads the true position (noise, quantisation, delay, dropouts), the controller
+//! acts (timed), the actuator sanitises and saturates the command (rate limit, stuck fault),
+//! and the plant steps. Each test runs the full time limit (DESIGN.md's protocol: reaching the
+//! centre does not end a test; leaving the arena does).
+//!
+//! ```
+//! use firmware_sim::controller::Straight;
+//! use firmware_sim::harness::{evaluate, evaluate_controller, EvalConfig};
+//! use firmware_sim::scenario::Scenario;
+//! let open = Scenario::builtin("nav-open").unwrap();
+//! let cfg = EvalConfig { episodes: 10, ..EvalConfig::default() };
+//! let report = evaluate_controller(&mut Straight { max_step: 0.25 }, &open, &cfg).unwrap();
+//! assert_eq!(report.success_rate, 1.0);
+//! assert!(report.pass.passed);
+//! // Corrupt bytes: no error, a report of the safe state.
+//! let report = evaluate(b"not a blob", &open, &cfg).unwrap();
+//! assert!(report.boot_error.as_deref().unwrap().contains("magic"));
+//! assert_eq!(report.success_rate, 0.0);
+//! assert!(!report.pass.passed);
+//! ```
+
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use crate::actuator::{Actuator, ActuatorModel};
+use crate::controller::{BlobPolicy, Controller, SafeState};
+use crate::env::Env;
+use crate::faults::Faults;
+use crate::metrics::{EpisodeRecord, Tick, Trace};
+use crate::nav::NavEnv;
+use crate::scenario::Scenario;
+use crate::seed::{episode_seed, stream};
+use crate::sensor::{Sensor, SensorModel};
+use crate::Error;
+
+/// How to run a test: how many starts, which seed, which sensor, actuator and faults.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EvalConfig {
+    /// Number of test episodes (100, as in the paper).
+    pub episodes: usize,
+    /// Seed of every random stream (starts, sensor noise, dropouts).
+    pub seed: u64,
+    /// Sensor model (ideal by default).
+    pub sensor: SensorModel,
+    /// Actuator model (saturation only by default).
+    pub actuator: ActuatorModel,
+    /// Injected faults (none by default).
+    pub faults: Faults,
+    /// Keep every episode's positions in the report (for SVG plots).
+    pub record_trajectories: bool,
+}
+
+impl Default for EvalConfig {
+    fn default() -> Self {
+        Self {
+            episodes: 100,
+            seed: 0,
+            sensor: SensorModel::default(),
+            actuator: ActuatorModel::default(),
+            faults: Faults::default(),
+            record_trajectories: false,
+        }
+    }
+}
+
+impl EvalConfig {
+    /// Checks the settings against the scenario.
+    pub fn validate(&self, scenario: &Scenario) -> Result<(), Error> {
+        let bad = |field, message| Err(Error::Config { field, message });
+        if self.episodes == 0 {
+            return bad("episodes", "must be > 0, found 0".into());
+        }
+        let s = self.sensor;
+        if !(s.noise_std.is_finite() && s.noise_std >= 0.0) {
+            return bad(
+                "sensor.noise_std",
+                format!("must be >= 0, found {}", s.noise_std),
+            );
+        }
+        if !(s.quantum.is_finite() && s.quantum >= 0.0) {
+            return bad(
+                "sensor.quantum",
+                format!("must be >= 0, found {}", s.quantum),
+            );
+        }
+        if let Some(r) = self.actuator.rate_limit {
+            if !(r.is_finite() && r > 0.0) {
+                return bad("actuator.rate_limit", format!("must be > 0, found {r}"));
+            }
+        }
+        self.faults.validate(scenario, 2)
+    }
+}
+
+/// Inference time per tick (wall-clock; the only part of a report that is not deterministic).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Timing {
+    /// Mean nanoseconds per `act` call.
+    pub mean_ns: f64,
+    /// Slowest `act` call, in nanoseconds.
+    pub worst_ns: u64,
+}
+
+/// Whether the scenario's pass criteria hold, and which failed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PassOutcome {
+    /// All criteria hold and the blob booted.
+    pub passed: bool,
+    /// One line per failed criterion.
+    pub failures: Vec<String>,
+}
+
+/// The summary of an evaluation (serialised as the CLI's JSON report).
+///
+/// Everything except `timing` is a pure function of the controller, scenario and config: the
+/// same seed gives the same report bit for bit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Report {
+    /// Scenario name.
+    pub scenario: String,
+    /// Controller name (for blobs: label, shape, activation).
+    pub controller: String,
+    /// Why the blob did not boot (the loop then ran in the safe state).
+    pub boot_error: Option<String>,
+    /// The evaluation settings.
+    pub config: EvalConfig,
+    /// Fraction of tests that settled within `success_radius` (2) of the centre.
+    pub success_rate: f64,
+    /// Mean settled distance from the centre.
+    pub mean_error: f64,
+    /// Fraction that held within 0.1 of the centre for 10 steps.
+    pub strict_reach_rate: f64,
+    /// Fraction that came within 0.25 of the centre.
+    pub near_pass_rate: f64,
+    /// Mean steps to the goal over the tests that reached it (`None` if none did).
+    pub mean_steps_to_goal: Option<f64>,
+    /// Fraction of tests flagged stuck at a margin.
+    pub stuck_rate: f64,
+    /// Fraction of tests that left the arena.
+    pub left_arena_rate: f64,
+    /// Fraction of all steps that touched a wall.
+    pub contact_fraction: f64,
+    /// Fraction of all steps whose command was saturated, per action dimension.
+    pub saturation_fraction: Vec<f64>,
+    /// Commands that were NaN or infinite and were replaced by 0 by the actuator.
+    pub sanitized_commands: u64,
+    /// Total steps run.
+    pub total_steps: u64,
+    /// Inference time.
+    pub timing: Timing,
+    /// The scenario's pass criteria.
+    pub pass: PassOutcome,
+    /// One record per test.
+    pub episodes: Vec<EpisodeRecord>,
+}
+
+impl Report {
+    /// The report with `timing` zeroed: what the determinism guarantee covers.
+    ///
+    /// ```
+    /// use firmware_sim::controller::reference;
+    /// use firmware_sim::harness::{evaluate_controller, EvalConfig};
+    /// use firmware_sim::scenario::Scenario;
+    /// let s = Scenario::builtin("nav-walls").unwrap();
+    /// let cfg = EvalConfig { episodes: 3, seed: 9, ..EvalConfig::default() };
+    /// let mut run = || {
+    ///     let mut c = reference("straight", &s).unwrap();
+    ///     evaluate_controller(c.as_mut(), &s, &cfg).unwrap().without_timing()
+    /// };
+    /// assert_eq!(run(), run());
+    /// ```
+    pub fn without_timing(&self) -> Report {
+        Report {
+            timing: Timing::default(),
+            ..self.clone()
+        }
+    }
+
+    /// The summary table the CLI prints.
+    ///
+    /// ```
+    /// use firmware_sim::controller::Straight;
+    /// use firmware_sim::harness::{evaluate_controller, EvalConfig};
+    /// use firmware_sim::scenario::Scenario;
+    /// let s = Scenario::builtin("nav-open").unwrap();
+    /// let cfg = EvalConfig { episodes: 2, ..EvalConfig::default() };
+    /// let r = evaluate_controller(&mut Straight { max_step: 0.25 }, &s, &cfg).unwrap();
+    /// let table = r.summary();
+    /// assert!(table.starts_with("nav-open | straight | 2 tests, seed 0"));
+    /// assert!(table.contains("pass criteria") && table.contains("PASS"));
+    /// ```
+    pub fn summary(&self) -> String {
+        let steps = self
+            .mean_steps_to_goal
+            .map_or("-".to_string(), |s| format!("{s:.1}"));
+        let sat: Vec<String> = self
+            .saturation_fraction
+            .iter()
+            .map(|f| format!("{f:.3}"))
+            .collect();
+        let boot = self
+            .boot_error
+            .as_ref()
+            .map_or("ok".to_string(), |e| format!("FAILED, safe state: {e}"));
+        let verdict = if self.pass.passed {
+            "PASS".to_string()
+        } else {
+            format!("FAIL ({})", self.pass.failures.join("; "))
+        };
+        let rows = [
+            (
+                "success rate (settled within 2)",
+                format!("{:.3}", self.success_rate),
+            ),
+            ("mean settled error", format!("{:.3}", self.mean_error)),
+            (
+                "strict reach (0.1 for 10 steps)",
+                format!("{:.3}", self.strict_reach_rate),
+            ),
+            (
+                "near pass (within 0.25)",
+                format!("{:.3}", self.near_pass_rate),
+            ),
+            ("mean steps to goal", steps),
+            ("stuck at margin", format!("{:.3}", self.stuck_rate)),
+            ("left the arena", format!("{:.3}", self.left_arena_rate)),
+            ("contact fraction", format!("{:.3}", self.contact_fraction)),
+            ("saturated fraction per dim", sat.join(" / ")),
+            ("sanitised commands", self.sanitized_commands.to_string()),
+            (
+                "inference mean / worst",
+                format!(
+                    "{:.0} ns / {} ns",
+                    self.timing.mean_ns, self.timing.worst_ns
+                ),
+            ),
+            ("boot", boot),
+            ("pass criteria", verdict),
+        ];
+        let mut out = format!(
+            "{} | {} | {} tests, seed {}\n",
+            self.scenario,
+            self.controller,
+            self.episodes.len(),
+            self.config.seed
+        );
+        for (k, v) in rows {
+            out.push_str(&format!("  {k:<33} {v}\n"));
+        }
+        out
+    }
+}
+
+/// Boots a blob and runs the test protocol. `Err` only for an invalid scenario or config; a
+/// blob that fails to boot gives a report with `boot_error` set.
+pub fn evaluate(blob: &[u8], scenario: &Scenario, cfg: &EvalConfig) -> Result<Report, Error> {
+    match boot(blob) {
+        Ok(mut policy) => evaluate_controller(&mut policy, scenario, cfg),
+        Err(e) => {
+            let mut safe = SafeState {
+                observations: 2,
+                actions: 2,
+            };
+            let mut report = evaluate_controller(&mut safe, scenario, cfg)?;
+            report.boot_error = Some(e.to_string());
+            report.pass.passed = false;
+            report
+                .pass
+                .failures
+                .insert(0, format!("blob did not boot: {e}"));
+            Ok(report)
+        }
+    }
+}
+
+/// Boots a blob as the firmware would, and checks it fits the navigation plant.
+///
+/// ```
+/// use firmware_sim::harness::boot;
+/// use policy_core::{ActionBounds, Normalizer, Policy};
+/// let mut p = Policy::<2, 32, 1, 2>::ZERO;
+/// p.normalizer = Normalizer::identity(5.0);
+/// p.bounds = ActionBounds::symmetric(0.25);
+/// assert!(boot(&p.to_blob("ok").unwrap()).is_ok());
+/// let err = boot(b"DCPB").unwrap_err().to_string();
+/// assert!(err.starts_with("blob rejected"), "{err}");
+/// ```
+pub fn boot(blob: &[u8]) -> Result<BlobPolicy, Error> {
+    let policy = BlobPolicy::boot(blob)?;
+    check_sizes(&policy)?;
+    Ok(policy)
+}
+
+fn check_sizes(c: &dyn Controller) -> Result<(), Error> {
+    if c.observations() != 2 {
+        return Err(Error::SizeMismatch {
+            what: "observation size",
+            expected: 2,
+            found: c.observations(),
+        });
+    }
+    if c.actions() != 2 {
+        return Err(Error::SizeMismatch {
+            what: "action size",
+            expected: 2,
+            found: c.actions(),
+        });
+    }
+    Ok(())
+}
+
+/// Runs the test protocol with any controller (a booted blob, `straight`, `oracle`, or the
+/// trainer's own).
+///
+/// ```
+/// use firmware_sim::controller::reference;
+/// use firmware_sim::harness::{evaluate_controller, EvalConfig};
+/// use firmware_sim::scenario::Scenario;
+/// let s = Scenario::builtin("nav-walls").unwrap();
+/// let cfg = EvalConfig { episodes: 5, ..EvalConfig::default() };
+/// let r = evaluate_controller(reference("oracle", &s).unwrap().as_mut(), &s, &cfg).unwrap();
+/// assert_eq!((r.success_rate, r.stuck_rate), (1.0, 0.0));
+/// assert_eq!(r.episodes.len(), 5);
+/// ```
+pub fn evaluate_controller(
+    controller: &mut dyn Controller,
+    scenario: &Scenario,
+    cfg: &EvalConfig,
+) -> Result<Report, Error> {
+    cfg.validate(scenario)?;
+    check_sizes(controller)?;
+    let mut env = NavEnv::new(scenario)?;
+    env.set_goal_terminates(false);
+    let mut clock = Clock::default();
+    let mut sanitized = 0;
+    let mut episodes = Vec::with_capacity(cfg.episodes);
+    for i in 0..cfg.episodes as u64 {
+        let (trace, cleaned) = run_episode(controller, &mut env, cfg, i, &mut clock);
+        sanitized += cleaned;
+        episodes.push(trace.record(scenario, cfg.record_trajectories));
+    }
+    Ok(summarise(
+        controller.name(),
+        scenario,
+        cfg,
+        episodes,
+        sanitized,
+        clock.timing(),
+    ))
+}
+
+/// Wall-clock statistics of the `act` calls.
+#[derive(Debug, Default)]
+struct Clock {
+    total_ns: u128,
+    calls: u64,
+    worst_ns: u64,
+}
+
+impl Clock {
+    fn add(&mut self, ns: u128) {
+        self.total_ns += ns;
+        self.calls += 1;
+        self.worst_ns = self.worst_ns.max(u64::try_from(ns).unwrap_or(u64::MAX));
+    }
+
+    fn timing(&self) -> Timing {
+        let mean_ns = if self.calls == 0 {
+            0.0
+        } else {
+            self.total_ns as f64 / self.calls as f64
+        };
+        Timing {
+            mean_ns,
+            worst_ns: self.worst_ns,
+        }
+    }
+}
+
+/// One test episode of the firmware loop; returns its trace and the number of sanitised
+/// commands.
+fn run_episode(
+    controller: &mut dyn Controller,
+    env: &mut NavEnv,
+    cfg: &EvalConfig,
+    index: u64,
+    clock: &mut Clock,
+) -> (Trace, u64) {
+    let seed = episode_seed(cfg.seed, index);
+    let mut truth = env.reset(seed);
+    controller.reset();
+    let mut firmware = Firmware::new(env, cfg, index);
+    let changed_walls = cfg.faults.changed_walls(env.scenario());
+    let mut trace = Trace::new(seed, env.position(), 2);
+    for tick in 0..env.scenario().time_limit {
+        if let (Some(walls), Some(change)) = (&changed_walls, cfg.faults.wall) {
+            if change.at_tick == tick {
+                env.set_walls(walls.iter().map(|w| w.segment()).collect());
+            }
+        }
+        let action = firmware.control(tick, &truth, controller, clock, &mut trace.saturated);
+        let step = env.step(action);
+        let command = f64::from(action[0]).hypot(f64::from(action[1]));
+        let touched = step.info.margin_touched;
+        trace.ticks.push(Tick {
+            position: env.position(),
+            touched,
+            command,
+        });
+        truth = step.observation;
+        if step.terminated {
+            trace.left_arena = env.outside();
+            break;
+        }
+    }
+    (trace, firmware.actuator.sanitized)
+}
+
+/// The firmware's side of the loop for one episode: sensor in, controller, actuator out.
+struct Firmware {
+    sensor: Sensor,
+    actuator: Actuator,
+    command: Vec<f32>,
+    action: Vec<f32>,
+    high: Vec<f32>,
+}
+
+impl Firmware {
+    fn new(env: &NavEnv, cfg: &EvalConfig, index: u64) -> Self {
+        let noise = stream(cfg.seed, "sensor-noise", index);
+        let drops = stream(cfg.seed, "sensor-dropout", index);
+        let space = env.action_space();
+        Firmware {
+            sensor: Sensor::new(cfg.sensor, cfg.faults.dropout, noise, drops),
+            actuator: Actuator::new(&space.low, &space.high, cfg.actuator, cfg.faults.stuck),
+            command: vec![0.0; space.dim()],
+            action: vec![0.0; space.dim()],
+            high: space.high.clone(),
+        }
+    }
+
+    /// One control period: read the sensor, call the controller (timed), drive the actuator.
+    /// Returns what the plant receives: always finite and inside the action box.
+    fn control(
+        &mut self,
+        tick: u32,
+        truth: &[f32],
+        controller: &mut dyn Controller,
+        clock: &mut Clock,
+        saturated: &mut [u32],
+    ) -> &[f32] {
+        let obs = self.sensor.read(truth);
+        let t0 = Instant::now();
+        controller.act(&obs, &mut self.command);
+        clock.add(t0.elapsed().as_nanos());
+        count_saturated(&self.command, &self.high, saturated);
+        self.actuator.drive(tick, &self.command, &mut self.action);
+        if !self.actuator.in_bounds(&self.action) {
+            // Unreachable by construction of `drive`; kept so nothing unsafe ever reaches the
+            // plant even if the actuator model changes.
+            self.action.fill(0.0);
+        }
+        &self.action
+    }
+}
+
+/// A command component is saturated when it is at or beyond the box bound (or not finite).
+fn count_saturated(command: &[f32], high: &[f32], counts: &mut [u32]) {
+    for ((c, h), n) in command.iter().zip(high).zip(counts.iter_mut()) {
+        if !c.is_finite() || c.abs() >= h * (1.0 - 1e-6) {
+            *n += 1;
+        }
+    }
+}
+
+fn summarise(
+    controller: String,
+    scenario: &Scenario,
+    cfg: &EvalConfig,
+    episodes: Vec<EpisodeRecord>,
+    sanitized: u64,
+    timing: Timing,
+) -> Report {
+    let n = episodes.len() as f64;
+    let rate =
+        |f: &dyn Fn(&EpisodeRecord) -> bool| episodes.iter().filter(|e| f(e)).count() as f64 / n;
+    let total_steps: u64 = episodes.iter().map(|e| u64::from(e.steps)).sum();
+    let contact: u64 = episodes.iter().map(|e| u64::from(e.contact_steps)).sum();
+    let saturation_fraction = (0..2)
+        .map(|d| {
+            episodes
+                .iter()
+                .map(|e| f64::from(e.saturated_steps[d]))
+                .sum::<f64>()
+                / total_steps.max(1) as f64
+        })
+        .collect();
+    let goal_steps: Vec<f64> = episodes
+        .iter()
+        .filter_map(|e| e.steps_to_goal)
+        .map(f64::from)
+        .collect();
+    let mut report = Report {
+        scenario: scenario.name.clone(),
+        controller,
+        boot_error: None,
+        config: cfg.clone(),
+        success_rate: rate(&|e| e.success),
+        mean_error: episodes.iter().map(|e| e.error).sum::<f64>() / n,
+        strict_reach_rate: rate(&|e| e.reached),
+        near_pass_rate: rate(&|e| e.near_pass),
+        mean_steps_to_goal: (!goal_steps.is_empty())
+            .then(|| goal_steps.iter().sum::<f64>() / goal_steps.len() as f64),
+        stuck_rate: rate(&|e| e.stuck),
+        left_arena_rate: rate(&|e| e.left_arena),
+        contact_fraction: contact as f64 / total_steps.max(1) as f64,
+        saturation_fraction,
+        sanitized_commands: sanitized,
+        total_steps,
+        timing,
+        pass: PassOutcome {
+            passed: true,
+            failures: Vec::new(),
+        },
+        episodes,
+    };
+    report.pass = judge(&report, scenario);
+    report
+}
+
+fn judge(r: &Report, s: &Scenario) -> PassOutcome {
+    let mut failures = Vec::new();
+    if r.success_rate < s.pass.min_success_rate {
+        failures.push(format!(
+            "success rate {:.3} is below the minimum {:.3}",
+            r.success_rate, s.pass.min_success_rate
+        ));
+    }
+    if r.stuck_rate > s.pass.max_stuck_rate {
+        failures.push(format!(
+            "stuck-at-margin rate {:.3} is above the maximum {:.3}",
+            r.stuck_rate, s.pass.max_stuck_rate
+        ));
+    }
+    PassOutcome {
+        passed: failures.is_empty(),
+        failures,
+    }
+}

@@ -1,0 +1,137 @@
+//! Trajectory plots as SVG: the arena, the walls, and every test's path (like the paper's
+//! trajectory figures). Green paths settled near the centre, red ones got stuck at a wall,
+//! orange ones did neither (wandered, looped, or left the arena).
+
+use std::fmt::Write;
+
+use crate::harness::Report;
+use crate::metrics::EpisodeRecord;
+use crate::scenario::Scenario;
+
+/// Pixels per arena unit.
+const SCALE: f64 = 40.0;
+/// Blank border around the arena, in pixels.
+const BORDER: f64 = 20.0;
+
+/// Renders the scenario's walls and the report's trajectories (empty paths if the evaluation
+/// did not record them).
+///
+/// ```
+/// use firmware_sim::controller::Straight;
+/// use firmware_sim::harness::{evaluate_controller, EvalConfig};
+/// use firmware_sim::scenario::Scenario;
+/// use firmware_sim::svg::render;
+/// let s = Scenario::builtin("nav-walls").unwrap();
+/// let cfg = EvalConfig { episodes: 3, record_trajectories: true, ..EvalConfig::default() };
+/// let r = evaluate_controller(&mut Straight { max_step: 0.25 }, &s, &cfg).unwrap();
+/// let svg = render(&s, &r);
+/// assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+/// assert_eq!(svg.matches("<polyline").count(), 3);
+/// assert_eq!(svg.matches("class=\"wall\"").count(), 13);
+/// ```
+pub fn render(scenario: &Scenario, report: &Report) -> String {
+    let h = scenario.arena_half_size;
+    let size = 2.0 * h * SCALE + 2.0 * BORDER;
+    let px = |x: f64| BORDER + (x + h) * SCALE;
+    let py = |y: f64| BORDER + (h - y) * SCALE;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{size}" height="{size}" viewBox="0 0 {size} {size}">"#
+    );
+    let _ = writeln!(
+        out,
+        "<title>{} — {}</title>",
+        escape(&report.scenario),
+        escape(&report.controller)
+    );
+    let _ = writeln!(
+        out,
+        r##"<rect x="{b}" y="{b}" width="{w}" height="{w}" fill="#fbfbf8" stroke="#888" stroke-dasharray="6 4"/>"##,
+        b = BORDER,
+        w = 2.0 * h * SCALE
+    );
+    let r = scenario.metrics.success_radius * SCALE;
+    let _ = writeln!(
+        out,
+        r##"<circle cx="{c}" cy="{c}" r="{r}" fill="none" stroke="#9c9" stroke-dasharray="3 3"/>"##,
+        c = px(0.0)
+    );
+    for e in &report.episodes {
+        path(&mut out, e, &px, &py);
+    }
+    for w in &scenario.walls {
+        let _ = writeln!(
+            out,
+            r##"<line class="wall" x1="{:.2}" y1="{:.2}" x2="{:.2}" y2="{:.2}" stroke="#222" stroke-width="4" stroke-linecap="round"/>"##,
+            px(w.from[0]),
+            py(w.from[1]),
+            px(w.to[0]),
+            py(w.to[1])
+        );
+    }
+    let _ = writeln!(
+        out,
+        r##"<circle cx="{c}" cy="{c}" r="4" fill="#070"/>"##,
+        c = px(0.0)
+    );
+    out.push_str("</svg>\n");
+    out
+}
+
+fn path(out: &mut String, e: &EpisodeRecord, px: &dyn Fn(f64) -> f64, py: &dyn Fn(f64) -> f64) {
+    if e.trajectory.is_empty() {
+        return;
+    }
+    let colour = if e.success && !e.stuck {
+        "#2a8a2a"
+    } else if e.stuck {
+        "#c0392b"
+    } else {
+        "#e67e22"
+    };
+    let points = thin(
+        e.trajectory
+            .iter()
+            .map(|p| (px(f64::from(p[0])), py(f64::from(p[1])))),
+    );
+    let _ = writeln!(
+        out,
+        r#"<polyline points="{}" fill="none" stroke="{colour}" stroke-width="1.2" stroke-opacity="0.7"/>"#,
+        points.join(" ")
+    );
+    let _ = writeln!(
+        out,
+        r#"<circle cx="{:.1}" cy="{:.1}" r="2.5" fill="{colour}"/>"#,
+        px(e.start[0]),
+        py(e.start[1])
+    );
+}
+
+/// The points as `x,y` pairs, dropping those within half a pixel of the last one kept (an
+/// agent stuck at a wall repeats its position for most of the episode).
+fn thin(points: impl Iterator<Item = (f64, f64)>) -> Vec<String> {
+    let mut kept: Vec<(f64, f64)> = Vec::new();
+    let mut last_seen = None;
+    for p in points {
+        last_seen = Some(p);
+        if kept
+            .last()
+            .is_none_or(|k| (k.0 - p.0).hypot(k.1 - p.1) >= 0.5)
+        {
+            kept.push(p);
+        }
+    }
+    if let (Some(p), Some(k)) = (last_seen, kept.last()) {
+        if *k != p {
+            kept.push(p);
+        }
+    }
+    kept.iter().map(|(x, y)| format!("{x:.1},{y:.1}")).collect()
+}
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}

@@ -1,0 +1,113 @@
+//! The comparison that gates CI: the firmware's actions against policy-core on the host.
+//!
+//! Tolerance: none. Both sides run the same arithmetic (f32 multiply then add in a fixed order,
+//! no fused multiply-add, `libm::tanhf` in software), so every action must have the same bits.
+
+use anyhow::{bail, Result};
+
+use crate::log::FirmwareLog;
+use crate::observations::OBSERVATIONS;
+use crate::shapes;
+
+/// Outcome of a successful comparison.
+#[derive(Debug)]
+pub struct Comparison {
+    /// Observations compared.
+    pub cases: usize,
+    /// Largest |target - host| over all actions (0 when bit-exact).
+    pub max_abs_diff: f32,
+}
+
+/// Compares every action the firmware printed with the host's; fails on any differing bit, on an
+/// observation that is not the shared list's, or on a missing case. With `print`, one line per case.
+pub fn compare(blob: &[u8], log: &FirmwareLog, print: bool) -> Result<Comparison> {
+    log.require_success()?;
+    let host = shapes::actions(blob, &OBSERVATIONS)?;
+    if log.observations.len() != OBSERVATIONS.len() || log.actions.len() != OBSERVATIONS.len() {
+        bail!(
+            "expected {} observations and actions from the firmware, found {} and {}",
+            OBSERVATIONS.len(),
+            log.observations.len(),
+            log.actions.len()
+        );
+    }
+    let mut mismatches = 0;
+    let mut max_abs_diff = 0.0f32;
+    for (k, (obs, want)) in OBSERVATIONS.iter().zip(&host).enumerate() {
+        let (Some(seen_obs), Some(got)) = (log.observations.get(&k), log.actions.get(&k)) else {
+            bail!("case {k} missing from the firmware's output");
+        };
+        if *seen_obs != [obs[0].to_bits(), obs[1].to_bits()] {
+            bail!("case {k}: the firmware acted on {seen_obs:08x?}, expected {obs:?}: observation lists differ");
+        }
+        let got = [f32::from_bits(got[0]), f32::from_bits(got[1])];
+        let same = got
+            .iter()
+            .zip(want)
+            .all(|(g, w)| g.to_bits() == w.to_bits());
+        for (g, w) in got.iter().zip(want) {
+            max_abs_diff = max_abs_diff.max((g - w).abs());
+        }
+        mismatches += usize::from(!same);
+        if print {
+            println!(
+            "  case {k}: obs [{:>12e}, {:>12e}]  target [{:+.9}, {:+.9}]  host [{:+.9}, {:+.9}]  {}",
+            obs[0], obs[1], got[0], got[1], want[0], want[1],
+            if same { "bit-exact" } else { "MISMATCH" }
+            );
+        }
+    }
+    if mismatches > 0 {
+        bail!("{mismatches} of {} cases differ from the host (max |diff| {max_abs_diff:e}); bit-exact required", host.len());
+    }
+    Ok(Comparison {
+        cases: host.len(),
+        max_abs_diff,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shapes::{generate, ShapeName};
+
+    fn firmware_output(blob: &[u8], flip: Option<usize>) -> String {
+        let acts = shapes::actions(blob, &OBSERVATIONS).unwrap();
+        let mut out = String::new();
+        for (k, (o, a)) in OBSERVATIONS.iter().zip(&acts).enumerate() {
+            let a0 = a[0].to_bits() ^ u32::from(flip == Some(k));
+            out += &format!(
+                "OBS {k} {:08x} {:08x}\nACT {k} {a0:08x} {:08x}\n",
+                o[0].to_bits(),
+                o[1].to_bits(),
+                a[1].to_bits()
+            );
+        }
+        out + "DONE\n"
+    }
+
+    #[test]
+    fn identical_bits_pass() {
+        let blob = generate(
+            ShapeName::parse("2x32").unwrap(),
+            1,
+            policy_core::Activation::Tanh,
+        )
+        .unwrap();
+        let log = FirmwareLog::parse(&firmware_output(&blob, None)).unwrap();
+        assert_eq!(compare(&blob, &log, false).unwrap().max_abs_diff, 0.0);
+    }
+
+    #[test]
+    fn one_flipped_bit_fails() {
+        let blob = generate(
+            ShapeName::parse("2x32").unwrap(),
+            1,
+            policy_core::Activation::Tanh,
+        )
+        .unwrap();
+        let log = FirmwareLog::parse(&firmware_output(&blob, Some(3))).unwrap();
+        let err = compare(&blob, &log, false).unwrap_err().to_string();
+        assert!(err.contains("1 of 10 cases differ"), "{err}");
+    }
+}

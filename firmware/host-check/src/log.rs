@@ -1,0 +1,205 @@
+//! Parsing of what the firmware prints over semihosting and of the QEMU plugin's counts.
+//!
+//! The firmware's lines are `TAG field...` with integers in decimal and `f32` values as 8 hex
+//! digits of their bits, so nothing is lost in printing.
+
+use std::collections::BTreeMap;
+
+use anyhow::{anyhow, bail, Context, Result};
+
+/// Everything the firmware reported in one run.
+#[derive(Debug, Default)]
+pub struct FirmwareLog {
+    /// `SHAPE depth width observations actions`.
+    pub shape: Option<[u32; 4]>,
+    /// Bytes of the `static` policy slot.
+    pub slot_bytes: Option<u64>,
+    /// Bytes of the embedded blob.
+    pub blob_bytes: Option<u64>,
+    /// Observation `k` as bits.
+    pub observations: BTreeMap<usize, [u32; 2]>,
+    /// Action `k` as bits.
+    pub actions: BTreeMap<usize, [u32; 2]>,
+    /// Measured spans in mark order: name and how many repetitions the span holds.
+    pub spans: Vec<(String, u64)>,
+    /// `TICKS name reps ticks`.
+    pub ticks: BTreeMap<String, (u64, u64)>,
+    /// Calibration: (instructions, ticks).
+    pub ticks_cal: Option<(u64, u64)>,
+    /// Stack bytes used by `main`'s frame and everything above it.
+    pub stack_main: Option<u64>,
+    /// Stack bytes used below `main` in each phase.
+    pub stack_phases: BTreeMap<String, u64>,
+    /// The firmware reached its end.
+    pub done: bool,
+    /// `FAIL ...` lines.
+    pub failures: Vec<String>,
+}
+
+fn num(field: Option<&str>, line: &str) -> Result<u64> {
+    field
+        .ok_or_else(|| anyhow!("short line {line:?}"))?
+        .parse()
+        .with_context(|| format!("bad number in {line:?}"))
+}
+
+fn bits(field: Option<&str>, line: &str) -> Result<u32> {
+    let f = field.ok_or_else(|| anyhow!("short line {line:?}"))?;
+    u32::from_str_radix(f, 16).with_context(|| format!("bad hex in {line:?}"))
+}
+
+impl FirmwareLog {
+    /// Parses the firmware's output; lines it does not know (QEMU's own) are skipped.
+    pub fn parse(text: &str) -> Result<Self> {
+        let mut log = Self::default();
+        for line in text.lines().map(str::trim) {
+            let mut f = line.split_whitespace();
+            match f.next() {
+                Some("SHAPE") => {
+                    let mut s = [0u32; 4];
+                    for v in &mut s {
+                        *v = num(f.next(), line)? as u32;
+                    }
+                    log.shape = Some(s);
+                }
+                Some("SLOT_BYTES") => log.slot_bytes = Some(num(f.next(), line)?),
+                Some("BLOB_BYTES") => log.blob_bytes = Some(num(f.next(), line)?),
+                Some(tag @ ("OBS" | "ACT")) => {
+                    let k = num(f.next(), line)? as usize;
+                    let v = [bits(f.next(), line)?, bits(f.next(), line)?];
+                    let map = if tag == "OBS" {
+                        &mut log.observations
+                    } else {
+                        &mut log.actions
+                    };
+                    map.insert(k, v);
+                }
+                Some("SPAN") => {
+                    let name = f.next().ok_or_else(|| anyhow!("short line {line:?}"))?;
+                    let arg = num(f.next(), line)?;
+                    // `SPAN act k` (and the experiment's `SPAN blocked k`) is one pass on
+                    // observation k; other spans give a repetition count.
+                    if name == "act" || name == "blocked" {
+                        log.spans.push((format!("{name}{arg}"), 1));
+                    } else {
+                        log.spans.push((name.to_string(), arg));
+                    }
+                }
+                Some("TICKS_CAL") => {
+                    log.ticks_cal = Some((num(f.next(), line)?, num(f.next(), line)?))
+                }
+                Some("TICKS") => {
+                    let name = f
+                        .next()
+                        .ok_or_else(|| anyhow!("short line {line:?}"))?
+                        .to_string();
+                    log.ticks
+                        .insert(name, (num(f.next(), line)?, num(f.next(), line)?));
+                }
+                Some("STACK_MAIN") => log.stack_main = Some(num(f.next(), line)?),
+                Some("STACK_PHASE") => {
+                    let name = f
+                        .next()
+                        .ok_or_else(|| anyhow!("short line {line:?}"))?
+                        .to_string();
+                    log.stack_phases.insert(name, num(f.next(), line)?);
+                }
+                Some("DONE") => log.done = true,
+                Some("FAIL") => log.failures.push(line.to_string()),
+                _ => {}
+            }
+        }
+        Ok(log)
+    }
+
+    /// Fails unless the firmware ran to its end without reporting a failure.
+    pub fn require_success(&self) -> Result<()> {
+        if let Some(first) = self.failures.first() {
+            bail!("the firmware reported: {first}");
+        }
+        if !self.done {
+            bail!("the firmware did not reach its end (no DONE line)");
+        }
+        Ok(())
+    }
+}
+
+/// Instructions counted by the plugin between the marks of each span, minus the cost of the
+/// marks themselves (the first span, two marks back to back), per repetition.
+pub fn plugin_spans(plugin_log: &str, spans: &[(String, u64)]) -> Result<BTreeMap<String, f64>> {
+    let marks: Vec<u64> = plugin_log
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("PLUGIN_MARK "))
+        .map(|v| v.trim().parse().context("bad PLUGIN_MARK count"))
+        .collect::<Result<_>>()?;
+    if marks.len() != 2 * spans.len() {
+        bail!(
+            "expected {} plugin marks for {} spans, found {}",
+            2 * spans.len(),
+            spans.len(),
+            marks.len()
+        );
+    }
+    let raw: Vec<u64> = marks
+        .chunks_exact(2)
+        .map(|m| m[1].saturating_sub(m[0]))
+        .collect();
+    let overhead = match spans.first() {
+        Some((name, _)) if name == "overhead" => raw[0],
+        _ => bail!("the first span must be the mark overhead"),
+    };
+    let mut out = BTreeMap::new();
+    for ((name, reps), count) in spans.iter().zip(&raw) {
+        let net = if name == "overhead" {
+            *count
+        } else {
+            count.saturating_sub(overhead)
+        };
+        out.insert(name.clone(), net as f64 / (*reps).max(1) as f64);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LOG: &str = "SHAPE 4 48 2 2\nSLOT_BYTES 28884\nOBS 0 00000000 3f800000\n\
+                       ACT 0 3e800000 be800000\nSPAN overhead 1\nSPAN act 0\nSPAN tanhf 64\n\
+                       STACK_MAIN 96\nSTACK_PHASE act 120\nDONE\n";
+
+    #[test]
+    fn parses_every_field_as_printed() {
+        let log = FirmwareLog::parse(LOG).unwrap();
+        assert_eq!(log.shape, Some([4, 48, 2, 2]));
+        assert_eq!(log.observations[&0], [0, 0x3f80_0000]);
+        assert_eq!(f32::from_bits(log.actions[&0][0]), 0.25);
+        assert_eq!(log.spans[1], ("act0".to_string(), 1));
+        assert_eq!(log.stack_phases["act"], 120);
+        log.require_success().unwrap();
+    }
+
+    #[test]
+    fn a_fail_line_or_a_missing_end_is_a_failure() {
+        assert!(FirmwareLog::parse("FAIL panic\nDONE\n")
+            .unwrap()
+            .require_success()
+            .is_err());
+        assert!(FirmwareLog::parse("SHAPE 4 48 2 2\n")
+            .unwrap()
+            .require_success()
+            .is_err());
+    }
+
+    #[test]
+    fn plugin_spans_subtract_the_mark_overhead_and_divide_by_repetitions() {
+        let log = FirmwareLog::parse(LOG).unwrap();
+        let plugin = "PLUGIN_MARK 100\nPLUGIN_MARK 106\nPLUGIN_MARK 200\nPLUGIN_MARK 7206\n\
+                      PLUGIN_MARK 8000\nPLUGIN_MARK 11206\nPLUGIN_TOTAL 20000\n";
+        let spans = plugin_spans(plugin, &log.spans).unwrap();
+        assert_eq!(spans["overhead"], 6.0);
+        assert_eq!(spans["act0"], 7000.0);
+        assert_eq!(spans["tanhf"], 50.0);
+        assert!(plugin_spans("PLUGIN_MARK 1\n", &log.spans).is_err());
+    }
+}

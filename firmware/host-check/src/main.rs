@@ -1,0 +1,207 @@
+//! host-check: the host half of scripts/cortex-m.sh.
+//!
+//! ```text
+//! host-check gen SHAPE OUT [--seed N] [--activation tanh|relu]
+//!                                          write a deterministic actor blob (2x32, 4x48, 6x64)
+//! host-check info BLOB                     print the blob's shape ("4x48"), for the script
+//! host-check check BLOB FW_LOG             recompute the firmware's actions; bit-exact or exit 1
+//! host-check measure --variant NAME --target T --machine M --cpu C --blob BLOB
+//!                    --sizes SIZE_A_TXT --fw-log LOG [--plugin-log LOG] --out JSON
+//! host-check report --out JSON [--meta KEY=VALUE]... VARIANT_JSON...
+//! ```
+//! Errors are one line on stderr and exit status 1.
+
+mod check;
+mod log;
+mod measure;
+#[path = "../../src/observations.rs"]
+mod observations;
+mod report;
+mod shapes;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::ExitCode;
+
+use anyhow::{anyhow, bail, Context, Result};
+
+use log::FirmwareLog;
+use shapes::ShapeName;
+
+/// The default seed of `gen` (the firmware check needs any fixed one).
+const DEFAULT_SEED: u64 = 4;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match run(&args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("host-check: error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(args: &[String]) -> Result<()> {
+    let (cmd, rest) = args
+        .split_first()
+        .ok_or_else(|| anyhow!("no command (gen, info, check, measure, report)"))?;
+    let (flags, positional) = split_flags(rest)?;
+    match (cmd.as_str(), positional.as_slice()) {
+        ("gen", [shape, out]) => gen(shape, Path::new(out), &flags),
+        ("info", [blob]) => {
+            println!("{}", shapes::shape_of(&read(blob)?)?);
+            Ok(())
+        }
+        ("check", [blob, fw_log]) => {
+            let log = FirmwareLog::parse(&read_text(fw_log)?)?;
+            let cmp = check::compare(&read(blob)?, &log, true)?;
+            println!("MATCH: {} cases bit-exact with policy-core on the host", cmp.cases);
+            Ok(())
+        }
+        ("measure", []) => measure(&flags),
+        ("report", variants) => report(&flags, &args[1..], variants),
+        _ => bail!("unknown command or wrong arguments: {} (see the usage in firmware/host-check/src/main.rs)", args.join(" ")),
+    }
+}
+
+/// Splits `--key value` pairs from positional arguments; `--meta` may repeat (collected apart).
+fn split_flags(args: &[String]) -> Result<(BTreeMap<String, String>, Vec<String>)> {
+    let (mut flags, mut positional) = (BTreeMap::new(), Vec::new());
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        if let Some(key) = a.strip_prefix("--") {
+            let value = it.next().ok_or_else(|| anyhow!("--{key} needs a value"))?;
+            if key != "meta" {
+                flags.insert(key.to_string(), value.clone());
+            }
+        } else {
+            positional.push(a.clone());
+        }
+    }
+    Ok((flags, positional))
+}
+
+fn flag<'a>(flags: &'a BTreeMap<String, String>, key: &str) -> Result<&'a str> {
+    flags
+        .get(key)
+        .map(String::as_str)
+        .ok_or_else(|| anyhow!("missing --{key}"))
+}
+
+fn read(path: &str) -> Result<Vec<u8>> {
+    std::fs::read(path).with_context(|| format!("cannot read {path}"))
+}
+
+fn read_text(path: &str) -> Result<String> {
+    std::fs::read_to_string(path).with_context(|| format!("cannot read {path}"))
+}
+
+/// Writes through a temporary file and a rename, so a reader never sees half a file.
+fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let tmp = path.with_extension("tmp");
+    std::fs::write(&tmp, bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, path)
+        .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
+}
+
+/// Writes the blob only if its bytes changed, so cargo's rerun-if-changed does not rebuild the
+/// firmware on every run of the script.
+fn gen(shape: &str, out: &Path, flags: &BTreeMap<String, String>) -> Result<()> {
+    let activation = match flags.get("activation").map(String::as_str) {
+        None | Some("tanh") => policy_core::Activation::Tanh,
+        Some("relu") => policy_core::Activation::Relu,
+        Some(other) => bail!("--activation {other:?}: expected tanh or relu"),
+    };
+    let seed = match flags.get("seed") {
+        Some(s) => s
+            .parse()
+            .with_context(|| format!("--seed {s:?} is not an integer"))?,
+        None => DEFAULT_SEED,
+    };
+    let bytes = shapes::generate(ShapeName::parse(shape)?, seed, activation)?;
+    if std::fs::read(out).ok().as_deref() != Some(bytes.as_slice()) {
+        write_atomic(out, &bytes)?;
+    }
+    println!(
+        "{} ({} bytes, {shape} {activation}, seed {seed})",
+        out.display(),
+        bytes.len()
+    );
+    Ok(())
+}
+
+fn measure(flags: &BTreeMap<String, String>) -> Result<()> {
+    let blob_path = flag(flags, "blob")?;
+    let blob = read(blob_path)?;
+    let shape = shapes::shape_of(&blob)?;
+    let log = FirmwareLog::parse(&read_text(flag(flags, "fw-log")?)?)?;
+    let cmp = check::compare(&blob, &log, false)?;
+    let plugin = flags.get("plugin-log").map(|p| read_text(p)).transpose()?;
+    let sizes = measure::parse_sizes(&read_text(flag(flags, "sizes")?)?);
+    let variant = measure::Variant {
+        name: flag(flags, "variant")?.into(),
+        target: flag(flags, "target")?.into(),
+        machine: flag(flags, "machine")?.into(),
+        cpu: flag(flags, "cpu")?.into(),
+        blob_path: blob_path.into(),
+    };
+    let value = measure::measure(
+        &variant,
+        shape,
+        blob.len() as u64,
+        &sizes,
+        &log,
+        plugin.as_deref(),
+        &cmp,
+    )?;
+    write_atomic(
+        Path::new(flag(flags, "out")?),
+        serde_json::to_string_pretty(&value)?.as_bytes(),
+    )
+}
+
+fn report(
+    flags: &BTreeMap<String, String>,
+    raw: &[String],
+    variant_files: &[String],
+) -> Result<()> {
+    let meta = raw
+        .windows(2)
+        .filter(|w| w[0] == "--meta")
+        .map(|w| {
+            w[1].split_once('=')
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .ok_or_else(|| anyhow!("--meta {} is not KEY=VALUE", w[1]))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let variants = variant_files
+        .iter()
+        .map(|f| serde_json::from_str(&read_text(f)?).with_context(|| format!("{f} is not JSON")))
+        .collect::<Result<Vec<serde_json::Value>>>()?;
+    let table = report::table(&variants);
+    let doc = report::document(meta, variants)?;
+    let out = Path::new(flag(flags, "out")?);
+    write_atomic(out, serde_json::to_string_pretty(&doc)?.as_bytes())?;
+    write_atomic(&out.with_extension("md"), table.as_bytes())?;
+    print!("{table}");
+    for aim in doc["aims_m4f_4x48"]["aims"]
+        .as_array()
+        .into_iter()
+        .flatten()
+    {
+        let met = if aim["met"] == true { "met" } else { "MISSED" };
+        let num = |k: &str| aim[k].as_f64().unwrap_or(f64::NAN);
+        println!(
+            "aim (m4f-4x48): {} -> {:.3} ({met}, over by {:.3})",
+            aim["aim"].as_str().unwrap_or("?"),
+            num("value"),
+            num("over_by")
+        );
+    }
+    println!(
+        "variants under 32 KiB flash: {}",
+        doc["aims_m4f_4x48"]["variants_under_32KiB_flash"]
+    );
+    Ok(())
+}

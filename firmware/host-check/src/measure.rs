@@ -1,0 +1,168 @@
+//! One variant's resource figures (a firmware build run once under QEMU), as a JSON object.
+
+use std::collections::BTreeMap;
+
+use anyhow::{anyhow, bail, Context, Result};
+use serde_json::{json, Value};
+
+use crate::check::Comparison;
+use crate::log::{plugin_spans, FirmwareLog};
+use crate::shapes::ShapeName;
+
+/// What the script knows about a variant besides the logs.
+#[derive(Debug)]
+pub struct Variant {
+    /// Name, e.g. `m4f-4x48`.
+    pub name: String,
+    /// Rust target triple.
+    pub target: String,
+    /// QEMU machine.
+    pub machine: String,
+    /// QEMU CPU.
+    pub cpu: String,
+    /// Path of the blob embedded in the firmware.
+    pub blob_path: String,
+}
+
+/// Section sizes from `size -A` output (`name size addr` lines).
+pub fn parse_sizes(text: &str) -> BTreeMap<String, u64> {
+    text.lines()
+        .filter_map(|l| {
+            let mut f = l.split_whitespace();
+            let (name, size) = (f.next()?, f.next()?.parse().ok()?);
+            name.starts_with('.').then(|| (name.to_string(), size))
+        })
+        .collect()
+}
+
+/// Instructions per span: from the plugin when its log is there, else from SysTick ticks under
+/// `-icount` (resolution of one tick, tens of instructions). Returns the spans and the source.
+fn instruction_spans(
+    log: &FirmwareLog,
+    plugin_log: Option<&str>,
+) -> Result<(BTreeMap<String, f64>, &'static str)> {
+    if let Some(text) = plugin_log {
+        return Ok((plugin_spans(text, &log.spans)?, "tcg-plugin"));
+    }
+    let (cal_insns, cal_ticks) = log.ticks_cal.ok_or_else(|| anyhow!("no TICKS_CAL line"))?;
+    let per_tick = cal_insns as f64 / cal_ticks.max(1) as f64;
+    let mut spans = BTreeMap::new();
+    for (name, (reps, ticks)) in &log.ticks {
+        spans.insert(
+            name.clone(),
+            *ticks as f64 * per_tick / (*reps).max(1) as f64,
+        );
+    }
+    // SysTick times all acts together: every observation gets the mean.
+    let act = *spans
+        .get("act")
+        .ok_or_else(|| anyhow!("no TICKS act line"))?;
+    for k in 0..log.actions.len() {
+        spans.insert(format!("act{k}"), act);
+    }
+    Ok((spans, "systick-icount"))
+}
+
+/// Builds the variant's JSON object.
+pub fn measure(
+    v: &Variant,
+    shape: ShapeName,
+    blob_len: u64,
+    sizes: &BTreeMap<String, u64>,
+    log: &FirmwareLog,
+    plugin_log: Option<&str>,
+    cmp: &Comparison,
+) -> Result<Value> {
+    let sec = |n: &str| sizes.get(n).copied().unwrap_or(0);
+    let flash = sec(".vector_table") + sec(".text") + sec(".rodata") + sec(".data");
+    let static_ram = sec(".data") + sec(".bss") + sec(".uninit");
+    let slot = log
+        .slot_bytes
+        .ok_or_else(|| anyhow!("no SLOT_BYTES line"))?;
+    let main_frame = log
+        .stack_main
+        .ok_or_else(|| anyhow!("no STACK_MAIN line"))?;
+    let below = log.stack_phases.values().copied().max().unwrap_or(0);
+    let peak_stack = main_frame + below;
+    if flash == 0 || static_ram < slot {
+        bail!("section sizes do not describe this firmware (flash {flash}, static RAM {static_ram}, slot {slot})");
+    }
+
+    let (spans, source) = instruction_spans(log, plugin_log)?;
+    let acts: Vec<f64> = (0..log.actions.len())
+        .map(|k| {
+            spans
+                .get(&format!("act{k}"))
+                .copied()
+                .context("missing act span")
+        })
+        .collect::<Result<_>>()?;
+    let act_mean = acts.iter().sum::<f64>() / acts.len().max(1) as f64;
+    let act_max = acts.iter().copied().fold(0.0, f64::max);
+    let act_min = acts.iter().copied().fold(f64::INFINITY, f64::min);
+    let load = spans
+        .get("load_into")
+        .copied()
+        .context("missing load_into span")?;
+    let tanhf = spans.get("tanhf").copied();
+    let macs = shape.macs() as f64;
+    let excl_tanh = tanhf.map(|t| (act_mean - shape.tanh_calls() as f64 * t) / macs);
+    // The `proposal-blocked-mac` experiment, when built in: the same pass, register-blocked.
+    let blocked: Vec<f64> = (0..acts.len())
+        .filter_map(|k| spans.get(&format!("blocked{k}")).copied())
+        .collect();
+    let proposal = (!blocked.is_empty()).then(|| {
+        let mean = blocked.iter().sum::<f64>() / blocked.len() as f64;
+        json!({ "act_mean": round(mean, 1), "per_mac": round(mean / macs, 3),
+                "per_mac_excluding_tanhf": tanhf.map(|t| round((mean - shape.tanh_calls() as f64 * t) / macs, 3)) })
+    });
+
+    Ok(json!({
+        "variant": v.name, "target": v.target, "qemu_machine": v.machine, "qemu_cpu": v.cpu,
+        "shape": shape.to_string(), "macs_per_act": shape.macs(), "tanhf_per_act": shape.tanh_calls(),
+        "blob": { "path": v.blob_path, "bytes": blob_len },
+        "flash": {
+            "total": flash, "vector_table": sec(".vector_table"), "text": sec(".text"),
+            "rodata": sec(".rodata"), "data": sec(".data"), "blob": blob_len,
+            "blob_share": round(blob_len as f64 / flash as f64, 3), "without_blob": flash - blob_len.min(flash),
+        },
+        "ram": {
+            "data": sec(".data"), "bss": sec(".bss"), "uninit": sec(".uninit"), "static_total": static_ram,
+            "policy_slot": slot, "static_beyond_slot": static_ram - slot,
+            "stack_main_frame": main_frame, "stack_phases": log.stack_phases, "stack_peak": peak_stack,
+            "beyond_weights": static_ram - slot + peak_stack,
+        },
+        "instructions": {
+            "source": source,
+            "act_mean": round(act_mean, 1), "act_min": round(act_min, 1), "act_max": round(act_max, 1),
+            "act_per_observation": acts.iter().map(|a| round(*a, 1)).collect::<Vec<_>>(),
+            "per_mac": round(act_mean / macs, 3), "per_mac_worst": round(act_max / macs, 3),
+            "tanhf_each": tanhf.map(|t| round(t, 1)),
+            "per_mac_excluding_tanhf": excl_tanh.map(|e| round(e, 3)),
+            "load_into": round(load, 0), "load_into_per_blob_byte": round(load / blob_len as f64, 2),
+            "mark_overhead": spans.get("overhead").map(|o| round(*o, 0)),
+            "proposal_blocked_mac": proposal,
+        },
+        "check": { "cases": cmp.cases, "bit_exact": cmp.max_abs_diff == 0.0, "max_abs_diff": cmp.max_abs_diff },
+    }))
+}
+
+/// Rounds for the report (the counts are exact; means need no more digits).
+fn round(x: f64, digits: i32) -> f64 {
+    let p = 10f64.powi(digits);
+    (x * p).round() / p
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn size_a_output_is_read_by_section_name() {
+        let text = "fw  :\nsection  size  addr\n.vector_table  1024  0\n.text  5000  1024\n.bss 28900 536870912\nTotal 34924\n";
+        let s = parse_sizes(text);
+        assert_eq!(s[".text"], 5000);
+        assert_eq!(s[".bss"], 28900);
+        assert!(!s.contains_key("Total"));
+    }
+}

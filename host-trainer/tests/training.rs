@@ -1,0 +1,236 @@
+//! Training runs with tiny budgets: smoke runs of both algorithms, determinism, resume, and
+//! divergence handling. Every run here is small enough for the debug profile.
+
+use std::path::PathBuf;
+
+use host_trainer::agent::Hidden;
+use host_trainer::checkpoint::Checkpoint;
+use host_trainer::dcp::Variant;
+use host_trainer::ddpg::ActorGradient;
+use host_trainer::run_dir::{self, RunDir};
+use host_trainer::train::{self, Algo, TrainConfig, Trainer};
+use host_trainer::Error;
+
+/// A budget that trains for real (updates happen) but finishes in seconds in debug.
+fn tiny(algo: Algo, seed: u64) -> TrainConfig {
+    let mut c = TrainConfig {
+        algo,
+        seed,
+        episodes: 3,
+        checkpoint_every: 2,
+        eval_episodes: 5,
+        ..TrainConfig::default()
+    };
+    c.agent.hidden = Hidden {
+        depth: 2,
+        width: 32,
+    };
+    c.agent.batch = 16;
+    c.agent.warmup_steps = 16;
+    c.dcp.t = 4;
+    c
+}
+
+fn scratch(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("host-trainer-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch dir");
+    dir
+}
+
+fn train_to_end(config: TrainConfig, out: &std::path::Path) -> (Trainer, RunDir) {
+    let mut trainer = Trainer::new(config).expect("trainer");
+    let run = RunDir::create(out, &trainer.config.run_name()).expect("run dir");
+    train::run(&mut trainer, &run, &mut |_, _| {}).expect("training");
+    (trainer, run)
+}
+
+#[test]
+fn dcp_smoke_run_updates_and_writes_every_file() {
+    let out = scratch("dcp-smoke");
+    let (trainer, run) = train_to_end(tiny(Algo::Dcp, 1), &out);
+    trainer.export(&run).expect("export");
+    assert_eq!(trainer.metrics.len(), 3);
+    let last = trainer.metrics.last().expect("rows");
+    assert!(
+        last.critic_loss.is_finite() && last.actor_loss.is_finite(),
+        "updates ran: {last:?}"
+    );
+    assert!(
+        last.dcp_kept > 0.0 && last.dcp_kept <= 1.0,
+        "some proposals won: {last:?}"
+    );
+    for name in [
+        run_dir::CONFIG,
+        run_dir::METRICS,
+        run_dir::CURVE,
+        run_dir::CHECKPOINT,
+        run_dir::POLICY,
+        run_dir::CRITIC,
+    ] {
+        assert!(run.file(name).is_file(), "{name} written");
+    }
+    let csv = std::fs::read_to_string(run.file(run_dir::METRICS)).expect("metrics");
+    assert_eq!(csv.lines().count(), 4, "header + 3 episodes:\n{csv}");
+    let blob = std::fs::read(run.file(run_dir::POLICY)).expect("blob");
+    policy_core::Policy::<2, 32, 1, 2>::from_blob(&blob).expect("the blob loads as a 2x32 policy");
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+#[test]
+fn ddpg_smoke_run_both_actor_gradients() {
+    for gradient in [ActorGradient::Textbook, ActorGradient::NoisyAction] {
+        let out = scratch("ddpg-smoke");
+        let mut config = tiny(Algo::Ddpg, 2);
+        config.ddpg.actor_gradient = gradient;
+        let (trainer, _) = train_to_end(config, &out);
+        let last = trainer.metrics.last().expect("rows");
+        assert!(
+            last.critic_loss.is_finite() && last.actor_loss.is_finite(),
+            "{gradient:?}: {last:?}"
+        );
+        assert!(last.dcp_kept.is_nan());
+        std::fs::remove_dir_all(&out).expect("cleanup");
+    }
+}
+
+#[test]
+fn dcp_variants_train() {
+    for variant in [Variant::Weighted, Variant::HillClimb] {
+        let out = scratch("dcp-variants");
+        let mut config = tiny(Algo::Dcp, 3);
+        config.dcp.variant = variant;
+        let (trainer, _) = train_to_end(config, &out);
+        let last = trainer.metrics.last().expect("rows");
+        assert!(
+            last.actor_loss.is_finite() && last.dcp_kept > 0.0,
+            "{variant:?}: {last:?}"
+        );
+        std::fs::remove_dir_all(&out).expect("cleanup");
+    }
+}
+
+#[test]
+fn same_seed_same_blob_bytes_other_seed_other_bytes() {
+    let out = scratch("determinism");
+    let blob = |seed: u64, sub: &str| {
+        let dir = out.join(sub);
+        std::fs::create_dir_all(&dir).expect("dir");
+        let (trainer, _) = train_to_end(tiny(Algo::Dcp, seed), &dir);
+        trainer.agent.actor_blob("determinism").expect("blob")
+    };
+    let a = blob(7, "a");
+    assert_eq!(
+        a,
+        blob(7, "b"),
+        "same seed and config must give the same bytes"
+    );
+    assert_ne!(a, blob(8, "c"));
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+#[test]
+fn resumed_run_equals_uninterrupted_run() {
+    let out = scratch("resume");
+    let whole = out.join("whole");
+    let parts = out.join("parts");
+    std::fs::create_dir_all(&whole).expect("dir");
+    std::fs::create_dir_all(&parts).expect("dir");
+    let (uninterrupted, _) = train_to_end(tiny(Algo::Dcp, 5), &whole);
+
+    // Stop after 2 episodes (the checkpoint interval), then resume from the file to 3.
+    let mut first = tiny(Algo::Dcp, 5);
+    first.episodes = 2;
+    let (_, run) = train_to_end(first, &parts);
+    let path = run.file(run_dir::CHECKPOINT);
+    let mut resumed =
+        Trainer::resume(Checkpoint::load(&path).expect("load"), Some(3), &path).expect("resume");
+    assert_eq!(resumed.episode, 2);
+    train::run(&mut resumed, &run, &mut |_, _| {}).expect("resumed training");
+
+    assert_eq!(
+        resumed.agent.actor_blob("x").expect("blob"),
+        uninterrupted.agent.actor_blob("x").expect("blob")
+    );
+    let returns = |t: &Trainer| t.metrics.iter().map(|r| r.ret).collect::<Vec<_>>();
+    assert_eq!(returns(&resumed), returns(&uninterrupted));
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+#[test]
+fn divergence_stops_with_a_clear_error_and_keeps_the_last_good_checkpoint() {
+    let out = scratch("diverge");
+    let mut config = tiny(Algo::Ddpg, 4);
+    config.episodes = 4;
+    config.checkpoint_every = 1;
+    // Start updating only in episode 2, so episode 1's checkpoint is good; then a learning rate
+    // of 1e30 blows the critic up on the first update.
+    config.agent.warmup_steps = 201;
+    config.agent.lr_critic = 1e30;
+    config.agent.lr_actor = 1e30;
+    let mut trainer = Trainer::new(config).expect("trainer");
+    let run = RunDir::create(&out, &trainer.config.run_name()).expect("run dir");
+    let err = train::run(&mut trainer, &run, &mut |_, _| {}).expect_err("must diverge");
+    let message = err.to_string();
+    assert!(matches!(err, Error::Diverged { .. }), "{message}");
+    assert!(
+        message.contains("diverged")
+            && message.contains("not finite")
+            && message.contains("checkpoint"),
+        "{message}"
+    );
+    let kept = Checkpoint::load(&run.file(run_dir::CHECKPOINT))
+        .expect("the last good checkpoint is readable");
+    assert!(
+        kept.agent.is_finite(),
+        "the kept checkpoint holds finite weights"
+    );
+    assert!(
+        kept.episode >= 1 && kept.episode < 4,
+        "episode {}",
+        kept.episode
+    );
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+#[test]
+fn config_round_trips_through_toml_and_rejects_unknown_keys() {
+    let mut c = tiny(Algo::Dcp, 9);
+    c.dcp.sigma_c = Some(0.5);
+    let text = c.to_toml();
+    assert_eq!(toml::from_str::<TrainConfig>(&text).expect("parse"), c);
+    let bad = format!("{text}\nlearning_rat = 3\n");
+    assert!(toml::from_str::<TrainConfig>(&bad).is_err());
+}
+
+#[test]
+fn unsupported_shape_is_refused_before_training() {
+    let mut c = tiny(Algo::Dcp, 0);
+    c.agent.hidden = Hidden {
+        depth: 3,
+        width: 40,
+    };
+    let err = Trainer::new(c).expect_err("40 wide is not compiled");
+    assert!(err.to_string().contains("unsupported"), "{err}");
+}
+
+/// Guards the bug where a checkpoint from an older build decoded "successfully" into garbage
+/// (postcard is not self-describing): the format carries a version in its magic.
+#[test]
+fn old_or_truncated_checkpoints_are_clear_errors() {
+    let out = scratch("corrupt");
+    let old = out.join("old.postcard");
+    std::fs::write(&old, b"DCPCKPT1\x00\x01\x02").expect("write");
+    let err = Checkpoint::load(&old).expect_err("old format");
+    assert!(err.to_string().contains("DCPCKPT2"), "{err}");
+
+    let mut config = tiny(Algo::Dcp, 6);
+    config.episodes = 1;
+    let (trainer, _) = train_to_end(config, &out);
+    let bytes = trainer.checkpoint().to_bytes().expect("encode");
+    let cut = out.join("cut.postcard");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).expect("write");
+    let err = Checkpoint::load(&cut).expect_err("truncated");
+    assert!(err.to_string().contains("corrupt or truncated"), "{err}");
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}

@@ -1,0 +1,263 @@
+//! Each load check returns its own typed error, and a failed load leaves the slot untouched.
+
+use policy_core::blob::{self, Header};
+use policy_core::{Activation, Critic, Error, ModelKind, Policy, Shape};
+
+use crate::support::{blob_of, nav_critic, nav_policy, reseal};
+
+type Actor = Policy<2, 32, 1, 2>;
+
+/// A loaded, non-zero slot: "untouched" must mean something.
+fn occupied_slot() -> Actor {
+    nav_policy(0x5107, Activation::Relu)
+}
+
+/// Loads into an occupied slot and checks the slot is unchanged, bit for bit, on error.
+fn load_error(bytes: &[u8]) -> Error {
+    let mut slot = occupied_slot();
+    let before = blob_of(&slot, "");
+    let err = slot
+        .load_into(bytes)
+        .expect_err("this blob must be rejected");
+    assert_eq!(
+        blob_of(&slot, ""),
+        before,
+        "slot changed by a failed load ({err})"
+    );
+    err
+}
+
+fn good() -> Vec<u8> {
+    blob_of(&nav_policy::<2, 32, 1, 2>(1, Activation::Tanh), "good")
+}
+
+/// Rebuilds a blob around an edited header (CRC recomputed, so only the edit is wrong).
+fn with_header(edit: impl FnOnce(&mut Header)) -> Vec<u8> {
+    let bytes = good();
+    let (mut header, rest): (Header, &[u8]) = postcard::take_from_bytes(&bytes).expect("header");
+    edit(&mut header);
+    let mut out = postcard::to_stdvec(&header).expect("postcard");
+    out.extend_from_slice(rest);
+    reseal(&mut out);
+    out
+}
+
+#[test]
+fn good_blob_loads_and_replaces_the_slot() {
+    let mut slot = occupied_slot();
+    slot.load_into(&good()).expect("good blob");
+    assert_eq!(slot, nav_policy(1, Activation::Tanh));
+}
+
+#[test]
+fn empty_and_short_inputs_are_truncated() {
+    assert_eq!(
+        load_error(&[]),
+        Error::Truncated {
+            needed: 4,
+            found: 0
+        }
+    );
+    assert_eq!(
+        load_error(b"DCP"),
+        Error::Truncated {
+            needed: 4,
+            found: 3
+        }
+    );
+    assert!(matches!(load_error(b"DCPB"), Error::Malformed { .. }));
+}
+
+#[test]
+fn wrong_magic() {
+    let mut b = good();
+    b[..4].copy_from_slice(b"PNG\0");
+    assert_eq!(load_error(&b), Error::WrongMagic { found: *b"PNG\0" });
+}
+
+#[test]
+fn unsupported_version() {
+    let b = with_header(|h| h.version = 2);
+    assert_eq!(
+        load_error(&b),
+        Error::UnsupportedVersion {
+            supported: 1,
+            found: 2
+        }
+    );
+}
+
+#[test]
+fn wrong_kind() {
+    let critic = blob_of(&nav_critic::<2, 2, 32, 1>(2, Activation::Tanh), "critic");
+    let err = load_error(&critic);
+    assert_eq!(
+        err,
+        Error::WrongKind {
+            expected: ModelKind::Actor,
+            found: ModelKind::Critic
+        }
+    );
+    assert_eq!(
+        err.to_string(),
+        "wrong model kind: expected actor, found critic"
+    );
+    let mut c = Critic::<2, 2, 32, 1>::ZERO;
+    assert!(matches!(c.load_into(&good()), Err(Error::WrongKind { .. })));
+    assert_eq!(c, Critic::ZERO);
+}
+
+#[test]
+fn shape_mismatch_names_both_shapes() {
+    let big = blob_of(&nav_policy::<2, 48, 3, 2>(3, Activation::Tanh), "4x48");
+    let err = load_error(&big);
+    let found = Shape {
+        observations: 2,
+        actions: 2,
+        width: 48,
+        depth: 4,
+    };
+    let expected = Shape {
+        observations: 2,
+        actions: 2,
+        width: 32,
+        depth: 2,
+    };
+    assert_eq!(err, Error::ShapeMismatch { expected, found });
+    assert_eq!(
+        err.to_string(),
+        "shape mismatch: compiled for 2x32 hidden, 2 observations, 2 actions, \
+         blob holds 4x48 hidden, 2 observations, 2 actions"
+    );
+}
+
+#[test]
+fn header_contradictions_are_malformed() {
+    let zero_depth = with_header(|h| h.shape.depth = 0);
+    assert!(matches!(load_error(&zero_depth), Error::Malformed { .. }));
+    let zero_width = with_header(|h| h.shape.width = 0);
+    assert!(matches!(load_error(&zero_width), Error::Malformed { .. }));
+    let long = with_header(|h| h.payload_len += 4);
+    assert!(matches!(load_error(&long), Error::Malformed { .. }));
+    // A shape whose size overflows: 65535² × 254 parameters.
+    let huge = with_header(|h| {
+        h.shape = Shape {
+            observations: 1,
+            actions: 1,
+            width: u16::MAX,
+            depth: 255,
+        };
+        h.payload_len = u32::MAX;
+    });
+    assert!(matches!(load_error(&huge), Error::Malformed { .. }));
+}
+
+#[test]
+fn truncated_and_trailing() {
+    let b = good();
+    let n = b.len();
+    assert_eq!(
+        load_error(&b[..n - 1]),
+        Error::Truncated {
+            needed: n,
+            found: n - 1
+        }
+    );
+    let mut longer = b.clone();
+    longer.push(0);
+    assert_eq!(
+        load_error(&longer),
+        Error::TrailingBytes {
+            expected: n,
+            found: n + 1
+        }
+    );
+}
+
+#[test]
+fn checksum_mismatch_reports_both_values() {
+    let mut b = good();
+    let n = b.len();
+    b[n - 10] ^= 0x01;
+    let err = load_error(&b);
+    let Error::ChecksumMismatch { stored, computed } = err else {
+        panic!("{err:?}")
+    };
+    assert_ne!(stored, computed);
+    assert!(err
+        .to_string()
+        .starts_with("checksum mismatch: stored CRC-32 0x"));
+}
+
+#[test]
+fn non_finite_parameter_reports_its_index() {
+    for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        let mut p = nav_policy::<2, 32, 1, 2>(4, Activation::Tanh);
+        p.input.w[(3, 1)] = bad; // column 1, row 3: after mean 2, inv_std 2, clip, bounds 4
+        let err = load_error(&blob_of(&p, "nan"));
+        assert_eq!(err, Error::NonFiniteParameter { index: 9 + 32 + 3 });
+    }
+}
+
+#[test]
+fn invalid_parameters_are_rejected() {
+    type Edit = fn(&mut Actor);
+    let cases: [(Edit, usize); 5] = [
+        (|p| p.normalizer.inv_std[1] = -1.0, 1),
+        (|p| p.normalizer.clip = 0.0, 0),
+        (|p| p.normalizer.clip = -3.0, 0),
+        (|p| (p.bounds.low[1], p.bounds.high[1]) = (0.5, -0.5), 1),
+        (|p| (p.bounds.low[0], p.bounds.high[0]) = (-3e38, 3e38), 0),
+    ];
+    for (edit, dim) in cases {
+        let mut p = nav_policy::<2, 32, 1, 2>(5, Activation::Tanh);
+        edit(&mut p);
+        let err = load_error(&blob_of(&p, "invalid"));
+        assert!(
+            matches!(err, Error::InvalidParameter { index, .. } if index == dim),
+            "{err:?}"
+        );
+    }
+    let mut c = nav_critic::<2, 2, 32, 1>(6, Activation::Tanh);
+    c.normalizer.clip = 0.0;
+    let mut slot = Critic::<2, 2, 32, 1>::ZERO;
+    let err = slot.load_into(&blob_of(&c, "")).expect_err("clip 0");
+    assert!(matches!(err, Error::InvalidParameter { .. }));
+}
+
+#[test]
+fn writer_rejects_long_labels_and_small_buffers() {
+    let p = nav_policy::<2, 32, 1, 2>(7, Activation::Tanh);
+    let mut buf = vec![0u8; 8192];
+    let label = "x".repeat(33);
+    assert!(matches!(
+        p.write_blob(&label, &mut buf),
+        Err(Error::Malformed { .. })
+    ));
+    let needed = blob::blob_len(&p, "ok").expect("len");
+    let err = p
+        .write_blob("ok", &mut buf[..needed - 1])
+        .expect_err("too small");
+    assert_eq!(
+        err,
+        Error::BufferTooSmall {
+            needed,
+            found: needed - 1
+        }
+    );
+    assert_eq!(p.write_blob("ok", &mut buf), Ok(needed));
+}
+
+#[test]
+fn every_error_displays_one_line() {
+    let errors = [
+        load_error(&[]),
+        load_error(b"XXXXXXXX"),
+        load_error(&with_header(|h| h.version = 9)),
+        load_error(&with_header(|h| h.shape.depth = 0)),
+    ];
+    for e in errors {
+        let text = e.to_string();
+        assert!(!text.is_empty() && !text.contains('\n'), "{text:?}");
+    }
+}

@@ -1,0 +1,188 @@
+//! The blob format is exactly postcard, the spec's worked example is what the code writes, and
+//! the CRC is the standard CRC-32.
+
+use policy_core::blob::{self, Header, Model, MAGIC, MAX_HEADER_LEN, VERSION};
+use policy_core::{crc32, Activation, Critic, ModelKind, Policy, Shape};
+use serde::ser::{Serialize, SerializeTuple, Serializer};
+
+use crate::support::{blob_of, nav_critic, nav_policy, tiny_policy, TINY_LABEL};
+
+/// A run of f32s as a serde tuple: postcard writes tuples with no length prefix, each f32 as 4
+/// little-endian bytes.
+struct Floats(Vec<f32>);
+
+impl Serialize for Floats {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut t = s.serialize_tuple(self.0.len())?;
+        for v in &self.0 {
+            t.serialize_element(v)?;
+        }
+        t.end()
+    }
+}
+
+fn params_of<M: Model>(model: &M) -> Vec<f32> {
+    let mut all = Vec::new();
+    model.params(&mut |s| all.extend_from_slice(s));
+    all
+}
+
+/// What serde + postcard produce for the blob's logical content: `(header, floats)` followed
+/// by the CRC as a `[u8; 4]` (a tuple, so raw bytes rather than a varint).
+fn postcard_blob<M: Model>(model: &M, label: &str) -> Vec<u8> {
+    let params = params_of(model);
+    let header = Header {
+        magic: MAGIC,
+        version: VERSION,
+        kind: M::KIND,
+        shape: M::SHAPE,
+        activation: model.activation(),
+        label: label.try_into().expect("short label"),
+        payload_len: 4 * params.len() as u32,
+    };
+    let body = postcard::to_stdvec(&(&header, Floats(params.clone()))).expect("postcard");
+    let crc = crc32(&body).to_le_bytes();
+    let whole = postcard::to_stdvec(&(&header, Floats(params), crc)).expect("postcard");
+    assert_eq!(&whole[..body.len()], &body[..]);
+    whole
+}
+
+#[test]
+fn actor_blob_is_postcard_of_header_and_floats() {
+    let p = nav_policy::<2, 48, 3, 2>(7, Activation::Tanh);
+    assert_eq!(
+        blob_of(&p, "nav dcp seed 7"),
+        postcard_blob(&p, "nav dcp seed 7")
+    );
+    let r = nav_policy::<3, 8, 0, 1>(8, Activation::Relu);
+    assert_eq!(blob_of(&r, ""), postcard_blob(&r, ""));
+}
+
+#[test]
+fn critic_blob_is_postcard_of_header_and_floats() {
+    let c = nav_critic::<2, 2, 32, 1>(9, Activation::Relu);
+    assert_eq!(blob_of(&c, "critic"), postcard_blob(&c, "critic"));
+}
+
+#[test]
+fn postcard_decodes_what_the_writer_wrote() {
+    let p = nav_policy::<2, 32, 1, 2>(10, Activation::Tanh);
+    let bytes = blob_of(&p, "decode me");
+    let (header, rest): (Header, &[u8]) = postcard::take_from_bytes(&bytes).expect("header");
+    assert_eq!(
+        header.shape,
+        Shape {
+            observations: 2,
+            actions: 2,
+            width: 32,
+            depth: 2
+        }
+    );
+    assert_eq!(header.label.as_str(), "decode me");
+    let floats: Vec<f32> = rest[..header.payload_len as usize]
+        .chunks_exact(4)
+        .map(|c| postcard::from_bytes::<f32>(c).expect("f32"))
+        .collect();
+    assert_eq!(floats, params_of(&p));
+}
+
+#[test]
+fn param_count_agrees_with_the_types() {
+    fn check<M: Model>(m: &M) {
+        assert_eq!(
+            Some(params_of(m).len()),
+            M::SHAPE.param_count(M::KIND),
+            "{}",
+            M::SHAPE
+        );
+    }
+    check(&Policy::<1, 2, 0, 1>::ZERO);
+    check(&Policy::<2, 32, 1, 2>::ZERO);
+    check(&Policy::<2, 48, 3, 2>::ZERO);
+    check(&Policy::<5, 7, 4, 3>::ZERO);
+    check(&Critic::<2, 2, 32, 1>::ZERO);
+    check(&Critic::<3, 1, 4, 0>::ZERO);
+    check(&Critic::<6, 4, 9, 2>::ZERO);
+}
+
+#[test]
+fn max_header_len_is_the_widest_header() {
+    let widest = Header {
+        magic: MAGIC,
+        version: u16::MAX,
+        kind: ModelKind::Critic,
+        shape: Shape {
+            observations: u16::MAX,
+            actions: u16::MAX,
+            width: u16::MAX,
+            depth: 255,
+        },
+        activation: Activation::Relu,
+        label: "x"
+            .repeat(blob::LABEL_CAPACITY)
+            .as_str()
+            .try_into()
+            .expect("32 bytes"),
+        payload_len: u32::MAX,
+    };
+    assert_eq!(
+        postcard::to_stdvec(&widest).expect("postcard").len(),
+        MAX_HEADER_LEN
+    );
+}
+
+/// Standard CRC-32/ISO-HDLC check values (the catalogue's "check" and a common text).
+#[test]
+fn crc32_test_vectors() {
+    assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
+    assert_eq!(
+        crc32(b"The quick brown fox jumps over the lazy dog"),
+        0x414F_A339
+    );
+    assert_eq!(crc32(b""), 0);
+    assert_eq!(crc32(&[0u8; 32]), 0x190A_55AD);
+}
+
+/// The hex dump in `docs/blob-format.md` (between the `tiny-blob` markers), parsed.
+fn doc_hex() -> Vec<u8> {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/blob-format.md");
+    let doc = std::fs::read_to_string(path).expect("docs/blob-format.md");
+    let start = doc.find("<!-- tiny-blob:begin -->").expect("begin marker");
+    let end = doc.find("<!-- tiny-blob:end -->").expect("end marker");
+    let mut bytes = Vec::new();
+    for line in doc[start..end].lines().filter(|l| l.contains('|')) {
+        let hexes = line.split('|').next().unwrap_or("");
+        let mut tokens = hexes.split_whitespace();
+        let offset: usize = tokens
+            .next()
+            .expect("offset")
+            .parse()
+            .expect("decimal offset");
+        assert_eq!(offset, bytes.len(), "offset column in the doc: {line}");
+        bytes.extend(tokens.map(|t| u8::from_str_radix(t, 16).expect("hex byte")));
+    }
+    bytes
+}
+
+#[test]
+fn spec_worked_example_is_what_the_writer_writes() {
+    let blob = blob_of(&tiny_policy(), TINY_LABEL);
+    if std::env::var_os("PRINT_TINY").is_some() {
+        eprintln!(
+            "{}",
+            blob.iter()
+                .map(|b| format!("{b:02x}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        );
+    }
+    assert_eq!(
+        doc_hex(),
+        blob,
+        "docs/blob-format.md's hex dump is out of date"
+    );
+    // The doc's worked evaluation, to the digits it prints.
+    let p = Policy::<1, 2, 0, 1>::from_blob(&blob).expect("tiny blob loads");
+    let a = p.act(&[1.0])[0];
+    assert!((a - 0.182_33).abs() < 1e-5, "{a}");
+}

@@ -1,0 +1,215 @@
+//! Deterministic fixtures shared by the test modules.
+
+use core::convert::Infallible;
+
+use policy_core::blob::{self, Model};
+use policy_core::{ActionBounds, Activation, Critic, Dense, Policy};
+use rand_core::TryRng;
+
+/// SplitMix64: tiny, fast and fully specified, so golden fixtures never depend on a crate's
+/// stream staying the same across versions.
+#[derive(Clone, Debug)]
+pub struct SplitMix64(pub u64);
+
+impl SplitMix64 {
+    pub fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `[-1, 1)` on a grid of 2^-23: exact in f32, so identical on every machine.
+    pub fn symmetric(&mut self) -> f32 {
+        (self.next() >> 40) as f32 * (1.0 / 8_388_608.0) - 1.0
+    }
+
+    /// Uniform integer in `0..n` (n > 0; the tiny modulo bias does not matter here).
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+
+    /// Any finite f32 bit pattern: normals, subnormals, both zeros, the extremes.
+    pub fn finite_bits(&mut self) -> f32 {
+        loop {
+            let v = f32::from_bits(self.next() as u32);
+            if v.is_finite() {
+                return v;
+            }
+        }
+    }
+}
+
+impl TryRng for SplitMix64 {
+    type Error = Infallible;
+    fn try_next_u32(&mut self) -> Result<u32, Infallible> {
+        Ok((self.next() >> 32) as u32)
+    }
+    fn try_next_u64(&mut self) -> Result<u64, Infallible> {
+        Ok(self.next())
+    }
+    fn try_fill_bytes(&mut self, dst: &mut [u8]) -> Result<(), Infallible> {
+        for chunk in dst.chunks_mut(8) {
+            let bytes = self.next().to_le_bytes();
+            chunk.copy_from_slice(&bytes[..chunk.len()]);
+        }
+        Ok(())
+    }
+}
+
+/// DDPG's initialisation scale, uniform ±gain/√fan_in, for every weight and bias.
+pub fn fill_dense<const I: usize, const O: usize>(
+    d: &mut Dense<I, O>,
+    gain: f32,
+    rng: &mut SplitMix64,
+) {
+    let scale = gain / (I as f32).sqrt();
+    d.w.iter_mut()
+        .chain(d.b.iter_mut())
+        .for_each(|v| *v = scale * rng.symmetric());
+}
+
+/// A policy for the navigation arena: positions in [-6, 6] (std ≈ 3.46), steps in ±0.25.
+pub fn nav_policy<const S: usize, const H: usize, const L: usize, const A: usize>(
+    seed: u64,
+    activation: Activation,
+) -> Policy<S, H, L, A> {
+    let mut rng = SplitMix64(seed);
+    let mut p = Policy::<S, H, L, A>::ZERO;
+    p.normalizer
+        .mean
+        .iter_mut()
+        .for_each(|m| *m = 0.5 * rng.symmetric());
+    p.normalizer
+        .inv_std
+        .iter_mut()
+        .for_each(|k| *k = (1.0 + 0.2 * rng.symmetric()) / 3.46);
+    p.normalizer.clip = 5.0;
+    p.bounds = ActionBounds::symmetric(0.25);
+    fill_dense(&mut p.input, 1.0, &mut rng);
+    p.trunk.activation = activation;
+    p.trunk
+        .hidden
+        .iter_mut()
+        .for_each(|d| fill_dense(d, 1.0, &mut rng));
+    // A trained actor's output layer is larger than the ±1/√H init: gain 4 makes the actions
+    // span the box, a few near its edges, most inside.
+    fill_dense(&mut p.trunk.output, 4.0, &mut rng);
+    p
+}
+
+/// A critic with the same normaliser as `nav_policy(seed)` and random DDPG-scale weights.
+pub fn nav_critic<const S: usize, const A: usize, const H: usize, const L: usize>(
+    seed: u64,
+    activation: Activation,
+) -> Critic<S, A, H, L> {
+    let mut rng = SplitMix64(seed);
+    let mut c = Critic::<S, A, H, L>::ZERO;
+    c.normalizer
+        .mean
+        .iter_mut()
+        .for_each(|m| *m = 0.5 * rng.symmetric());
+    c.normalizer
+        .inv_std
+        .iter_mut()
+        .for_each(|k| *k = (1.0 + 0.2 * rng.symmetric()) / 3.46);
+    c.normalizer.clip = 5.0;
+    let scale = 1.0 / ((S + A) as f32).sqrt();
+    c.input
+        .w
+        .iter_mut()
+        .for_each(|v| *v = scale * rng.symmetric());
+    c.action_w
+        .iter_mut()
+        .for_each(|v| *v = scale * rng.symmetric());
+    c.input
+        .b
+        .iter_mut()
+        .for_each(|v| *v = scale * rng.symmetric());
+    c.trunk.activation = activation;
+    c.trunk
+        .hidden
+        .iter_mut()
+        .for_each(|d| fill_dense(d, 1.0, &mut rng));
+    fill_dense(&mut c.trunk.output, 1.0, &mut rng);
+    c
+}
+
+/// Overwrites every parameter with an arbitrary finite bit pattern, then repairs the
+/// normaliser and bounds so the model is valid (the loader's rules: inv_std >= 0, clip > 0,
+/// low <= high with a representable width).
+pub fn scramble<M: Model>(model: &mut M, rng: &mut SplitMix64) {
+    model.params_mut(&mut |s| s.iter_mut().for_each(|v| *v = rng.finite_bits()));
+}
+
+pub fn arbitrary_policy<const S: usize, const H: usize, const L: usize, const A: usize>(
+    seed: u64,
+) -> Policy<S, H, L, A> {
+    let mut rng = SplitMix64(seed);
+    let mut p = Policy::<S, H, L, A>::ZERO;
+    scramble(&mut p, &mut rng);
+    p.trunk.activation = activation_from(seed);
+    p.normalizer.inv_std.iter_mut().for_each(|k| *k = k.abs());
+    p.normalizer.clip = p.normalizer.clip.abs().max(f32::MIN_POSITIVE);
+    for (lo, hi) in p.bounds.low.iter_mut().zip(p.bounds.high.iter_mut()) {
+        let (a, b) = (*lo / 4.0, *hi / 4.0); // a quarter of f32's range: width stays finite
+        (*lo, *hi) = (a.min(b), a.max(b));
+    }
+    p
+}
+
+pub fn arbitrary_critic<const S: usize, const A: usize, const H: usize, const L: usize>(
+    seed: u64,
+) -> Critic<S, A, H, L> {
+    let mut rng = SplitMix64(seed);
+    let mut c = Critic::<S, A, H, L>::ZERO;
+    scramble(&mut c, &mut rng);
+    c.trunk.activation = activation_from(seed);
+    c.normalizer.inv_std.iter_mut().for_each(|k| *k = k.abs());
+    c.normalizer.clip = c.normalizer.clip.abs().max(f32::MIN_POSITIVE);
+    c
+}
+
+pub fn activation_from(seed: u64) -> Activation {
+    if seed % 2 == 0 {
+        Activation::Tanh
+    } else {
+        Activation::Relu
+    }
+}
+
+/// A blob in a new vector, without needing the `std` feature.
+pub fn blob_of<M: Model>(model: &M, label: &str) -> Vec<u8> {
+    let mut out = vec![0u8; blob::blob_len(model, label).expect("blob length")];
+    let n = blob::write_into(model, label, &mut out).expect("write blob");
+    assert_eq!(n, out.len());
+    out
+}
+
+/// Recomputes the trailing CRC after a test edits a blob on purpose.
+pub fn reseal(blob: &mut [u8]) {
+    let (body, crc) = blob.split_last_chunk_mut::<4>().expect("a blob has a CRC");
+    *crc = policy_core::crc32(body).to_le_bytes();
+}
+
+/// The tiny model of `docs/blob-format.md`'s worked example: 1 observation, one hidden layer
+/// of 2 tanh units, 1 action.
+pub fn tiny_policy() -> Policy<1, 2, 0, 1> {
+    let mut p = Policy::<1, 2, 0, 1>::ZERO;
+    p.normalizer.mean[0] = 0.5;
+    p.normalizer.inv_std[0] = 2.0;
+    p.normalizer.clip = 5.0;
+    p.bounds = ActionBounds::symmetric(0.25);
+    p.input.w[(0, 0)] = 1.0;
+    p.input.w[(1, 0)] = -1.0;
+    p.input.b[0] = 0.0;
+    p.input.b[1] = 0.5;
+    p.trunk.output.w[(0, 0)] = 0.75;
+    p.trunk.output.w[(0, 1)] = -0.5;
+    p.trunk.output.b[0] = 0.125;
+    p.trunk.activation = Activation::Tanh;
+    p
+}
+
+pub const TINY_LABEL: &str = "tiny";

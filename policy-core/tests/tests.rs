@@ -1,0 +1,21 @@
+//! policy-core's integration tests: one binary, one module per concern (ripgrep's layout).
+
+// Fixtures: a seeded generator and realistic or arbitrary models built from it.
+mod support;
+
+// Committed blobs, inputs and bit-exact expected outputs (`UPDATE_GOLDEN=1` regenerates them).
+mod golden;
+// The format is postcard: byte equality with serde, the spec's worked example, the CRC.
+mod format;
+// Every load check returns its typed error and leaves the slot untouched.
+mod errors;
+// Any valid model written then loaded is identical (proptest).
+mod roundtrip;
+// Random bytes, bit flips and truncations are rejected with an error, never a panic.
+mod robustness;
+// Actions are finite and in bounds for every observation, finite or not.
+mod act_bounds;
+// The vectorisable tanhf is bit-identical to libm::tanhf.
+mod tanh;
+// The device-side compare step never returns a worse action under Q.
+mod compare;

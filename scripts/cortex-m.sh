@@ -1,0 +1,250 @@
+#!/usr/bin/env bash
+# cortex-m.sh -- build the example firmware (firmware/) for a Cortex-M4F and a Cortex-M3, run it
+# under QEMU, check its actions bit for bit against policy-core on the host, and write a resource
+# report (flash, static RAM, peak stack, instructions per `act`, blob decode cost).
+#
+# Usage: bash scripts/cortex-m.sh [--blob FILE] [--out FILE] [--install-only]
+#   --blob FILE     a trained actor blob (e.g. from host-trainer); used by the variants of its shape,
+#                   the other shapes get deterministic generated blobs.
+#   --out FILE      JSON report path (default: <target dir>/cortex-m-report.json).
+#   --install-only  install the toolchain and QEMU, then stop.
+# Environment: PREFIX (private compiler prefix, default /opt/rust-web), RUST_WEB_VERSION (pin a
+# Debian rustc-web version), VARIANTS (space-separated subset of the names below), EXTRA_FEATURES
+# (more firmware features, e.g. proposal-blocked-mac), QEMU_TIMEOUT (seconds, default 60),
+# CARGO_TARGET_DIR (everything this script builds goes under <it or target/>/cortex-m).
+#
+# Works as root (or with sudo) on a fresh Debian 12 x86_64 machine whose rustup toolchain has only
+# the host target, with only Debian apt and crates.io reachable. The route avoids rustup targets
+# entirely:
+#   * compiler: Debian's rustc-web + rust-web-src unpacked with dpkg -x into PREFIX (they Conflict
+#     with rustup, so they are never installed); `core` is built from source with -Zbuild-std;
+#   * linker: Debian's lld-NN, NN = the LLVM major rustc-web links against;
+#   * emulator: qemu-system-arm from bookworm-backports (bookworm's 7.2 would remove qemu-utils 10),
+#     with a tiny TCG plugin (firmware/qemu-plugin/icount.c) for exact instruction counts.
+# A second run finds everything in place, makes no network access for the toolchain, and only
+# rebuilds what changed. Exit status: 0 = every variant built, ran, matched the host.
+set -euo pipefail
+
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+PREFIX=${PREFIX:-/opt/rust-web}
+RUST_WEB_VERSION=${RUST_WEB_VERSION:-}
+BASE=$(realpath -m "${CARGO_TARGET_DIR:-$ROOT/target}")
+WORK=$BASE/cortex-m
+OUT=$BASE/cortex-m-report.json
+BLOB=
+INSTALL_ONLY=0
+QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
+# name:target:qemu machine:qemu cpu:shape
+ALL_VARIANTS=(
+  m4f-2x32:thumbv7em-none-eabihf:mps2-an386:cortex-m4:2x32
+  m4f-4x48:thumbv7em-none-eabihf:mps2-an386:cortex-m4:4x48
+  m4f-6x64:thumbv7em-none-eabihf:mps2-an386:cortex-m4:6x64
+  m3-2x32:thumbv7m-none-eabi:mps2-an385:cortex-m3:2x32
+  m3-4x48:thumbv7m-none-eabi:mps2-an385:cortex-m3:4x48
+  m3-6x64:thumbv7m-none-eabi:mps2-an385:cortex-m3:6x64
+)
+
+T_START=$SECONDS; T_LAST=$SECONDS; TIMINGS=()
+step() {
+  local now=$SECONDS
+  [ -n "${CUR_STEP:-}" ] && TIMINGS+=("$(printf '%4ss  %s' $((now - T_LAST)) "$CUR_STEP")")
+  T_LAST=$now; CUR_STEP=$*; echo "=== [$((now - T_START))s] $*"
+}
+die() { echo "cortex-m.sh: error: $*" >&2; exit 1; }
+
+while [ $# -gt 0 ]; do
+  case $1 in
+    --blob) [ $# -ge 2 ] || die "--blob needs a file"; BLOB=$(realpath "$2"); shift 2 ;;
+    --out) [ $# -ge 2 ] || die "--out needs a file"; OUT=$(realpath -m "$2"); shift 2 ;;
+    --install-only) INSTALL_ONLY=1; shift ;;
+    -h|--help) sed -n '2,14p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) die "unknown argument $1 (see --help)" ;;
+  esac
+done
+[ -z "$BLOB" ] || [ -f "$BLOB" ] || die "--blob $BLOB: no such file"
+case $PREFIX in ""|/|/usr|/usr/*|/opt|/bin|/etc|/home|/root) die "refusing PREFIX=$PREFIX (it is replaced on reinstall)" ;; esac
+command -v cargo >/dev/null || die "cargo (rustup) not found on PATH"
+SUDO=; [ "$(id -u)" = 0 ] || SUDO=sudo
+mkdir -p "$WORK"
+
+#--------------------------------------------------------------------------------------------------
+# Toolchain. Fast path: everything already present (no network). Slow path: private apt source
+# list (no change to /etc/apt), install the non-conflicting packages, unpack rustc-web.
+RUST_HOST=x86_64-unknown-linux-gnu
+RUSTC_X=$PREFIX/bin/rustc
+lld_major() { readlink "$PREFIX/usr/lib/rustlib/$RUST_HOST/bin/rust-lld" 2>/dev/null | sed -n 's|.*/lld-\([0-9][0-9]*\)$|\1|p'; }
+qemu_major() { qemu-system-arm --version 2>/dev/null | sed -n '1s/.*version \([0-9]*\)\..*/\1/p'; }
+toolchain_ready() {
+  local have; have=$(cat "$PREFIX/.recipe-ok" 2>/dev/null) || return 1
+  [ -z "$RUST_WEB_VERSION" ] || [ "$have" = "$RUST_WEB_VERSION" ] || return 1
+  local llvm; llvm=$(lld_major); [ -n "$llvm" ] && command -v "lld-$llvm" >/dev/null || return 1
+  "$RUSTC_X" -V >/dev/null 2>&1 || return 1
+  [ "$(qemu_major)" -ge 9 ] 2>/dev/null && command -v gcc >/dev/null && command -v size >/dev/null
+}
+
+install_toolchain() {
+  local aptd=$WORK/apt
+  step "apt: private source list (bookworm, -updates, -security, -backports) + update"
+  mkdir -p "$aptd"/lists/partial "$aptd"/archives/partial "$aptd"/debs
+  cat > "$aptd/sources.list" <<EOF
+deb http://deb.debian.org/debian bookworm main
+deb http://deb.debian.org/debian bookworm-updates main
+deb http://deb.debian.org/debian-security bookworm-security main
+deb http://deb.debian.org/debian bookworm-backports main
+EOF
+  APTO=(-o "Dir::Etc::sourcelist=$aptd/sources.list" -o Dir::Etc::sourceparts=- -o "Dir::State::lists=$aptd/lists" -o "Dir::Cache::archives=$aptd/archives")
+  [ "$(id -u)" = 0 ] && APTO+=(-o APT::Sandbox::User=root)
+  $SUDO apt-get "${APTO[@]}" -q update >/dev/null
+  local vs=${RUST_WEB_VERSION:+=$RUST_WEB_VERSION} libstd llvm rw_ver
+  libstd=$(apt-cache "${APTO[@]}" show --no-all-versions "libstd-rust-web-dev$vs" | sed -n 's/^Depends:.*\(libstd-rust-web-[0-9][0-9.]*\).*/\1/p')
+  [ -n "$libstd" ] || die "cannot resolve libstd-rust-web-dev$vs"
+  llvm=$(apt-cache "${APTO[@]}" show --no-all-versions "$libstd$vs" | sed -n 's/^Depends:.*libllvm\([0-9][0-9]*\).*/\1/p')
+  [ -n "$llvm" ] || die "cannot resolve the libllvm of $libstd"
+  rw_ver=$(apt-cache "${APTO[@]}" show --no-all-versions "rustc-web$vs" | sed -n 's/^Version: //p')
+  echo "rustc-web $rw_ver, $libstd, LLVM $llvm"
+
+  step "apt install: qemu-system-arm (bookworm-backports), lld-$llvm, libllvm$llvm, gcc, binutils"
+  # --no-remove: abort rather than let apt remove anything already installed.
+  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get "${APTO[@]}" -q -y install --no-install-recommends --no-remove \
+    qemu-system-arm/bookworm-backports qemu-system-common/bookworm-backports qemu-system-data/bookworm-backports \
+    "libllvm$llvm" "lld-$llvm" gcc libc6-dev binutils >"$WORK/apt-install.log" \
+    || { tail -20 "$WORK/apt-install.log"; die "apt-get install failed (log: $WORK/apt-install.log)"; }
+  grep -E 'newly installed' "$WORK/apt-install.log" || true
+
+  if [ "$(cat "$PREFIX/.recipe-ok" 2>/dev/null)" = "$rw_ver" ] && "$RUSTC_X" -V >/dev/null 2>&1; then
+    echo "rustc-web $rw_ver already unpacked in $PREFIX"
+    return
+  fi
+  step "download rustc-web + libstd + rust-web-src $rw_ver (apt-get download; not installed)"
+  rm -f "$aptd"/debs/*.deb
+  (cd "$aptd/debs" && apt-get "${APTO[@]}" -q download "rustc-web$vs" "$libstd$vs" "libstd-rust-web-dev$vs" "rust-web-src$vs" >/dev/null)
+  step "unpack into $PREFIX (dpkg -x; only library/ of rust-web-src)"
+  $SUDO rm -rf "$PREFIX" "$PREFIX.tmp"; $SUDO mkdir -p "$PREFIX.tmp"
+  for p in rustc-web "$libstd" libstd-rust-web-dev; do $SUDO dpkg -x "$aptd"/debs/${p}_*.deb "$PREFIX.tmp"; done
+  dpkg-deb --fsys-tarfile "$aptd"/debs/rust-web-src_*.deb \
+    | $SUDO tar -x -C "$PREFIX.tmp" --wildcards './usr/src/rustc-*/library/*' './usr/lib/rustlib/src/*'
+  $SUDO mkdir -p "$PREFIX.tmp/bin" "$PREFIX.tmp/usr/lib/rustlib/$RUST_HOST/bin"
+  # rustc looks for `rust-lld` in <sysroot>/lib/rustlib/<host>/bin; Debian's lld-NN serves.
+  $SUDO ln -sf "/usr/bin/lld-$llvm" "$PREFIX.tmp/usr/lib/rustlib/$RUST_HOST/bin/rust-lld"
+  # librustc_driver lives in usr/lib/x86_64-linux-gnu and rustc has no RUNPATH: wrap it.
+  $SUDO tee "$PREFIX.tmp/bin/rustc" >/dev/null <<EOF
+#!/bin/sh
+LD_LIBRARY_PATH="$PREFIX/usr/lib/x86_64-linux-gnu\${LD_LIBRARY_PATH:+:\$LD_LIBRARY_PATH}" exec "$PREFIX/usr/bin/rustc" "\$@"
+EOF
+  $SUDO chmod +x "$PREFIX.tmp/bin/rustc"
+  $SUDO mv "$PREFIX.tmp" "$PREFIX"
+  echo "$rw_ver" | $SUDO tee "$PREFIX/.recipe-ok" >/dev/null
+  rm -f "$aptd"/debs/*.deb
+  du -sh "$PREFIX"
+}
+
+if toolchain_ready; then
+  step "toolchain already in place: $PREFIX ($(cat "$PREFIX/.recipe-ok")), lld-$(lld_major), qemu $(qemu_major)"
+else
+  install_toolchain
+  toolchain_ready || die "toolchain still incomplete after install"
+fi
+for t in thumbv7em-none-eabihf thumbv7m-none-eabi; do
+  "$RUSTC_X" --print target-list | grep -qx "$t" || die "rustc-web does not know $t"
+done
+echo "$("$RUSTC_X" -V) | $(cargo -V) | $(qemu-system-arm --version | head -1)"
+[ "$INSTALL_ONLY" = 1 ] && { step done; exit 0; }
+
+#--------------------------------------------------------------------------------------------------
+# Host side: host-check (rustup's own compiler; never RUSTC=rustc-web) and the plugin.
+step "host-check (blobs, host comparison, report) and the QEMU instruction-count plugin"
+HOST_ENV=(env -u RUSTC -u RUSTC_BOOTSTRAP -u RUSTFLAGS -u CARGO_ENCODED_RUSTFLAGS -u CARGO_BUILD_RUSTFLAGS)
+# Run from the repository root: inside firmware/ cargo would pick up the firmware's target config.
+(cd "$ROOT" && "${HOST_ENV[@]}" CARGO_TARGET_DIR="$WORK/host" \
+  cargo build --release --locked -q --manifest-path firmware/host-check/Cargo.toml)
+HC=$WORK/host/release/host-check
+PLUGIN_SRC=$ROOT/firmware/qemu-plugin/icount.c
+PLUGIN_SO=$WORK/libicount.so
+if [ ! -f "$PLUGIN_SO" ] || [ "$PLUGIN_SRC" -nt "$PLUGIN_SO" ]; then
+  gcc -shared -fPIC -O2 -Wall -o "$PLUGIN_SO.tmp" "$PLUGIN_SRC" && mv "$PLUGIN_SO.tmp" "$PLUGIN_SO" \
+    || { rm -f "$PLUGIN_SO"; echo "plugin build failed: instruction counts fall back to SysTick + -icount"; }
+fi
+
+BLOB_SHAPE=
+if [ -n "$BLOB" ]; then
+  BLOB_SHAPE=$("$HC" info "$BLOB") || die "--blob $BLOB is not a blob the firmware can run"
+  echo "--blob $BLOB holds a $BLOB_SHAPE actor: used for the $BLOB_SHAPE variants"
+fi
+mkdir -p "$WORK/blobs"
+blob_for() { # shape -> blob path (the given one, or a generated one)
+  if [ "$1" = "$BLOB_SHAPE" ]; then echo "$BLOB"; return; fi
+  "$HC" gen "$1" "$WORK/blobs/actor_$1.postcard" >&2
+  echo "$WORK/blobs/actor_$1.postcard"
+}
+
+#--------------------------------------------------------------------------------------------------
+# Variants: build (one shared target dir: `core`, nalgebra and policy-core are built once per
+# target), run under QEMU with a timeout, compare with the host, measure.
+FW_ENV=(env -u RUSTFLAGS -u CARGO_ENCODED_RUSTFLAGS -u CARGO_BUILD_RUSTFLAGS RUSTC="$RUSTC_X" RUSTC_BOOTSTRAP=1 CARGO_TARGET_DIR="$WORK/fw")
+QEMU_BASE=(qemu-system-arm -nographic -semihosting-config enable=on,target=native -icount shift=0)
+SELECTED=(${VARIANTS:-$(printf '%s\n' "${ALL_VARIANTS[@]}" | cut -d: -f1)})
+FAILED=(); JSONS=()
+for spec in "${ALL_VARIANTS[@]}"; do
+  IFS=: read -r name target machine cpu shape <<<"$spec"
+  printf '%s\n' "${SELECTED[@]}" | grep -qx "$name" || continue
+  dir=$WORK/variants/$name; mkdir -p "$dir"; rm -f "$dir"/*.log "$dir/resources.json"
+  blob=$(blob_for "$shape")
+
+  step "$name: build ($target, shape-$shape, blob $(basename "$blob"))"
+  if ! (cd "$ROOT/firmware" && POLICY_BLOB="$blob" "${FW_ENV[@]}" cargo build --release --locked -Zbuild-std=core \
+        --target "$target" --no-default-features --features "shape-$shape${EXTRA_FEATURES:+,$EXTRA_FEATURES}" 2>&1 \
+        | { grep -vE '^ +(Compiling|Downloaded|Downloading|Locking|Adding|Updating|Finished)' || true; } ); then
+    FAILED+=("$name: build"); continue
+  fi
+  elf=$WORK/fw/$target/release/policy-firmware
+  [ -f "$elf" ] || { FAILED+=("$name: build produced no ELF"); continue; }
+  cp "$elf" "$dir/firmware.elf"
+  size -A "$dir/firmware.elf" > "$dir/sizes.txt"
+
+  step "$name: run under QEMU ($machine, $cpu; timeout ${QEMU_TIMEOUT}s)"
+  plugin_args=(); plugin_log=()
+  if [ -f "$PLUGIN_SO" ]; then
+    mark=$(nm "$dir/firmware.elf" | awk '$3=="fw_mark"{print $1}')
+    [ -n "$mark" ] || die "$name: no fw_mark symbol in the firmware"
+    plugin_args=(-plugin "$PLUGIN_SO,mark=$(printf '0x%x' $((0x$mark & ~1)))" -d plugin)  # drop the Thumb bit
+    plugin_log=(--plugin-log "$dir/plugin.log")
+  fi
+  set +e
+  timeout "$QEMU_TIMEOUT" "${QEMU_BASE[@]}" -M "$machine" -cpu "$cpu" "${plugin_args[@]}" \
+    -kernel "$dir/firmware.elf" </dev/null >"$dir/firmware.log" 2>"$dir/plugin.log"
+  rc=$?
+  set -e
+  if [ $rc != 0 ]; then
+    tail -5 "$dir/firmware.log" "$dir/plugin.log"
+    FAILED+=("$name: QEMU exit status $rc$([ $rc = 124 ] && echo ' (timeout)')"); continue
+  fi
+
+  step "$name: compare with policy-core on the host (bit-exact) and measure"
+  if ! "$HC" check "$blob" "$dir/firmware.log"; then FAILED+=("$name: actions differ from the host"); continue; fi
+  if ! "$HC" measure --variant "$name" --target "$target" --machine "$machine" --cpu "$cpu" --blob "$blob" \
+        --sizes "$dir/sizes.txt" --fw-log "$dir/firmware.log" "${plugin_log[@]}" --out "$dir/resources.json"; then
+    FAILED+=("$name: measurement"); continue
+  fi
+  JSONS+=("$dir/resources.json")
+done
+
+#--------------------------------------------------------------------------------------------------
+step "report"
+[ ${#JSONS[@]} -gt 0 ] || die "no variant ran: ${FAILED[*]}"
+mkdir -p "$(dirname "$OUT")"
+"$HC" report --out "$OUT" \
+  --meta "rustc=$("$RUSTC_X" -V)" --meta "cargo=$(cargo -V)" \
+  --meta "qemu=$(qemu-system-arm --version | head -1)" \
+  --meta "profile=release: opt-level 3, fat LTO, codegen-units 1, panic abort, -Zbuild-std=core" \
+  --meta "instructions=exact counts from a TCG plugin between fw_mark calls (mark cost subtracted)" \
+  --meta "command=${VARIANTS:+VARIANTS=\"$VARIANTS\" }${EXTRA_FEATURES:+EXTRA_FEATURES=$EXTRA_FEATURES }bash scripts/cortex-m.sh${BLOB:+ --blob $BLOB}" \
+  "${JSONS[@]}"
+step done
+echo "report: $OUT (table: ${OUT%.json}.md)"
+echo "timings:"; printf '  %s\n' "${TIMINGS[@]}"
+echo "total: $((SECONDS - T_START)) s"
+if [ ${#FAILED[@]} -gt 0 ]; then
+  printf 'FAILED: %s\n' "${FAILED[@]}" >&2
+  exit 1
+fi
+echo "RESULT: PASS (${#JSONS[@]} variants bit-exact with the host)"

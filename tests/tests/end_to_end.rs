@@ -1,0 +1,73 @@
+//! Train a tiny DCP policy, export it, load the bytes in firmware-sim, run the closed loop and
+//! check the report.
+
+use firmware_sim::controller::{BlobPolicy, Controller};
+use firmware_sim::harness::{evaluate, EvalConfig};
+use host_trainer::agent::Hidden;
+use host_trainer::run_dir::{self, RunDir};
+use host_trainer::train::{self, Algo, TrainConfig, Trainer};
+
+#[test]
+fn trained_dcp_blob_runs_in_the_firmware_loop() {
+    let out = std::env::temp_dir().join(format!("e2e-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    std::fs::create_dir_all(&out).expect("out dir");
+
+    let mut config = TrainConfig {
+        algo: Algo::Dcp,
+        seed: 11,
+        episodes: 3,
+        checkpoint_every: 3,
+        ..TrainConfig::default()
+    };
+    config.agent.hidden = Hidden {
+        depth: 2,
+        width: 32,
+    };
+    config.agent.batch = 16;
+    config.agent.warmup_steps = 16;
+    config.dcp.t = 4;
+    let mut trainer = Trainer::new(config).expect("trainer");
+    let run = RunDir::create(&out, &trainer.config.run_name()).expect("run dir");
+    train::run(&mut trainer, &run, &mut |_, _| {}).expect("training");
+    trainer.export(&run).expect("export");
+
+    // The bytes on disk, exactly as they would be flashed.
+    let blob = std::fs::read(run.file(run_dir::POLICY)).expect("policy.postcard");
+
+    // The firmware's policy acts exactly like the trainer's evaluation action.
+    let mut firmware = BlobPolicy::boot(&blob).expect("the blob boots");
+    for obs in [[4.0f32, -5.5], [0.3, 0.2], [-5.9, 5.9]] {
+        let mut action = [0.0f32; 2];
+        firmware.act(&obs, &mut action);
+        assert_eq!(action.to_vec(), trainer.agent.greedy(&obs), "obs {obs:?}");
+    }
+
+    let scenario = train::scenario("nav-walls", None, None).expect("scenario");
+    let report = evaluate(
+        &blob,
+        &scenario,
+        &EvalConfig {
+            episodes: 10,
+            ..EvalConfig::default()
+        },
+    )
+    .expect("evaluation");
+    assert_eq!(report.boot_error, None);
+    assert_eq!(report.episodes.len(), 10);
+    for (name, rate) in [
+        ("success", report.success_rate),
+        ("strict", report.strict_reach_rate),
+        ("stuck", report.stuck_rate),
+        ("left", report.left_arena_rate),
+    ] {
+        assert!((0.0..=1.0).contains(&rate), "{name} rate {rate}");
+    }
+    assert!(
+        report.mean_error.is_finite() && report.mean_error >= 0.0,
+        "error {}",
+        report.mean_error
+    );
+    assert!(report.total_steps > 0);
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
