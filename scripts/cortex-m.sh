@@ -10,7 +10,7 @@
 #   --install-only  install the toolchain and QEMU, then stop.
 # Environment: PREFIX (private compiler prefix, default /opt/rust-web), RUST_WEB_VERSION (pin a
 # Debian rustc-web version), VARIANTS (space-separated subset of the names below), EXTRA_FEATURES
-# (more firmware features, e.g. proposal-blocked-mac), QEMU_TIMEOUT (seconds, default 60),
+# (more firmware features), QEMU_TIMEOUT (seconds, default 60),
 # CARGO_TARGET_DIR (everything this script builds goes under <it or target/>/cortex-m).
 #
 # Works as root (or with sudo) on a fresh Debian 12 x86_64 machine whose rustup toolchain has only

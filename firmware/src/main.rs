@@ -12,8 +12,6 @@
 #![no_std]
 #![no_main]
 
-#[cfg(feature = "proposal-blocked-mac")]
-mod blocked;
 mod console;
 mod observations;
 mod shape;
@@ -86,16 +84,6 @@ fn main() -> ! {
     let act_ticks = elapsed(t0);
     let act_stack = stack::used_below(sp);
 
-    #[cfg(feature = "proposal-blocked-mac")]
-    for (obs, action) in OBSERVATIONS.iter().zip(&actions) {
-        fw_mark(8);
-        let other = blocked::act(policy, black_box(obs));
-        fw_mark(9);
-        if other.map(f32::to_bits) != action.map(f32::to_bits) {
-            fail("the register-blocked forward pass differs from act");
-        }
-    }
-
     let tanh_sum = time_tanhf();
 
     report(&actions, sp, [load_stack, act_stack]);
@@ -140,10 +128,6 @@ fn report(actions: &[[f32; 2]], sp: usize, phases: [usize; 2]) {
     Line::new("SPAN load_into 1").emit();
     for k in 0..OBSERVATIONS.len() {
         Line::new("SPAN act").dec(k as u32).emit();
-    }
-    #[cfg(feature = "proposal-blocked-mac")]
-    for k in 0..OBSERVATIONS.len() {
-        Line::new("SPAN blocked").dec(k as u32).emit();
     }
     Line::new("SPAN tanhf").dec(TANH_POINTS as u32).emit();
     Line::new("STACK_MAIN")

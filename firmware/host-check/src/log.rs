@@ -77,9 +77,9 @@ impl FirmwareLog {
                 Some("SPAN") => {
                     let name = f.next().ok_or_else(|| anyhow!("short line {line:?}"))?;
                     let arg = num(f.next(), line)?;
-                    // `SPAN act k` (and the experiment's `SPAN blocked k`) is one pass on
-                    // observation k; other spans give a repetition count.
-                    if name == "act" || name == "blocked" {
+                    // `SPAN act k` is one pass on observation k; other spans give a
+                    // repetition count.
+                    if name == "act" {
                         log.spans.push((format!("{name}{arg}"), 1));
                     } else {
                         log.spans.push((name.to_string(), arg));

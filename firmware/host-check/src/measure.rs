@@ -107,15 +107,6 @@ pub fn measure(
     let tanhf = spans.get("tanhf").copied();
     let macs = shape.macs() as f64;
     let excl_tanh = tanhf.map(|t| (act_mean - shape.tanh_calls() as f64 * t) / macs);
-    // The `proposal-blocked-mac` experiment, when built in: the same pass, register-blocked.
-    let blocked: Vec<f64> = (0..acts.len())
-        .filter_map(|k| spans.get(&format!("blocked{k}")).copied())
-        .collect();
-    let proposal = (!blocked.is_empty()).then(|| {
-        let mean = blocked.iter().sum::<f64>() / blocked.len() as f64;
-        json!({ "act_mean": round(mean, 1), "per_mac": round(mean / macs, 3),
-                "per_mac_excluding_tanhf": tanhf.map(|t| round((mean - shape.tanh_calls() as f64 * t) / macs, 3)) })
-    });
 
     Ok(json!({
         "variant": v.name, "target": v.target, "qemu_machine": v.machine, "qemu_cpu": v.cpu,
@@ -141,7 +132,6 @@ pub fn measure(
             "per_mac_excluding_tanhf": excl_tanh.map(|e| round(e, 3)),
             "load_into": round(load, 0), "load_into_per_blob_byte": round(load / blob_len as f64, 2),
             "mark_overhead": spans.get("overhead").map(|o| round(*o, 0)),
-            "proposal_blocked_mac": proposal,
         },
         "check": { "cases": cmp.cases, "bit_exact": cmp.max_abs_diff == 0.0, "max_abs_diff": cmp.max_abs_diff },
     }))
