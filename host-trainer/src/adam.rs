@@ -58,6 +58,23 @@ impl Adam {
 
     /// One step against `grads` (which are not modified; the L2 term is added on the fly).
     ///
+    /// ```
+    /// # use host_trainer::net::{Net, NetConfig, Output};
+    /// # let config = NetConfig { inputs: 2, width: 4, depth: 1, outputs: 1,
+    /// #     activation: policy_core::Activation::Tanh, output: Output::Linear, dropout: 0.0 };
+    /// use host_trainer::adam::Adam;
+    /// let mut net = Net::new(config, &mut host_trainer::seed::stream(0, "n"));
+    /// let mut adam = Adam::new(&net, 1e-2, 0.0);
+    /// let mut grads = net.zero_grads();
+    /// grads.layers[0].w[0] = -0.5; // the loss falls as this weight grows
+    /// let before = net.layers[0].w[0];
+    /// for _ in 0..3 {
+    ///     adam.step(&mut net, &grads);
+    /// }
+    /// assert_eq!(adam.steps, 3);
+    /// assert!(net.layers[0].w[0] > before + 0.029);
+    /// ```
+    ///
     /// # Panics
     /// If `net` or `grads` does not have the shape the optimiser was built for.
     pub fn step(&mut self, net: &mut Net, grads: &Grads) {

@@ -27,7 +27,7 @@ use crate::seed::{self, Rng};
 use crate::Error;
 
 /// Hyper-parameters shared by every actor-critic algorithm. Defaults are the paper's values
-/// where it gives them ([paper]) and ours where it is silent ([ours]).
+/// where it gives them (\[paper\]) and ours where it is silent (\[ours\]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Config {
@@ -60,7 +60,7 @@ pub struct Config {
     pub updates_per_step: usize,
     /// Normalised observations are clipped to ±clip [ours: 5].
     pub norm_clip: f32,
-    /// Rewards are multiplied by this before they are stored [ours]. A constant factor changes
+    /// Rewards are multiplied by this before they are stored \[ours\]. A constant factor changes
     /// no optimal policy; it sets the scale the critic must reach from its ±3e-3 initial output.
     pub reward_scale: f32,
 }

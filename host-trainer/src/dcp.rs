@@ -29,7 +29,7 @@ use crate::seed::{self, Rng};
 pub struct Config {
     /// Number of proposals T per state [paper: T-fold compare; 16 is the largest T it tests].
     pub t: usize,
-    /// Proposal noise σc in the unit box; absent = the exploration σ [ours].
+    /// Proposal noise σc in the unit box; absent = the exploration σ \[ours\].
     pub sigma_c: Option<f32>,
     /// How proposals become regression targets [ours: best-of-T].
     pub variant: Variant,

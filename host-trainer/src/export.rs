@@ -127,6 +127,16 @@ fn scale(u: f32, lo: f32, hi: f32) -> f32 {
 ///
 /// # Panics
 /// If the sizes do not fit the network.
+///
+/// ```
+/// # use host_trainer::{export::q, net::{Net, NetConfig, Output}, normalize::RunningNorm};
+/// # let config = NetConfig { inputs: 4, width: 32, depth: 2, outputs: 1,
+/// #     activation: policy_core::Activation::Tanh, output: Output::Linear, dropout: 0.0 };
+/// let critic = Net::new(config, &mut host_trainer::seed::stream(1, "critic"));
+/// let norm = RunningNorm::new(2, 5.0);
+/// // Actions are clamped into the unit box, as on the chip.
+/// assert_eq!(q(&critic, &norm, &[1.0, 2.0], &[3.0, -0.5]), q(&critic, &norm, &[1.0, 2.0], &[1.0, -0.5]));
+/// ```
 pub fn q(net: &Net, norm: &RunningNorm, obs: &[f32], unit_action: &[f32]) -> f32 {
     let mut x = vec![0.0; norm.dim()];
     norm.normalize(obs, &mut x);

@@ -6,8 +6,8 @@
 //!
 //! The batched [`Net::forward`] / [`Net::backward`] pair is the training hot path (DCP scores 16
 //! proposals per sample, so the critic sees 64 × 17 rows per update). It works on row-major
-//! batches with the layer loops in [`kernels`], and keeps every intermediate buffer in a reusable
-//! [`Tape`], so a warm training step allocates nothing.
+//! batches with the register-tiled loops of `net/kernels.rs`, and keeps every intermediate
+//! buffer in a reusable [`Tape`], so a warm training step allocates nothing.
 
 mod kernels;
 
@@ -181,6 +181,17 @@ pub struct Grads {
 
 impl Grads {
     /// Sets every gradient to 0 (before accumulating a new batch).
+    ///
+    /// ```
+    /// # use host_trainer::net::{Net, NetConfig, Output};
+    /// # let config = NetConfig { inputs: 2, width: 4, depth: 1, outputs: 1,
+    /// #     activation: policy_core::Activation::Tanh, output: Output::Linear, dropout: 0.0 };
+    /// let net = Net::new(config, &mut host_trainer::seed::stream(0, "n"));
+    /// let mut grads = net.zero_grads();
+    /// grads.layers[0].w[0] = 3.0;
+    /// grads.zero();
+    /// assert_eq!(grads, net.zero_grads());
+    /// ```
     pub fn zero(&mut self) {
         self.layers
             .iter_mut()
@@ -189,6 +200,17 @@ impl Grads {
     }
 
     /// Multiplies every gradient by `k` (e.g. `1 / batch` for a mean loss).
+    ///
+    /// ```
+    /// # use host_trainer::net::{Net, NetConfig, Output};
+    /// # let config = NetConfig { inputs: 2, width: 4, depth: 1, outputs: 1,
+    /// #     activation: policy_core::Activation::Tanh, output: Output::Linear, dropout: 0.0 };
+    /// let net = Net::new(config, &mut host_trainer::seed::stream(0, "n"));
+    /// let mut grads = net.zero_grads();
+    /// grads.layers[1].b[0] = 3.0;
+    /// grads.scale(0.5);
+    /// assert_eq!(grads.layers[1].b[0], 1.5);
+    /// ```
     pub fn scale(&mut self, k: f32) {
         self.layers
             .iter_mut()
@@ -197,6 +219,17 @@ impl Grads {
     }
 
     /// Euclidean norm of all gradients (f64 accumulation), for logging and divergence checks.
+    ///
+    /// ```
+    /// # use host_trainer::net::{Net, NetConfig, Output};
+    /// # let config = NetConfig { inputs: 2, width: 4, depth: 1, outputs: 1,
+    /// #     activation: policy_core::Activation::Tanh, output: Output::Linear, dropout: 0.0 };
+    /// let net = Net::new(config, &mut host_trainer::seed::stream(0, "n"));
+    /// let mut grads = net.zero_grads();
+    /// grads.layers[0].w[0] = 3.0;
+    /// grads.layers[1].b[0] = -4.0;
+    /// assert_eq!(grads.norm(), 5.0);
+    /// ```
     pub fn norm(&self) -> f64 {
         self.layers
             .iter()
@@ -626,6 +659,16 @@ impl Net {
 
     /// Whether the layers have the sizes the config promises (fields are public, so a network
     /// read from a checkpoint is checked before it is exported).
+    ///
+    /// ```
+    /// # use host_trainer::net::{Net, NetConfig, Output};
+    /// # let config = NetConfig { inputs: 2, width: 4, depth: 1, outputs: 1,
+    /// #     activation: policy_core::Activation::Tanh, output: Output::Linear, dropout: 0.0 };
+    /// let mut net = Net::new(config, &mut host_trainer::seed::stream(0, "n"));
+    /// assert!(net.is_consistent());
+    /// net.layers[1].b.push(0.0);
+    /// assert!(!net.is_consistent());
+    /// ```
     pub fn is_consistent(&self) -> bool {
         let c = &self.config;
         self.layers.len() == c.depth + 1

@@ -45,6 +45,10 @@ impl RunningNorm {
     }
 
     /// Number of dimensions.
+    ///
+    /// ```
+    /// assert_eq!(host_trainer::normalize::RunningNorm::new(3, 5.0).dim(), 3);
+    /// ```
     pub fn dim(&self) -> usize {
         self.mean.len()
     }
@@ -77,12 +81,26 @@ impl RunningNorm {
     }
 
     /// The mean as exported (f32).
+    ///
+    /// ```
+    /// use host_trainer::normalize::RunningNorm;
+    /// let mut n = RunningNorm::new(1, 5.0);
+    /// [0.1, 0.2, 0.3].iter().for_each(|&x| n.update(&[x]));
+    /// assert_eq!(n.mean_f32(), vec![0.2]);
+    /// ```
     pub fn mean_f32(&self) -> Vec<f32> {
         self.mean.iter().map(|&m| m as f32).collect()
     }
 
     /// The inverse standard deviation as exported: `1 / sqrt(var + 1e-8)` with the population
     /// variance, or 1 before two samples have been seen.
+    ///
+    /// ```
+    /// use host_trainer::normalize::RunningNorm;
+    /// let mut n = RunningNorm::new(1, 5.0);
+    /// [2.0, 4.0, 2.0, 4.0].iter().for_each(|&x| n.update(&[x]));
+    /// assert!((n.inv_std_f32()[0] - 1.0).abs() < 1e-7); // std 1
+    /// ```
     pub fn inv_std_f32(&self) -> Vec<f32> {
         self.m2.iter().map(|&m2| self.inv_std_of(m2)).collect()
     }
@@ -140,6 +158,14 @@ impl RunningNorm {
     }
 
     /// [`RunningNorm::normalize_batch`] into a reused matrix (no allocation once warm).
+    ///
+    /// ```
+    /// use host_trainer::{net::Matrix, normalize::RunningNorm};
+    /// let n = RunningNorm::new(2, 1.0);
+    /// let mut z = Matrix::default();
+    /// n.normalize_batch_into(&Matrix::from_vec(1, 2, vec![0.5, f32::NAN]), &mut z);
+    /// assert_eq!(z, Matrix::from_vec(1, 2, vec![0.5, 0.0]));
+    /// ```
     pub fn normalize_batch_into(&self, obs: &Matrix, out: &mut Matrix) {
         out.reshape(obs.rows, obs.cols);
         for (zr, xr) in out
@@ -155,6 +181,17 @@ impl RunningNorm {
     ///
     /// # Panics
     /// If the dimension is not `S`.
+    ///
+    /// ```
+    /// use host_trainer::normalize::RunningNorm;
+    /// let mut n = RunningNorm::new(2, 5.0);
+    /// n.update(&[1.0, 2.0]);
+    /// n.update(&[3.0, 2.0]);
+    /// let frozen = n.to_policy::<2>();
+    /// let mut z = [0.0; 2];
+    /// n.normalize(&[2.5, 9.0], &mut z);
+    /// assert_eq!(frozen.normalize(&[2.5, 9.0]).as_slice(), &z);
+    /// ```
     pub fn to_policy<const S: usize>(&self) -> policy_core::Normalizer<S> {
         assert_eq!(self.dim(), S, "RunningNorm::to_policy: dimension");
         let mut n = policy_core::Normalizer::<S>::ZERO;

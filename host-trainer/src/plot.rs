@@ -119,10 +119,11 @@ fn draw_panel(out: &mut String, panel: &Panel, top: f64, x: (f64, f64), x_label:
         let ly = top + 14.0 + 14.0 * k as f64;
         let _ = writeln!(
             out,
-            r#"<line x1="{}" y1="{ly}" x2="{}" y2="{ly}" stroke="{}" stroke-width="2"/><text x="{}" y="{}">{}</text>"#,
+            r#"<line x1="{}" y1="{ly}" x2="{}" y2="{ly}" stroke="{}" stroke-opacity="{}" stroke-width="2"/><text x="{}" y="{}">{}</text>"#,
             WIDTH - 170.0,
             WIDTH - 150.0,
             series.color,
+            series.opacity,
             WIDTH - 145.0,
             ly + 4.0,
             escape(&series.name)
@@ -259,11 +260,9 @@ mod tests {
     #[test]
     fn ticks_are_round_and_inside_the_range() {
         let t = ticks((0.0, 3000.0));
-        assert_eq!(t, vec![0.0, 500.0, 1000.0, 1500.0, 2000.0, 2500.0, 3000.0]);
-        assert_eq!(
-            ticks((-0.05, 1.05)),
-            vec![0.0, 0.2, 0.4, 0.6000000000000001, 0.8, 1.0]
-        );
+        assert_eq!(t, vec![0.0, 1000.0, 2000.0, 3000.0]);
+        assert_eq!(ticks((-0.05, 1.05)), vec![0.0, 0.5, 1.0]);
+        assert_eq!(ticks((-180.0, -40.0)), vec![-150.0, -100.0, -50.0]);
     }
 
     #[test]

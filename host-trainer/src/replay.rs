@@ -116,11 +116,19 @@ impl Replay {
     }
 
     /// Whether nothing has been stored yet.
+    ///
+    /// ```
+    /// assert!(host_trainer::replay::Replay::new(4, 2, 2).is_empty());
+    /// ```
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }
 
     /// Maximum number of transitions kept.
+    ///
+    /// ```
+    /// assert_eq!(host_trainer::replay::Replay::new(4, 2, 2).capacity(), 4);
+    /// ```
     pub fn capacity(&self) -> usize {
         self.capacity
     }
@@ -136,6 +144,17 @@ impl Replay {
     }
 
     /// [`Replay::sample`] into a reused batch (no allocation once warm).
+    ///
+    /// ```
+    /// use host_trainer::replay::{Batch, Replay, Transition};
+    /// let mut replay = Replay::new(10, 1, 1);
+    /// replay.push(&Transition { obs: vec![1.0], action: vec![0.5], reward: -1.0,
+    ///                           next_obs: vec![2.0], terminal: true });
+    /// let mut batch = Batch::default();
+    /// replay.sample_into(3, &mut host_trainer::seed::stream(0, "replay"), &mut batch);
+    /// assert_eq!(batch.terminal, vec![1.0; 3]);
+    /// assert_eq!(batch.next_obs.data, vec![2.0; 3]);
+    /// ```
     ///
     /// # Panics
     /// If the buffer is empty.
