@@ -69,3 +69,8 @@ pub use error::Error;
 pub use mlp::{Activation, Dense, Trunk};
 pub use normalizer::Normalizer;
 pub use policy::Policy;
+
+/// The repository README's firmware example, compiled and run as a doctest so it cannot rot.
+#[cfg(doctest)]
+#[doc = include_str!("../../README.md")]
+pub struct ReadmeDoctests;
