@@ -51,6 +51,30 @@ pub struct TrainConfig {
     pub ddpg: ddpg::Config,
 }
 
+impl TrainConfig {
+    /// The smallest run that still exercises every code path (warm-up, updates, checkpoint,
+    /// export, evaluation): 3 episodes of a 2×32 network, batch 16, T = 4. Smoke tests and the
+    /// end-to-end test use it; it is far too small to learn anything.
+    pub fn smoke(algo: Algo, seed: u64) -> Self {
+        let mut c = TrainConfig {
+            algo,
+            seed,
+            episodes: 3,
+            checkpoint_every: 2,
+            eval_episodes: 5,
+            ..TrainConfig::default()
+        };
+        c.agent.hidden = agent::Hidden {
+            depth: 2,
+            width: 32,
+        };
+        c.agent.batch = 16;
+        c.agent.warmup_steps = 16;
+        c.dcp.t = 4;
+        c
+    }
+}
+
 impl Default for TrainConfig {
     fn default() -> Self {
         TrainConfig {

@@ -13,22 +13,7 @@ use host_trainer::Error;
 
 /// A budget that trains for real (updates happen) but finishes in seconds in debug.
 fn tiny(algo: Algo, seed: u64) -> TrainConfig {
-    let mut c = TrainConfig {
-        algo,
-        seed,
-        episodes: 3,
-        checkpoint_every: 2,
-        eval_episodes: 5,
-        ..TrainConfig::default()
-    };
-    c.agent.hidden = Hidden {
-        depth: 2,
-        width: 32,
-    };
-    c.agent.batch = 16;
-    c.agent.warmup_steps = 16;
-    c.dcp.t = 4;
-    c
+    TrainConfig::smoke(algo, seed)
 }
 
 fn scratch(tag: &str) -> PathBuf {

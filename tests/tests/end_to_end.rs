@@ -3,7 +3,6 @@
 
 use firmware_sim::controller::{BlobPolicy, Controller};
 use firmware_sim::harness::{evaluate, EvalConfig};
-use host_trainer::agent::Hidden;
 use host_trainer::run_dir::{self, RunDir};
 use host_trainer::train::{self, Algo, TrainConfig, Trainer};
 
@@ -13,20 +12,9 @@ fn trained_dcp_blob_runs_in_the_firmware_loop() {
     let _ = std::fs::remove_dir_all(&out);
     std::fs::create_dir_all(&out).expect("out dir");
 
-    let mut config = TrainConfig {
-        algo: Algo::Dcp,
-        seed: 11,
-        episodes: 3,
-        checkpoint_every: 3,
-        ..TrainConfig::default()
-    };
-    config.agent.hidden = Hidden {
-        depth: 2,
-        width: 32,
-    };
-    config.agent.batch = 16;
-    config.agent.warmup_steps = 16;
-    config.dcp.t = 4;
+    let mut config = TrainConfig::smoke(Algo::Dcp, 11);
+    config.checkpoint_every = 3;
+    config.eval_episodes = TrainConfig::default().eval_episodes;
     let mut trainer = Trainer::new(config).expect("trainer");
     let run = RunDir::create(&out, &trainer.config.run_name()).expect("run dir");
     train::run(&mut trainer, &run, &mut |_, _| {}).expect("training");
