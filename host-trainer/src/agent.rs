@@ -21,9 +21,10 @@ use serde::{Deserialize, Serialize};
 use crate::adam::Adam;
 use crate::export::{self, ActorParts};
 use crate::net::{soft_update, Grads, Matrix, Net, NetConfig, Output, Tape};
+use crate::noise::{Noise, NoiseProcess};
 use crate::normalize::RunningNorm;
 use crate::replay::{Replay, Transition};
-use crate::seed::{self, Rng};
+use crate::seed::Rng;
 use crate::Error;
 
 /// Hyper-parameters shared by every actor-critic algorithm. Defaults are the paper's values
@@ -52,6 +53,10 @@ pub struct Config {
     pub tau: f32,
     /// Exploration noise σ in the unit action box [ours: 0.2].
     pub sigma: f32,
+    /// The exploration process [paper: "random process"; ours: Gaussian].
+    pub noise: Noise,
+    /// Mean reversion θ of the Ornstein-Uhlenbeck process [ours: 0.15, DDPG's value].
+    pub ou_theta: f32,
     /// Replay buffer capacity in transitions [ours: 1,000,000, i.e. every step of 3,000 episodes].
     pub replay_capacity: usize,
     /// Environment steps collected before the first update [ours: 1,000].
@@ -81,6 +86,8 @@ impl Default for Config {
             gamma: 0.99,
             tau: 0.005,
             sigma: 0.2,
+            noise: Noise::Gaussian,
+            ou_theta: 0.15,
             replay_capacity: 1_000_000,
             warmup_steps: 1_000,
             updates_per_step: 1,
@@ -110,6 +117,7 @@ impl Config {
         unit("agent.gamma", self.gamma, 0.0, 1.0, true)?;
         unit("agent.tau", self.tau, 0.0, 1.0, false)?;
         unit("agent.sigma", self.sigma, 0.0, f32::MAX, false)?;
+        unit("agent.ou_theta", self.ou_theta, 0.0, 1.0, false)?;
         unit("agent.l2", self.l2, 0.0, f32::MAX, false)?;
         unit(
             "agent.norm_clip",
@@ -337,13 +345,24 @@ impl Agent {
         export::act(&self.parts(), obs)
     }
 
-    /// Exploration: ã = clip(P(s) + N(0, σ²), -1, 1) in the unit box.
-    pub fn explore(&self, obs: &[f32], rng: &mut Rng) -> Vec<f32> {
+    /// Exploration: ã = clip(P(s) + noise, -1, 1) in the unit box, with the next draw of the
+    /// episode's noise process (see [`crate::noise`]).
+    pub fn explore(&self, obs: &[f32], noise: &mut NoiseProcess, rng: &mut Rng) -> Vec<f32> {
         let mut unit = export::act_unit(&self.parts(), obs);
-        for u in &mut unit {
-            *u = (*u + self.config.sigma * seed::normal(rng)).clamp(-1.0, 1.0);
+        for (u, n) in unit.iter_mut().zip(noise.sample(rng)) {
+            *u = (*u + n).clamp(-1.0, 1.0);
         }
         unit
+    }
+
+    /// A noise process at rest with this agent's settings.
+    pub fn noise_process(&self) -> NoiseProcess {
+        NoiseProcess::new(
+            self.config.noise,
+            self.config.sigma,
+            self.config.ou_theta,
+            self.low.len(),
+        )
     }
 
     /// Maps a unit action to the plant's box, with policy-core's formula.

@@ -123,15 +123,9 @@ impl fmt::Display for Error {
     }
 }
 
-impl std::error::Error for Error {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            Error::Blob(e) => Some(e),
-            Error::Io { source, .. } => Some(source),
-            _ => None,
-        }
-    }
-}
+/// `source()` stays `None`: every `Display` above already includes its cause, and reporting it
+/// twice (once in the message, once in the chain `{:#}` prints) reads as two errors.
+impl std::error::Error for Error {}
 
 impl From<policy_core::Error> for Error {
     fn from(e: policy_core::Error) -> Self {

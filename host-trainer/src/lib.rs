@@ -12,7 +12,7 @@
 //! - [`net`], [`adam`], [`normalize`], [`replay`]: the MLP with back-propagation, its optimiser,
 //!   the running observation normaliser and the replay buffer.
 //! - [`agent`]: the actor-critic machinery DDPG and DCP share (critic Bellman update, targets,
-//!   exploration in the unit action box).
+//!   exploration in the unit action box) and [`noise`] (the exploration process).
 //! - [`ddpg`] and [`dcp`]: the two actor updates, one file each, config first.
 //! - [`train`]: the episode loop on a firmware-sim plant, metrics, checkpoints, divergence stop.
 //! - [`export`]: actor and critic blobs for policy-core; [`checkpoint`], [`run_dir`], [`plot`]:
@@ -32,6 +32,7 @@
 pub mod adam;
 pub mod export;
 pub mod net;
+pub mod noise;
 pub mod normalize;
 pub mod replay;
 pub mod seed;

@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! host-trainer train [--task nav-walls] [--algo dcp] [--hidden 4x48] [--reward gr] [--episodes 3000]
-//!                    [--t 16] [--sigma 0.2] [--seed 0] [--out runs] [--config FILE] [--resume RUN_DIR]
+//!                    [--t 16] [--sigma 0.2] [--noise gaussian|ou] [--seed 0] [--out runs] [--config FILE] [--resume RUN_DIR]
 //! host-trainer eval --blob FILE [--task nav-walls] [--episodes 100] [--seed 0] [--json FILE]
 //! host-trainer export --run RUN_DIR
 //! ```
@@ -18,6 +18,7 @@ use clap::{Args, Parser, Subcommand};
 use firmware_sim::harness::{self, EvalConfig, Report};
 use host_trainer::agent::Hidden;
 use host_trainer::checkpoint::Checkpoint;
+use host_trainer::noise::Noise;
 use host_trainer::run_dir::{self, write_atomic, RunDir};
 use host_trainer::train::{self, Algo, RewardKind, TrainConfig, Trainer};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -67,6 +68,9 @@ struct TrainArgs {
     /// Exploration noise σ in the unit action box (also DCP's σc unless set) [default: 0.2].
     #[arg(long)]
     sigma: Option<f32>,
+    /// Exploration process: independent Gaussian or Ornstein-Uhlenbeck [default: gaussian].
+    #[arg(long, value_enum)]
+    noise: Option<Noise>,
     /// Dropout probability while training [default: see README "Dropout"].
     #[arg(long)]
     dropout: Option<f32>,
@@ -83,7 +87,7 @@ struct TrainArgs {
     #[arg(long)]
     config: Option<PathBuf>,
     /// Continue the run in this folder from its checkpoint (--episodes may raise the budget).
-    #[arg(long, conflicts_with_all = ["task", "algo", "hidden", "reward", "t", "sigma", "dropout", "reward_scale", "seed", "out", "config"])]
+    #[arg(long, conflicts_with_all = ["task", "algo", "hidden", "reward", "t", "sigma", "noise", "dropout", "reward_scale", "seed", "out", "config"])]
     resume: Option<PathBuf>,
     /// No progress bar.
     #[arg(long)]
@@ -225,6 +229,9 @@ fn apply_flags(config: &mut TrainConfig, args: &TrainArgs) {
     }
     if let Some(v) = args.sigma {
         config.agent.sigma = v;
+    }
+    if let Some(v) = args.noise {
+        config.agent.noise = v;
     }
     if let Some(v) = args.dropout {
         config.agent.dropout = v;

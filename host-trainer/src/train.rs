@@ -481,8 +481,9 @@ impl Trainer {
         let mut obs = self.env.reset(self.rngs.env.next_u64());
         let (mut ret, mut steps, mut totals) = (0.0f32, 0usize, Totals::default());
         let mut recent = Vec::with_capacity(SETTLE_WINDOW);
+        let mut noise = self.agent.noise_process(); // at rest: no state crosses episodes
         let reached = loop {
-            let unit = self.agent.explore(&obs, &mut self.rngs.explore);
+            let unit = self.agent.explore(&obs, &mut noise, &mut self.rngs.explore);
             let step = self.env.step(&self.agent.scale(&unit));
             self.agent.remember(&Transition {
                 obs,

@@ -87,7 +87,9 @@ fn missing_output_folder_is_an_error_and_is_not_created() {
         "--episodes",
         "1",
     ]);
-    assert_one_line_error(&out, &["does not exist"]);
+    let stderr = assert_one_line_error(&out, &["does not exist"]);
+    // The cause once: an error's message and its source chain must not both print it.
+    assert_eq!(stderr.matches("does not exist").count(), 1, "{stderr}");
     assert!(!base.join("no").exists());
     std::fs::remove_dir_all(&base).expect("cleanup");
 }

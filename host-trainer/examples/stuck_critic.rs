@@ -1,0 +1,125 @@
+//! Why is a trained policy stuck at a wall: does its critic agree, or does the actor fail to
+//! follow its critic?
+//!
+//! ```sh
+//! cargo run --release -p host-trainer --example stuck_critic -- runs/nav-walls__dcp__0 [nav-walls]
+//! ```
+//!
+//! Runs the run folder's `policy.postcard` through firmware-sim's test protocol (100 starts,
+//! seed 0), and at the end position of every episode that ended stuck at a margin, searches the
+//! exported `critic.postcard` over a 41 × 41 grid of unit actions for the critic's best action
+//! a*. It then reports how often a* and the actor's own action a0 are blocked by a wall (the
+//! plant moves less than 20 % of the commanded step), how far apart they are in the unit box,
+//! and the critic's value gap Q(s, a*) - Q(s, a0).
+//!
+//! - a* blocked too: the critic itself rates pushing into the wall best. The actor is doing its
+//!   job; the value estimate (and the exploration that feeds it) is what holds the policy there.
+//! - a* free and far from a0: the critic knows a way out that the actor update does not reach
+//!   (for DCP: further away than the proposals σc reach).
+//!
+//! Only 4×48 actors and critics (the default) are handled.
+
+use std::process::ExitCode;
+
+use anyhow::{bail, Context, Result};
+use firmware_sim::env::Env;
+use firmware_sim::geometry::Vec2;
+use firmware_sim::harness::{evaluate, EvalConfig};
+use firmware_sim::nav::NavEnv;
+use firmware_sim::scenario::Scenario;
+use policy_core::{Critic, Policy};
+
+type Actor = Policy<2, 48, 3, 2>;
+type Value = Critic<2, 2, 48, 3>;
+
+/// Grid points per action dimension for the critic's argmax.
+const GRID: usize = 41;
+/// A step counts as blocked when the plant moves less than this fraction of it.
+const BLOCKED: f64 = 0.2;
+
+fn main() -> ExitCode {
+    match run() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("stuck_critic: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let Some(dir) = args.first() else {
+        bail!("usage: stuck_critic RUN_DIR [SCENARIO]");
+    };
+    let scenario = Scenario::resolve(args.get(1).map_or("nav-walls", String::as_str))?;
+    let read = |name: &str| {
+        let path = format!("{dir}/{name}");
+        std::fs::read(&path).with_context(|| path)
+    };
+    let policy_bytes = read("policy.postcard")?;
+    let actor = Actor::from_blob(&policy_bytes)
+        .map_err(|e| anyhow::anyhow!("policy.postcard (must be a 4x48 actor): {e}"))?;
+    let critic = Value::from_blob(&read("critic.postcard")?)
+        .map_err(|e| anyhow::anyhow!("critic.postcard (must be a 4x48 critic): {e}"))?;
+    let report = evaluate(&policy_bytes, &scenario, &EvalConfig::default())?;
+    let mut plant = NavEnv::new(&scenario)?;
+    let max_step = scenario.max_step;
+
+    let (mut stuck, mut critic_blocked, mut actor_blocked) = (0, 0, 0);
+    let (mut gap, mut apart) = (0.0f32, 0.0f32);
+    for episode in report.episodes.iter().filter(|e| e.stuck) {
+        let s = [episode.end[0] as f32, episode.end[1] as f32];
+        let a0 = actor.act_unit(&s);
+        let (q_best, a_best) = argmax(&critic, &s);
+        let mut blocked = |a: [f32; 2]| {
+            plant.reset(0);
+            let from = Vec2::new(episode.end[0], episode.end[1]);
+            plant.set_position(from);
+            plant.step(&[a[0] * max_step, a[1] * max_step]);
+            let to = plant.position();
+            let moved = (to.x - from.x).hypot(to.y - from.y);
+            let asked = f64::from(max_step) * f64::from(a[0].hypot(a[1]));
+            moved < BLOCKED * asked
+        };
+        stuck += 1;
+        critic_blocked += usize::from(blocked(a_best));
+        actor_blocked += usize::from(blocked(a0));
+        gap += q_best - critic.q(&s, &a0);
+        apart += (a0[0] - a_best[0]).hypot(a0[1] - a_best[1]);
+    }
+    println!(
+        "{dir}: {} test starts, {stuck} ended stuck at a margin",
+        report.episodes.len()
+    );
+    if stuck > 0 {
+        let n = stuck as f32;
+        println!("  actor's action a0 blocked by the wall      {actor_blocked} of {stuck}");
+        println!("  critic's best action a* blocked            {critic_blocked} of {stuck}");
+        println!(
+            "  mean |a0 - a*| in the unit box             {:.2}",
+            apart / n
+        );
+        println!(
+            "  mean Q(s, a*) - Q(s, a0)                   {:.3}",
+            gap / n
+        );
+    }
+    Ok(())
+}
+
+/// The critic's best action over a GRID × GRID grid of the unit box.
+fn argmax(critic: &Value, s: &[f32; 2]) -> (f32, [f32; 2]) {
+    let unit = |k: usize| -1.0 + 2.0 * k as f32 / (GRID - 1) as f32;
+    let mut best = (f32::NEG_INFINITY, [0.0; 2]);
+    for i in 0..GRID {
+        for j in 0..GRID {
+            let a = [unit(i), unit(j)];
+            let q = critic.q(s, &a);
+            if q > best.0 {
+                best = (q, a);
+            }
+        }
+    }
+    best
+}
