@@ -35,7 +35,7 @@ type Value = Critic<2, 2, 48, 3>;
 /// Grid points per action dimension for the critic's argmax.
 const GRID: usize = 41;
 /// A step counts as blocked when the plant moves less than this fraction of it.
-const BLOCKED: f64 = 0.2;
+const BLOCKED: f32 = 0.2;
 
 fn main() -> ExitCode {
     match run() {
@@ -71,21 +71,20 @@ fn run() -> Result<()> {
     for episode in report.episodes.iter().filter(|e| e.stuck) {
         let s = [episode.end[0] as f32, episode.end[1] as f32];
         let a0 = actor.act_unit(&s);
-        let (q_best, a_best) = argmax(&critic, &s);
+        let z: [f32; 2] = critic.normalizer.normalize(&s).into();
+        let (q_best, a_best) = argmax(&critic, &z);
+        // StepInfo::applied is the motion the plant carried out, in the action's units.
         let mut blocked = |a: [f32; 2]| {
             plant.reset(0);
-            let from = Vec2::new(episode.end[0], episode.end[1]);
-            plant.set_position(from);
-            plant.step(&[a[0] * max_step, a[1] * max_step]);
-            let to = plant.position();
-            let moved = (to.x - from.x).hypot(to.y - from.y);
-            let asked = f64::from(max_step) * f64::from(a[0].hypot(a[1]));
-            moved < BLOCKED * asked
+            plant.set_position(Vec2::new(episode.end[0], episode.end[1]));
+            let applied = plant.step(&[a[0] * max_step, a[1] * max_step]).info.applied;
+            let moved = applied[0].hypot(applied[1]);
+            moved < BLOCKED * max_step * a[0].hypot(a[1])
         };
         stuck += 1;
         critic_blocked += usize::from(blocked(a_best));
         actor_blocked += usize::from(blocked(a0));
-        gap += q_best - critic.q(&s, &a0);
+        gap += q_best - critic.q_normalized(&z, &a0);
         apart += (a0[0] - a_best[0]).hypot(a0[1] - a_best[1]);
     }
     println!(
@@ -108,14 +107,15 @@ fn run() -> Result<()> {
     Ok(())
 }
 
-/// The critic's best action over a GRID × GRID grid of the unit box.
-fn argmax(critic: &Value, s: &[f32; 2]) -> (f32, [f32; 2]) {
+/// The critic's best action over a GRID × GRID grid of the unit box, for the normalised
+/// observation `z` (normalised once, not once per grid point).
+fn argmax(critic: &Value, z: &[f32; 2]) -> (f32, [f32; 2]) {
     let unit = |k: usize| -1.0 + 2.0 * k as f32 / (GRID - 1) as f32;
     let mut best = (f32::NEG_INFINITY, [0.0; 2]);
     for i in 0..GRID {
         for j in 0..GRID {
             let a = [unit(i), unit(j)];
-            let q = critic.q(s, &a);
+            let q = critic.q_normalized(z, &a);
             if q > best.0 {
                 best = (q, a);
             }

@@ -12,10 +12,9 @@
 //! use host_trainer::noise::{Noise, NoiseProcess};
 //! let mut rng = host_trainer::seed::stream(1, "doc");
 //! let mut ou = NoiseProcess::new(Noise::Ou, 0.2, 0.15, 2);
+//! assert_eq!(ou.state(), &[0.0, 0.0]); // at rest: the trainer starts one per episode
 //! let first = ou.sample(&mut rng).to_vec();
 //! assert_eq!(first.len(), 2);
-//! ou.reset();
-//! assert_eq!(ou.state(), &[0.0, 0.0]);
 //! ```
 
 use serde::{Deserialize, Serialize};
@@ -43,7 +42,9 @@ pub struct NoiseProcess {
 }
 
 impl NoiseProcess {
-    /// A process for `dims` action dimensions, at rest.
+    /// A process for `dims` action dimensions, at rest. The trainer starts a new one every
+    /// episode, so the noise never carries state across an episode boundary (where checkpoints
+    /// are taken).
     pub fn new(kind: Noise, sigma: f32, theta: f32, dims: usize) -> NoiseProcess {
         NoiseProcess {
             kind,
@@ -51,12 +52,6 @@ impl NoiseProcess {
             theta,
             x: vec![0.0; dims],
         }
-    }
-
-    /// Back to rest; called at the start of every episode, so the noise never carries state
-    /// across an episode boundary (where checkpoints are taken).
-    pub fn reset(&mut self) {
-        self.x.iter_mut().for_each(|x| *x = 0.0);
     }
 
     /// The next noise vector, one normal draw per dimension in order.
@@ -115,12 +110,11 @@ mod tests {
     }
 
     #[test]
-    fn reset_returns_to_rest() {
+    fn a_new_process_is_at_rest_until_sampled() {
         let mut rng = seed::stream(9, "noise-test");
         let mut p = NoiseProcess::new(Noise::Ou, 0.5, 0.15, 3);
+        assert_eq!(p.state(), &[0.0; 3]);
         p.sample(&mut rng);
         assert!(p.state().iter().any(|&x| x != 0.0));
-        p.reset();
-        assert_eq!(p.state(), &[0.0; 3]);
     }
 }

@@ -11,11 +11,6 @@ use host_trainer::run_dir::{self, RunDir};
 use host_trainer::train::{self, Algo, TrainConfig, Trainer};
 use host_trainer::Error;
 
-/// A budget that trains for real (updates happen) but finishes in seconds in debug.
-fn tiny(algo: Algo, seed: u64) -> TrainConfig {
-    TrainConfig::smoke(algo, seed)
-}
-
 fn scratch(tag: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("host-trainer-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -33,7 +28,7 @@ fn train_to_end(config: TrainConfig, out: &std::path::Path) -> (Trainer, RunDir)
 #[test]
 fn dcp_smoke_run_updates_and_writes_every_file() {
     let out = scratch("dcp-smoke");
-    let (trainer, run) = train_to_end(tiny(Algo::Dcp, 1), &out);
+    let (trainer, run) = train_to_end(TrainConfig::smoke(Algo::Dcp, 1), &out);
     trainer.export(&run).expect("export");
     assert_eq!(trainer.metrics.len(), 3);
     let last = trainer.metrics.last().expect("rows");
@@ -66,7 +61,7 @@ fn dcp_smoke_run_updates_and_writes_every_file() {
 fn ddpg_smoke_run_both_actor_gradients() {
     for gradient in [ActorGradient::Textbook, ActorGradient::NoisyAction] {
         let out = scratch("ddpg-smoke");
-        let mut config = tiny(Algo::Ddpg, 2);
+        let mut config = TrainConfig::smoke(Algo::Ddpg, 2);
         config.ddpg.actor_gradient = gradient;
         let (trainer, _) = train_to_end(config, &out);
         let last = trainer.metrics.last().expect("rows");
@@ -83,7 +78,7 @@ fn ddpg_smoke_run_both_actor_gradients() {
 fn dcp_variants_train() {
     for variant in [Variant::Weighted, Variant::HillClimb] {
         let out = scratch("dcp-variants");
-        let mut config = tiny(Algo::Dcp, 3);
+        let mut config = TrainConfig::smoke(Algo::Dcp, 3);
         config.dcp.variant = variant;
         let (trainer, _) = train_to_end(config, &out);
         let last = trainer.metrics.last().expect("rows");
@@ -101,7 +96,7 @@ fn same_seed_same_blob_bytes_other_seed_other_bytes() {
     let blob = |seed: u64, sub: &str| {
         let dir = out.join(sub);
         std::fs::create_dir_all(&dir).expect("dir");
-        let (trainer, _) = train_to_end(tiny(Algo::Dcp, seed), &dir);
+        let (trainer, _) = train_to_end(TrainConfig::smoke(Algo::Dcp, seed), &dir);
         trainer.agent.actor_blob("determinism").expect("blob")
     };
     let a = blob(7, "a");
@@ -121,10 +116,10 @@ fn resumed_run_equals_uninterrupted_run() {
     let parts = out.join("parts");
     std::fs::create_dir_all(&whole).expect("dir");
     std::fs::create_dir_all(&parts).expect("dir");
-    let (uninterrupted, _) = train_to_end(tiny(Algo::Dcp, 5), &whole);
+    let (uninterrupted, _) = train_to_end(TrainConfig::smoke(Algo::Dcp, 5), &whole);
 
     // Stop after 2 episodes (the checkpoint interval), then resume from the file to 3.
-    let mut first = tiny(Algo::Dcp, 5);
+    let mut first = TrainConfig::smoke(Algo::Dcp, 5);
     first.episodes = 2;
     let (_, run) = train_to_end(first, &parts);
     let path = run.file(run_dir::CHECKPOINT);
@@ -145,7 +140,7 @@ fn resumed_run_equals_uninterrupted_run() {
 #[test]
 fn divergence_stops_with_a_clear_error_and_keeps_the_last_good_checkpoint() {
     let out = scratch("diverge");
-    let mut config = tiny(Algo::Ddpg, 4);
+    let mut config = TrainConfig::smoke(Algo::Ddpg, 4);
     config.episodes = 4;
     config.checkpoint_every = 1;
     // Start updating only in episode 2, so episode 1's checkpoint is good; then a learning rate
@@ -180,7 +175,7 @@ fn divergence_stops_with_a_clear_error_and_keeps_the_last_good_checkpoint() {
 
 #[test]
 fn config_round_trips_through_toml_and_rejects_unknown_keys() {
-    let mut c = tiny(Algo::Dcp, 9);
+    let mut c = TrainConfig::smoke(Algo::Dcp, 9);
     c.dcp.sigma_c = Some(0.5);
     let text = c.to_toml();
     assert_eq!(toml::from_str::<TrainConfig>(&text).expect("parse"), c);
@@ -190,7 +185,7 @@ fn config_round_trips_through_toml_and_rejects_unknown_keys() {
 
 #[test]
 fn unsupported_shape_is_refused_before_training() {
-    let mut c = tiny(Algo::Dcp, 0);
+    let mut c = TrainConfig::smoke(Algo::Dcp, 0);
     c.agent.hidden = Hidden {
         depth: 3,
         width: 40,
@@ -209,7 +204,7 @@ fn old_or_truncated_checkpoints_are_clear_errors() {
     let err = Checkpoint::load(&old).expect_err("old format");
     assert!(err.to_string().contains("DCPCKPT2"), "{err}");
 
-    let mut config = tiny(Algo::Dcp, 6);
+    let mut config = TrainConfig::smoke(Algo::Dcp, 6);
     config.episodes = 1;
     let (trainer, _) = train_to_end(config, &out);
     let bytes = trainer.checkpoint().to_bytes().expect("encode");
