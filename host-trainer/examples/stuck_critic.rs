@@ -67,7 +67,7 @@ fn run() -> Result<()> {
     let max_step = scenario.max_step;
 
     let (mut stuck, mut critic_blocked, mut actor_blocked) = (0, 0, 0);
-    let (mut gap, mut apart) = (0.0f32, 0.0f32);
+    let (mut gap, mut apart, mut value) = (0.0f32, 0.0f32, 0.0f32);
     for episode in report.episodes.iter().filter(|e| e.stuck) {
         let s = [episode.end[0] as f32, episode.end[1] as f32];
         let a0 = actor.act_unit(&s);
@@ -84,7 +84,9 @@ fn run() -> Result<()> {
         stuck += 1;
         critic_blocked += usize::from(blocked(a_best));
         actor_blocked += usize::from(blocked(a0));
-        gap += q_best - critic.q_normalized(&z, &a0);
+        let q0 = critic.q_normalized(&z, &a0);
+        value += q0;
+        gap += q_best - q0;
         apart += (a0[0] - a_best[0]).hypot(a0[1] - a_best[1]);
     }
     println!(
@@ -102,6 +104,10 @@ fn run() -> Result<()> {
         println!(
             "  mean Q(s, a*) - Q(s, a0)                   {:.3}",
             gap / n
+        );
+        println!(
+            "  mean Q(s, a0), for scale                   {:.2}",
+            value / n
         );
     }
     Ok(())

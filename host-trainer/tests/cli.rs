@@ -64,6 +64,7 @@ fn malformed_values_are_rejected_before_any_file_is_written() {
         ("--t", "0", "dcp.t"),
         ("--task", "nav-nowhere", "nav-nowhere"),
         ("--reward", "best", "best"),
+        ("--noise", "brownian", "brownian"),
     ] {
         let out = host_trainer(&["train", flag, value, "--out", dir, "--episodes", "1"]);
         assert_one_line_error(&out, &[needle]);
@@ -141,6 +142,19 @@ fn unreadable_or_invalid_config_file_is_one_line() {
     ]);
     assert_one_line_error(&out, &["bad.toml", "learning_rat"]);
     assert_eq!(entries(&base), vec!["bad.toml".to_string()]);
+    let theta = base.join("theta.toml");
+    std::fs::write(&theta, "[agent]\nnoise = \"ou\"\nou_theta = 1.5\n").expect("write");
+    let out = host_trainer(&[
+        "train",
+        "--config",
+        theta.to_str().expect("utf-8"),
+        "--out",
+        dir,
+    ]);
+    assert_one_line_error(&out, &["agent.ou_theta"]);
+    let mut left = entries(&base);
+    left.sort();
+    assert_eq!(left, vec!["bad.toml".to_string(), "theta.toml".to_string()]);
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
 
