@@ -131,26 +131,22 @@ fn unreadable_or_invalid_config_file_is_one_line() {
     let dir = base.to_str().expect("utf-8");
     let out = host_trainer(&["train", "--config", "/no/such/config.toml", "--out", dir]);
     assert_one_line_error(&out, &["/no/such/config.toml"]);
-    let bad = base.join("bad.toml");
-    std::fs::write(&bad, "episodes = 10\nlearning_rat = 0.1\n").expect("write");
-    let out = host_trainer(&[
-        "train",
-        "--config",
-        bad.to_str().expect("utf-8"),
-        "--out",
-        dir,
-    ]);
+    // Writes a config file into `base` and trains with it.
+    let train_with = |name: &str, text: &str| {
+        let path = base.join(name);
+        std::fs::write(&path, text).expect("write");
+        host_trainer(&[
+            "train",
+            "--config",
+            path.to_str().expect("utf-8"),
+            "--out",
+            dir,
+        ])
+    };
+    let out = train_with("bad.toml", "episodes = 10\nlearning_rat = 0.1\n");
     assert_one_line_error(&out, &["bad.toml", "learning_rat"]);
     assert_eq!(entries(&base), vec!["bad.toml".to_string()]);
-    let theta = base.join("theta.toml");
-    std::fs::write(&theta, "[agent]\nnoise = \"ou\"\nou_theta = 1.5\n").expect("write");
-    let out = host_trainer(&[
-        "train",
-        "--config",
-        theta.to_str().expect("utf-8"),
-        "--out",
-        dir,
-    ]);
+    let out = train_with("theta.toml", "[agent]\nnoise = \"ou\"\nou_theta = 1.5\n");
     assert_one_line_error(&out, &["agent.ou_theta"]);
     let mut left = entries(&base);
     left.sort();
