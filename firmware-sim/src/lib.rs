@@ -9,6 +9,7 @@
 //!   [`geometry`]: exact sliding motion among zero-thickness walls.
 //! - [`harness`]: the firmware loop (boot from a blob, sensor, actuator, faults) and its margin
 //!   metrics; [`controller`]: blob policies of every compiled shape and reference controllers.
+//! - [`files`]: atomic output files, output paths checked before work, bounded blob reads.
 #![deny(missing_docs)]
 
 pub mod actuator;
@@ -16,6 +17,7 @@ pub mod controller;
 pub mod env;
 pub mod error;
 pub mod faults;
+pub mod files;
 pub mod geometry;
 pub mod harness;
 pub mod metrics;

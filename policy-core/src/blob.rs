@@ -29,6 +29,12 @@ pub const CRC_LEN: usize = 4;
 /// The largest encoded header: magic 4, version 3, kind 1, shape 10, activation 1, label 33,
 /// payload length 5 (postcard varints at their widest).
 pub const MAX_HEADER_LEN: usize = 57;
+/// The largest payload the format allows: 16 MiB, four million `f32` parameters, far above any
+/// network a microcontroller can hold. A header declaring more is malformed, so a reader can
+/// refuse an oversized file before reading it whole.
+pub const MAX_PAYLOAD_LEN: usize = 16 << 20;
+/// The largest blob the format allows: the widest header, [`MAX_PAYLOAD_LEN`] and the CRC.
+pub const MAX_BLOB_LEN: usize = MAX_HEADER_LEN + MAX_PAYLOAD_LEN + CRC_LEN;
 
 /// What a blob holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -242,6 +248,11 @@ fn checked_payload_len(header: &Header) -> Result<usize, Error> {
     if header.shape.depth == 0 || header.shape.width == 0 || expected.is_none() {
         return Err(Error::Malformed {
             what: "shape has no hidden layer or is too large",
+        });
+    }
+    if expected.is_some_and(|n| n > MAX_PAYLOAD_LEN) {
+        return Err(Error::Malformed {
+            what: "payload larger than the format's 16 MiB maximum",
         });
     }
     let found = usize::try_from(header.payload_len).ok();

@@ -1,0 +1,355 @@
+//! Files in and out, the one way both binaries (firmware-sim and host-trainer) do it.
+//!
+//! - [`AtomicFile`] / [`write_atomic`]: every output is written to a temporary sibling
+//!   (`.NAME.tmp-PID-N`) and renamed into place, so a reader sees the previous complete file or
+//!   the new complete file, never half of one. On failure, or when dropped without
+//!   [`AtomicFile::commit`], the temporary file is removed; temporaries left by a process that
+//!   was killed are removed the next time anything writes that file ([`remove_stale_temps`]).
+//! - [`check_output`]: an output path is checked (its folder exists and is writable, it is not a
+//!   folder) before any work, so a long evaluation never ends in "cannot write".
+//! - [`read_blob`]: reads a blob file, refusing one larger than any blob can be
+//!   ([`policy_core::blob::MAX_BLOB_LEN`]) before reading it.
+
+use std::fs;
+use std::io::{self, Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Counts temporaries made by this process, so two writers of one file never share a name.
+static NEXT_TEMP: AtomicU64 = AtomicU64::new(0);
+
+/// A file being written: bytes go to a temporary sibling until [`AtomicFile::commit`] renames
+/// it over the target. Dropped without a commit (an error, a panic, an early return), it
+/// removes its temporary file.
+///
+/// ```
+/// use std::io::Write;
+/// use firmware_sim::files::AtomicFile;
+/// let dir = std::env::temp_dir().join(format!("atomic-file-doc-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir).unwrap();
+/// let path = dir.join("report.json");
+/// let mut file = AtomicFile::create(&path).unwrap();
+/// file.write_all(b"{}").unwrap();
+/// assert!(!path.exists()); // nothing visible until the commit
+/// file.commit().unwrap();
+/// assert_eq!(std::fs::read(&path).unwrap(), b"{}");
+/// # std::fs::remove_dir_all(&dir).unwrap();
+/// ```
+#[derive(Debug)]
+pub struct AtomicFile {
+    target: PathBuf,
+    temp: PathBuf,
+    /// `None` once committed.
+    file: Option<io::BufWriter<fs::File>>,
+}
+
+impl AtomicFile {
+    /// Starts writing `path`; removes temporaries of `path` that dead processes left behind.
+    pub fn create(path: &Path) -> io::Result<AtomicFile> {
+        let name = file_name(path)?;
+        let dir = folder_of(path);
+        remove_stale_temps(dir, Some(&name))?;
+        let n = NEXT_TEMP.fetch_add(1, Ordering::Relaxed);
+        let temp = dir.join(format!(".{name}.tmp-{}-{n}", std::process::id()));
+        let file = fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&temp)?;
+        Ok(AtomicFile {
+            target: path.to_path_buf(),
+            temp,
+            file: Some(io::BufWriter::new(file)),
+        })
+    }
+
+    /// Flushes, syncs to disk and renames the temporary file over the target.
+    pub fn commit(mut self) -> io::Result<()> {
+        let Some(writer) = self.file.take() else {
+            return Ok(());
+        };
+        let result = writer
+            .into_inner()
+            .map_err(|e| e.into_error())
+            .and_then(|file| file.sync_all())
+            .and_then(|()| fs::rename(&self.temp, &self.target));
+        if result.is_err() {
+            let _ = fs::remove_file(&self.temp);
+        }
+        result
+    }
+
+    /// The temporary file's path (tests use it to check clean-up).
+    pub fn temp_path(&self) -> &Path {
+        &self.temp
+    }
+}
+
+impl Write for AtomicFile {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        match &mut self.file {
+            Some(f) => f.write(buf),
+            None => Err(io::Error::other("file already committed")),
+        }
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        match &mut self.file {
+            Some(f) => f.flush(),
+            None => Ok(()),
+        }
+    }
+}
+
+impl Drop for AtomicFile {
+    fn drop(&mut self) {
+        if self.file.take().is_some() {
+            // Best effort: an uncommitted write leaves nothing behind.
+            let _ = fs::remove_file(&self.temp);
+        }
+    }
+}
+
+/// Writes `bytes` to `path` atomically (see [`AtomicFile`]).
+///
+/// ```
+/// let path = std::env::temp_dir().join(format!("write-atomic-doc-{}.txt", std::process::id()));
+/// firmware_sim::files::write_atomic(&path, b"hello").unwrap();
+/// assert_eq!(std::fs::read(&path).unwrap(), b"hello");
+/// # std::fs::remove_file(&path).unwrap();
+/// ```
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
+    let mut file = AtomicFile::create(path)?;
+    file.write_all(bytes)?;
+    file.commit()
+}
+
+/// Removes the temporary files (`.NAME.tmp-PID-N`) in `dir` that a process no longer running
+/// left behind, for one target `NAME` or, with `None`, for every target. Temporaries of live
+/// processes (a concurrent writer) are kept. Returns how many were removed.
+pub fn remove_stale_temps(dir: &Path, name: Option<&str>) -> io::Result<usize> {
+    let entries = match fs::read_dir(dir) {
+        Ok(entries) => entries,
+        // A missing folder holds no temporaries; creating the file will report it.
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(0),
+        Err(e) => return Err(e),
+    };
+    let mut removed = 0;
+    for entry in entries {
+        let entry = entry?;
+        let file_name = entry.file_name();
+        let Some((target, pid)) = file_name.to_str().and_then(parse_temp_name) else {
+            continue;
+        };
+        if name.is_some_and(|n| n != target) || process_alive(pid) {
+            continue;
+        }
+        match fs::remove_file(entry.path()) {
+            Ok(()) => removed += 1,
+            Err(e) if e.kind() == io::ErrorKind::NotFound => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(removed)
+}
+
+/// `.NAME.tmp-PID-N` → `(NAME, PID)`.
+fn parse_temp_name(file_name: &str) -> Option<(&str, u32)> {
+    let rest = file_name.strip_prefix('.')?;
+    let (target, suffix) = rest.rsplit_once(".tmp-")?;
+    let (pid, n) = suffix.split_once('-')?;
+    n.parse::<u64>().ok()?;
+    Some((target, pid.parse().ok()?))
+}
+
+/// Whether a process with this id runs now. Our own id always counts as alive. Where `/proc`
+/// is missing (not Linux) every other process counts as dead: the temporaries of a concurrent
+/// writer of the *same file* may then be removed, which makes that writer's commit fail loudly
+/// rather than lose data.
+fn process_alive(pid: u32) -> bool {
+    pid == std::process::id() || Path::new("/proc").join(pid.to_string()).exists()
+}
+
+/// Checks, before any work, that `path` can be written: it names a file (not a folder), and its
+/// folder exists and accepts new files (probed by creating and removing a temporary file).
+///
+/// ```
+/// use firmware_sim::files::check_output;
+/// let dir = std::env::temp_dir();
+/// assert!(check_output(&dir.join("report.json")).is_ok());
+/// let err = check_output(&dir.join("no-such-folder-7f3a").join("r.json")).unwrap_err();
+/// assert!(err.to_string().contains("folder does not exist"), "{err}");
+/// assert!(check_output(&dir).is_err()); // a folder, not a file
+/// ```
+pub fn check_output(path: &Path) -> io::Result<()> {
+    let name = file_name(path)?;
+    if path.is_dir() {
+        return Err(io::Error::new(
+            io::ErrorKind::IsADirectory,
+            "is a folder, expected a file path",
+        ));
+    }
+    let dir = folder_of(path);
+    if !dir.is_dir() {
+        return Err(io::Error::new(
+            io::ErrorKind::NotFound,
+            format!("folder does not exist: {}", dir.display()),
+        ));
+    }
+    let probe = AtomicFile::create(&dir.join(name))?;
+    drop(probe); // removes the probe
+    Ok(())
+}
+
+/// Reads a blob file. A file larger than any blob can be ([`policy_core::blob::MAX_BLOB_LEN`])
+/// is refused from its size, before it is read; the bytes are not checked otherwise (booting
+/// them does that).
+///
+/// ```
+/// let path = std::env::temp_dir().join(format!("read-blob-doc-{}", std::process::id()));
+/// std::fs::write(&path, b"DCPB").unwrap();
+/// assert_eq!(firmware_sim::files::read_blob(&path).unwrap(), b"DCPB");
+/// # std::fs::remove_file(&path).unwrap();
+/// ```
+pub fn read_blob(path: &Path) -> io::Result<Vec<u8>> {
+    let max = policy_core::blob::MAX_BLOB_LEN;
+    let file = fs::File::open(path)?;
+    let too_large = |size: u64| {
+        io::Error::new(
+            io::ErrorKind::InvalidData,
+            format!(
+                "file is {size} bytes, larger than any blob can be ({max} bytes): not a policy blob"
+            ),
+        )
+    };
+    let size = file.metadata()?.len();
+    if size > max as u64 {
+        return Err(too_large(size));
+    }
+    // The size may change under us or be unknown (a pipe): never read past the limit.
+    let mut bytes = Vec::with_capacity(size as usize);
+    file.take(max as u64 + 1).read_to_end(&mut bytes)?;
+    if bytes.len() > max {
+        return Err(too_large(bytes.len() as u64));
+    }
+    Ok(bytes)
+}
+
+fn file_name(path: &Path) -> io::Result<String> {
+    path.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "is not a file path"))
+}
+
+fn folder_of(path: &Path) -> &Path {
+    path.parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(tag: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("files-{tag}-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).expect("scratch dir");
+        dir
+    }
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = fs::read_dir(dir)
+            .expect("list")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn atomic_write_replaces_and_leaves_no_temp_file() {
+        let dir = scratch("replace");
+        let path = dir.join("a.bin");
+        write_atomic(&path, b"one").expect("first write");
+        write_atomic(&path, b"two").expect("second write");
+        assert_eq!(fs::read(&path).expect("read"), b"two");
+        assert_eq!(names(&dir), ["a.bin"]);
+        fs::remove_dir_all(&dir).expect("cleanup");
+    }
+
+    /// Regression (issue 9, item 9): a failed write left `.NAME.tmpPID` behind.
+    #[test]
+    fn failed_commit_removes_the_temporary_file() {
+        let dir = scratch("failed-commit");
+        // The target is a folder: the rename fails after the bytes were written.
+        let target = dir.join("out");
+        fs::create_dir(&target).expect("folder");
+        fs::write(target.join("keep"), b"x").expect("non-empty folder");
+        assert!(write_atomic(&target, b"report").is_err());
+        assert_eq!(names(&dir), ["out"]);
+        fs::remove_dir_all(&dir).expect("cleanup");
+    }
+
+    #[test]
+    fn dropped_uncommitted_file_leaves_nothing() {
+        let dir = scratch("dropped");
+        let path = dir.join("r.json");
+        let mut f = AtomicFile::create(&path).expect("create");
+        f.write_all(b"half").expect("write");
+        drop(f);
+        assert!(names(&dir).is_empty());
+        fs::remove_dir_all(&dir).expect("cleanup");
+    }
+
+    /// Regression (issue 9, item 10): temporaries of killed writers were never removed.
+    #[test]
+    fn temporaries_of_dead_processes_are_removed_on_the_next_write() {
+        let dir = scratch("stale");
+        // No process has id u32::MAX - 1; our own temporaries (live) are kept.
+        let dead = format!(".checkpoint.postcard.tmp-{}-0", u32::MAX - 1);
+        let live = format!(".checkpoint.postcard.tmp-{}-999", std::process::id());
+        let other = format!(".metrics.csv.tmp-{}-0", u32::MAX - 1);
+        for n in [&dead, &live, &other] {
+            fs::write(dir.join(n), b"partial").expect("temp");
+        }
+        write_atomic(&dir.join("checkpoint.postcard"), b"new").expect("write");
+        assert_eq!(names(&dir), [live.as_str(), &other, "checkpoint.postcard"]);
+        assert_eq!(remove_stale_temps(&dir, None).expect("sweep"), 1);
+        assert_eq!(names(&dir), [live.as_str(), "checkpoint.postcard"]);
+        fs::remove_dir_all(&dir).expect("cleanup");
+    }
+
+    #[test]
+    fn temp_names_parse_only_our_pattern() {
+        assert_eq!(parse_temp_name(".a.json.tmp-12-3"), Some(("a.json", 12)));
+        assert_eq!(parse_temp_name("a.json.tmp-12-3"), None);
+        assert_eq!(parse_temp_name(".a.json.tmp-x-3"), None);
+        assert_eq!(parse_temp_name(".a.json.tmp-12"), None);
+    }
+
+    /// Regression (issue 9, item 13): output paths were checked only after the work.
+    #[test]
+    fn check_output_catches_missing_folders_and_folders_and_leaves_nothing() {
+        let dir = scratch("check");
+        assert!(check_output(&dir.join("ok.svg")).is_ok());
+        assert!(names(&dir).is_empty(), "the probe must not stay");
+        let missing = check_output(&dir.join("nope").join("r.json")).expect_err("missing");
+        assert!(missing.to_string().contains("folder does not exist"));
+        assert!(check_output(&dir).is_err());
+        fs::remove_dir_all(&dir).expect("cleanup");
+    }
+
+    /// Regression (issue 9): a 1 GB file passed as a blob was read whole before its magic was
+    /// checked.
+    #[test]
+    fn an_oversized_blob_file_is_refused_from_its_size() {
+        let dir = scratch("big-blob");
+        let path = dir.join("huge.postcard");
+        let f = fs::File::create(&path).expect("create");
+        // A sparse file: no disk space, but its length says 1 GiB.
+        f.set_len(1 << 30).expect("set_len");
+        let err = read_blob(&path).expect_err("too large");
+        assert!(err.to_string().contains("larger than any blob"), "{err}");
+        fs::remove_dir_all(&dir).expect("cleanup");
+    }
+}
