@@ -132,18 +132,40 @@ impl Config {
         ] {
             unit(what, lr, f32::MIN_POSITIVE, f32::MAX, false)?;
         }
-        for (what, n) in [
-            ("agent.batch", self.batch),
-            ("agent.replay_capacity", self.replay_capacity),
-            ("agent.updates_per_step", self.updates_per_step),
+        // A reward scale of NaN or ±inf poisons the critic; zero or a negative one removes or
+        // inverts the objective.
+        unit(
+            "agent.reward_scale",
+            self.reward_scale,
+            f32::MIN_POSITIVE,
+            f32::MAX,
+            false,
+        )?;
+        // Upper limits too: these size buffers allocated before the first episode, and a
+        // mistyped value must be a one-line error, not an allocation failure.
+        for (what, n, max) in [
+            ("agent.batch", self.batch, MAX_BATCH),
+            ("agent.replay_capacity", self.replay_capacity, MAX_REPLAY),
+            (
+                "agent.updates_per_step",
+                self.updates_per_step,
+                MAX_UPDATES_PER_STEP,
+            ),
         ] {
-            if n == 0 {
-                return Err(invalid(what, "a positive integer".into(), n));
+            if n == 0 || n > max {
+                return Err(invalid(what, format!("an integer in [1, {max}]"), n));
             }
         }
         Ok(())
     }
 }
+
+/// Largest minibatch: 65,536 rows.
+pub const MAX_BATCH: usize = 1 << 16;
+/// Largest replay buffer: 50 million transitions (1.6 GB for the navigation plant).
+pub const MAX_REPLAY: usize = 50_000_000;
+/// Most updates per environment step.
+pub const MAX_UPDATES_PER_STEP: usize = 1_000;
 
 fn invalid(what: &str, expected: String, found: impl fmt::Display) -> Error {
     Error::InvalidConfig {

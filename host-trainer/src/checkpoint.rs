@@ -6,28 +6,37 @@
 //! that was interrupted: a run of N episodes and a run stopped at k and resumed to N produce
 //! the same blob bytes (tested in `tests/train_runs.rs`).
 //!
-//! Layout: the 8 bytes `DCPCKPT2` (magic and version), then the postcard encoding of
-//! [`Checkpoint`]. The config is stored as its TOML text so that the file stays readable by
-//! `export` even if a config field is added later with a default.
+//! Layout: the 8 bytes `DCPCKPT3` (magic and version), the postcard encoding of
+//! [`Checkpoint`], then the CRC-32 (policy-core's, little-endian) of everything before it, so a
+//! flipped bit anywhere is a clear error rather than a silently different run. The config and
+//! the plant are stored as TOML text: the file stays readable by `export` even if a config field
+//! is added later with a default, and resume needs no file outside the run folder.
 
+use std::io::Write;
 use std::path::Path;
 
+use firmware_sim::files::AtomicFile;
 use serde::{Deserialize, Serialize};
 
 use crate::agent::Agent;
-use crate::run_dir::write_atomic;
+use crate::crash_test;
 use crate::seed::Rng;
 use crate::train::EpisodeRow;
 use crate::Error;
 
 /// Magic and format version at the start of every checkpoint file.
-pub const MAGIC: &[u8; 8] = b"DCPCKPT2";
+pub const MAGIC: &[u8; 8] = b"DCPCKPT3";
+/// Bytes of the trailing checksum.
+const CRC_LEN: usize = 4;
 
 /// Everything needed to continue a run.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Checkpoint {
     /// The run's configuration, as TOML text.
     pub config_toml: String,
+    /// The plant the run trains on (the resolved scenario, before the run's reward and γ
+    /// overrides), as TOML text.
+    pub scenario_toml: String,
     /// Networks, optimisers, normaliser, replay buffer.
     pub agent: Agent,
     /// Completed episodes.
@@ -81,31 +90,56 @@ impl RngState {
 }
 
 impl Checkpoint {
-    /// The file's bytes: magic, then postcard.
+    /// The file's bytes: magic, postcard, CRC-32.
     pub fn to_bytes(&self) -> Result<Vec<u8>, String> {
-        let body = postcard::to_allocvec(self).map_err(|e| e.to_string())?;
-        Ok([MAGIC.as_slice(), &body].concat())
+        let mut bytes = MAGIC.to_vec();
+        bytes = postcard::to_extend(self, bytes).map_err(|e| e.to_string())?;
+        let crc = policy_core::crc32(&bytes);
+        bytes.extend_from_slice(&crc.to_le_bytes());
+        Ok(bytes)
     }
 
-    /// Parses a checkpoint file's bytes.
+    /// Parses a checkpoint file's bytes: magic, checksum, then the contents.
+    ///
+    /// ```
+    /// use host_trainer::checkpoint::Checkpoint;
+    /// let err = Checkpoint::from_bytes(b"DCPCKPT2....").unwrap_err();
+    /// assert!(err.contains("older build"), "{err}");
+    /// ```
     pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, String> {
-        let body = bytes.strip_prefix(MAGIC.as_slice()).ok_or_else(|| {
-            let found = &bytes[..bytes.len().min(MAGIC.len())];
-            format!(
-                "expected the magic \"DCPCKPT2\" (this build's checkpoint format), found {:?}",
-                String::from_utf8_lossy(found)
-            )
-        })?;
-        postcard::from_bytes(body).map_err(|e| format!("corrupt or truncated checkpoint ({e})"))
+        let Some(rest) = bytes.strip_prefix(MAGIC.as_slice()) else {
+            return Err(wrong_magic(bytes));
+        };
+        let Some((body, crc)) = rest.split_last_chunk::<CRC_LEN>() else {
+            return Err(format!("truncated: {} bytes", bytes.len()));
+        };
+        let stored = u32::from_le_bytes(*crc);
+        let computed = policy_core::crc32(&bytes[..bytes.len() - CRC_LEN]);
+        if stored != computed {
+            return Err(format!(
+                "checksum mismatch (stored CRC-32 {stored:08x}, computed {computed:08x}): the file is corrupt or truncated"
+            ));
+        }
+        postcard::from_bytes(body).map_err(|e| format!("corrupt contents ({e})"))
     }
 
-    /// Writes the checkpoint atomically.
+    /// Writes the checkpoint atomically. (A crash-safety test can stop the process halfway
+    /// through the write; see [`crash_test`].)
     pub fn save(&self, path: &Path) -> Result<(), Error> {
         let bytes = self.to_bytes().map_err(|message| Error::Checkpoint {
             path: path.to_path_buf(),
             message,
         })?;
-        write_atomic(path, &bytes)
+        let io = |source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let mut file = AtomicFile::create(path).map_err(io)?;
+        let (first, second) = bytes.split_at(bytes.len() / 2);
+        file.write_all(first).map_err(io)?;
+        crash_test::checkpoint_half_written(&mut file);
+        file.write_all(second).map_err(io)?;
+        file.commit().map_err(io)
     }
 
     /// Reads a checkpoint file.
@@ -118,5 +152,20 @@ impl Checkpoint {
             path: path.to_path_buf(),
             message,
         })
+    }
+}
+
+fn wrong_magic(bytes: &[u8]) -> String {
+    let found = &bytes[..bytes.len().min(MAGIC.len())];
+    if found.starts_with(b"DCPCKPT") {
+        format!(
+            "written by an older build (format {:?}); this build reads DCPCKPT3 (with a checksum and the plant): export it with the build that wrote it",
+            String::from_utf8_lossy(found)
+        )
+    } else {
+        format!(
+            "not a checkpoint: expected the magic \"DCPCKPT3\", found {:?}",
+            String::from_utf8_lossy(found)
+        )
     }
 }

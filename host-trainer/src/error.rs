@@ -48,6 +48,13 @@ pub enum Error {
         /// The parser's message (one line).
         message: String,
     },
+    /// A new run's folder already holds a run; it is never overwritten.
+    RunExists {
+        /// The run folder.
+        path: PathBuf,
+        /// The run file found in it.
+        found: String,
+    },
     /// A checkpoint could not be encoded or decoded.
     Checkpoint {
         /// The file.
@@ -101,6 +108,12 @@ impl fmt::Display for Error {
             Error::ConfigFile { path, message } => {
                 write!(f, "config file {}: {message}", path.display())
             }
+            Error::RunExists { path, found } => write!(
+                f,
+                "{} already holds a run ({found}); continue it with --resume {}, or choose another --out or --seed",
+                path.display(),
+                path.display()
+            ),
             Error::Checkpoint { path, message } => {
                 write!(f, "checkpoint {}: {message}", path.display())
             }

@@ -8,6 +8,7 @@
 
 use policy_core::{Critic, Policy};
 
+use crate::agent::Hidden;
 use crate::error::Error;
 use crate::net::{Net, Output};
 use crate::normalize::RunningNorm;
@@ -30,6 +31,30 @@ macro_rules! dispatch {
             _ => None,
         }
     };
+}
+
+/// Checks that policy-core has a compiled type for a network of this shape, before any network
+/// is allocated: a shape like `100x100000` must be a one-line error, not a 40 GB allocation.
+///
+/// ```
+/// use host_trainer::{agent::Hidden, export::check_supported};
+/// assert!(check_supported(2, 2, Hidden { depth: 4, width: 48 }).is_ok());
+/// let err = check_supported(2, 2, Hidden { depth: 100, width: 100_000 }).unwrap_err();
+/// assert!(err.to_string().contains("unsupported network shape"), "{err}");
+/// ```
+pub fn check_supported(observations: usize, actions: usize, hidden: Hidden) -> Result<(), Error> {
+    fn compiled<const S: usize, const H: usize, const L: usize, const A: usize>() {}
+    dispatch!(
+        compiled(),
+        observations,
+        actions,
+        hidden.width,
+        hidden.depth
+    )
+    .ok_or_else(|| Error::UnsupportedShape {
+        shape: format!("{observations} observations, {hidden} hidden, {actions} actions"),
+        supported: SUPPORTED,
+    })
 }
 
 /// Everything needed to act like the exported policy.

@@ -22,7 +22,7 @@
 //! use host_trainer::{run_dir::RunDir, train::{self, TrainConfig, Trainer}};
 //! let mut trainer = Trainer::new(TrainConfig::default())?; // nav-walls, DCP, 4x48, GR, 3000 episodes
 //! let run = RunDir::create("runs".as_ref(), &trainer.config.run_name())?;
-//! train::run(&mut trainer, &run, &mut |_, _| {})?;
+//! train::run(&mut trainer, &run, &mut |_, _| std::ops::ControlFlow::Continue(()))?;
 //! let blob = trainer.export(&run)?; // policy.postcard: flash it, or run it in firmware-sim
 //! # Ok::<(), host_trainer::Error>(())
 //! ```
@@ -40,6 +40,7 @@ pub mod seed;
 // Algorithms, training loop and CLI support.
 pub mod agent;
 pub mod checkpoint;
+pub mod crash_test;
 pub mod dcp;
 pub mod ddpg;
 pub mod error;

@@ -9,18 +9,22 @@
 //! Errors are one line on stderr and a non-zero exit.
 
 use std::io::IsTerminal;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
+use firmware_sim::files;
 use firmware_sim::harness::{self, EvalConfig, Report};
+use firmware_sim::scenario::Scenario;
 use host_trainer::agent::Hidden;
 use host_trainer::checkpoint::Checkpoint;
 use host_trainer::noise::Noise;
-use host_trainer::run_dir::{self, write_atomic, RunDir};
-use host_trainer::train::{self, Algo, RewardKind, TrainConfig, Trainer};
+use host_trainer::run_dir::{self, RunDir};
+use host_trainer::train::{self, Algo, Outcome, RewardKind, TrainConfig, Trainer};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 #[derive(Debug, Parser)]
@@ -31,8 +35,11 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 )]
 struct Cli {
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
 }
+
+/// The exit code after Ctrl-C (128 + SIGINT), as shells report it.
+const INTERRUPTED: u8 = 130;
 
 #[derive(Debug, Subcommand)]
 enum Command {
@@ -139,12 +146,16 @@ fn main() -> ExitCode {
         }
     };
     let result = match cli.command {
-        Command::Train(args) => train_command(args),
-        Command::Eval(args) => eval_command(args),
-        Command::Export(args) => export_command(args),
+        Some(Command::Train(args)) => train_command(args),
+        Some(Command::Eval(args)) => eval_command(args).map(|()| ExitCode::SUCCESS),
+        Some(Command::Export(args)) => export_command(args).map(|()| ExitCode::SUCCESS),
+        None => {
+            eprintln!("host-trainer: missing a subcommand: train, eval or export (see --help)");
+            return ExitCode::from(2);
+        }
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
             eprintln!("host-trainer: {e:#}");
             ExitCode::FAILURE
@@ -152,12 +163,33 @@ fn main() -> ExitCode {
     }
 }
 
-fn train_command(args: TrainArgs) -> Result<()> {
+/// Ctrl-C presses so far: the first stops training after the current episode with a
+/// checkpoint, the second exits at once.
+static INTERRUPTS: AtomicU32 = AtomicU32::new(0);
+
+fn install_ctrl_c_handler() {
+    // Without a handler (it can only fail if another one is installed) Ctrl-C still ends the
+    // process, losing at most `checkpoint_every` episodes: worth a warning, not a failure.
+    let installed = ctrlc::set_handler(|| {
+        if INTERRUPTS.fetch_add(1, Ordering::SeqCst) == 0 {
+            eprintln!("\nhost-trainer: stopping after this episode and writing a checkpoint (Ctrl-C again to exit at once)");
+        } else {
+            eprintln!("\nhost-trainer: interrupted; the last checkpoint is kept");
+            std::process::exit(i32::from(INTERRUPTED));
+        }
+    });
+    if let Err(e) = installed {
+        eprintln!("host-trainer: warning: no Ctrl-C handler ({e}); Ctrl-C loses the episodes since the last checkpoint");
+    }
+}
+
+fn train_command(args: TrainArgs) -> Result<ExitCode> {
     let quiet = args.quiet;
     let (mut trainer, run) = match &args.resume {
         Some(dir) => resume(dir, args.episodes)?,
         None => fresh(args)?,
     };
+    install_ctrl_c_handler();
     let bar = progress_bar(
         trainer.config.episodes as u64,
         trainer.episode as u64,
@@ -172,18 +204,30 @@ fn train_command(args: TrainArgs) -> Result<()> {
             100.0 * t.recent_success(100),
             row.steps_per_s
         ));
+        if INTERRUPTS.load(Ordering::SeqCst) > 0 {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
     });
     bar.finish_and_clear();
-    outcome?;
+    if let Outcome::Stopped { episode } = outcome? {
+        eprintln!(
+            "host-trainer: interrupted after episode {episode} of {}; checkpoint written. Continue with: host-trainer train --resume {}",
+            trainer.config.episodes,
+            run.path().display()
+        );
+        return Ok(ExitCode::from(INTERRUPTED));
+    }
     let seconds = started.elapsed().as_secs_f64();
     let steps = trainer.total_steps - steps_before;
     println!("trained {} ({} episodes, {steps} env steps in {seconds:.1} s, {:.0} steps/s incl. updates)", run.path().display(), trainer.episode, steps as f64 / seconds.max(1e-9));
     let blob = trainer.export(&run)?;
-    let report = evaluate(&blob, &trainer.config.task, trainer.config.eval_episodes, 0)?;
+    let report = evaluate(&blob, &trainer.scenario, trainer.config.eval_episodes, 0)?;
     print_summary(&report);
     run.write(run_dir::EVAL, report_json(&report)?.as_bytes())?;
     println!("wrote {}", run.path().display());
-    Ok(())
+    Ok(ExitCode::SUCCESS)
 }
 
 /// A new run: defaults, then the config file, then flags; nothing is written until the
@@ -244,11 +288,55 @@ fn apply_flags(config: &mut TrainConfig, args: &TrainArgs) {
     }
 }
 
+/// Continues a run from its folder alone. A run killed before its first checkpoint starts
+/// again from its recorded config and plant (the result is the same: one seed drives it all).
 fn resume(dir: &Path, episodes: Option<usize>) -> Result<(Trainer, RunDir)> {
     let run = RunDir::open(dir)?;
     let path = run.file(run_dir::CHECKPOINT);
-    let trainer = Trainer::resume(Checkpoint::load(&path)?, episodes, &path)?;
+    let trainer = if path.exists() {
+        Trainer::resume(Checkpoint::load(&path)?, episodes, &path)?
+    } else {
+        restart(&run, episodes)?
+    };
+    note_changed_plant(&trainer);
     Ok((trainer, run))
+}
+
+fn restart(run: &RunDir, episodes: Option<usize>) -> Result<Trainer> {
+    let config_path = run.file(run_dir::CONFIG);
+    let scenario_path = run.file(run_dir::SCENARIO);
+    if !(config_path.exists() && scenario_path.exists()) {
+        anyhow::bail!(
+            "{} holds no checkpoint and no recorded config and plant: not a run folder, or killed before it recorded anything (start it again)",
+            run.path().display()
+        );
+    }
+    let mut config = TrainConfig::from_file(&config_path)?;
+    if let Some(n) = episodes {
+        config.episodes = n;
+    }
+    let scenario = Scenario::load(&scenario_path)
+        .with_context(|| format!("the recorded plant of {}", run.path().display()))?;
+    eprintln!(
+        "host-trainer: {} has no checkpoint yet (stopped before its first one); starting it again from its recorded config and plant",
+        run.path().display()
+    );
+    Ok(Trainer::on(config, scenario)?)
+}
+
+/// A run trains on the plant it recorded. If its scenario file has changed since, say so: the
+/// run goes on with the plant it started with, which is what makes it one run.
+fn note_changed_plant(trainer: &Trainer) {
+    let task = &trainer.config.task;
+    if Scenario::builtin(task).is_some() || !Path::new(task).exists() {
+        return;
+    }
+    if Scenario::resolve(task).ok().as_ref() != Some(&trainer.scenario) {
+        eprintln!(
+            "host-trainer: note: {task} has changed (or no longer loads) since the run started; the run continues on its recorded plant ({})",
+            run_dir::SCENARIO
+        );
+    }
 }
 
 fn progress_bar(len: u64, pos: u64, quiet: bool) -> ProgressBar {
@@ -268,16 +356,21 @@ fn progress_bar(len: u64, pos: u64, quiet: bool) -> ProgressBar {
 }
 
 fn eval_command(args: EvalArgs) -> Result<()> {
-    let blob = std::fs::read(&args.blob)
+    // Everything that can be checked is checked before the evaluation runs.
+    if let Some(path) = &args.json {
+        files::check_output(path).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    let scenario = train::scenario(&args.task)?;
+    let blob = files::read_blob(&args.blob)
         .with_context(|| format!("cannot read blob {}", args.blob.display()))?;
-    // firmware-sim would boot a bad blob into the safe state and report it; for a user asking to
-    // evaluate a file, a blob that does not load is an error.
-    policy_core::blob::verify(&blob)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", args.blob.display()))?;
-    let report = evaluate(&blob, &args.task, args.episodes, args.seed)?;
+    // firmware-sim boots a bad blob into the safe state and reports it (that is what the chip
+    // does); for a user asking to evaluate a file, a blob that does not boot is an error.
+    harness::boot(&blob).with_context(|| format!("{} does not boot", args.blob.display()))?;
+    let report = evaluate(&blob, &scenario, args.episodes, args.seed)?;
     print_summary(&report);
     if let Some(path) = &args.json {
-        write_atomic(path, report_json(&report)?.as_bytes())?;
+        files::write_atomic(path, report_json(&report)?.as_bytes())
+            .with_context(|| format!("cannot write {}", path.display()))?;
     }
     Ok(())
 }
@@ -294,15 +387,19 @@ fn export_command(args: ExportArgs) -> Result<()> {
     Ok(())
 }
 
-fn evaluate(blob: &[u8], task: &str, episodes: usize, seed: u64) -> Result<Report> {
-    let scenario = train::scenario(task, None, None)?;
+/// firmware-sim's test protocol on the blob; a blob that does not boot is an error here.
+fn evaluate(blob: &[u8], scenario: &Scenario, episodes: usize, seed: u64) -> Result<Report> {
     let config = EvalConfig {
         episodes,
         seed,
         ..EvalConfig::default()
     };
-    harness::evaluate(blob, &scenario, &config)
-        .with_context(|| format!("evaluating the policy on {task}"))
+    let report = harness::evaluate(blob, scenario, &config)
+        .with_context(|| format!("evaluating the policy on {}", scenario.name))?;
+    if let Some(reason) = &report.boot_error {
+        anyhow::bail!("the blob does not boot in firmware-sim: {reason}");
+    }
+    Ok(report)
 }
 
 fn report_json(report: &Report) -> Result<String> {
@@ -310,9 +407,6 @@ fn report_json(report: &Report) -> Result<String> {
 }
 
 fn print_summary(report: &Report) {
-    if let Some(reason) = &report.boot_error {
-        println!("boot error (safe state, zero action): {reason}");
-    }
     let steps = report
         .mean_steps_to_goal
         .map_or_else(|| "-".to_string(), |s| format!("{s:.1}"));

@@ -1,17 +1,27 @@
-//! A run's folder, `{task}__{algo}__{seed}`, and atomic file writes into it.
+//! A run's folder, `{task}__{algo}__{seed}`, and the files in it.
 //!
-//! Every file the trainer produces is written to a temporary sibling and renamed into place, so a
-//! crash, a full disk or Ctrl-C never leaves a half-written checkpoint or blob behind: a reader
-//! sees either the previous complete file or the new complete file.
+//! Every file the trainer produces is written with `firmware_sim::files::write_atomic` (a
+//! temporary sibling renamed into place), so a crash, a full disk or Ctrl-C never leaves a
+//! half-written checkpoint or blob behind: a reader sees the previous complete file or the new
+//! complete file. Temporaries left by a killed process are removed when the folder is opened.
+//!
+//! A run folder holds everything its run needs: its configuration (`config.toml`), the plant it
+//! trains on (`scenario.toml`, also inside every checkpoint), and its checkpoint. Resume and
+//! export read nothing outside it.
 
 use std::fs;
-use std::io::Write;
 use std::path::{Path, PathBuf};
+
+use firmware_sim::files;
+use policy_core::blob::LABEL_CAPACITY;
 
 use crate::Error;
 
 /// The configuration file of a run.
 pub const CONFIG: &str = "config.toml";
+/// The plant the run trains on, as resolved when it started (readable copy; the checkpoint
+/// holds the same text).
+pub const SCENARIO: &str = "scenario.toml";
 /// Per-episode training metrics.
 pub const METRICS: &str = "metrics.csv";
 /// The learning-curve plot.
@@ -25,6 +35,9 @@ pub const CRITIC: &str = "critic.postcard";
 /// The firmware-sim evaluation of the exported policy.
 pub const EVAL: &str = "eval.json";
 
+/// Files that mark a folder as holding a run (a new run must not overwrite them).
+const RUN_FILES: [&str; 4] = [CONFIG, CHECKPOINT, POLICY, METRICS];
+
 /// The folder name of a run: `{task}__{algo}__{seed}`.
 ///
 /// ```
@@ -34,6 +47,38 @@ pub fn run_name(task: &str, algo: &str, seed: u64) -> String {
     format!("{task}__{algo}__{seed}")
 }
 
+/// The label a run's blobs carry: its run name, with the task shortened (ending in `~`) when
+/// the whole would not fit the blob header's [`LABEL_CAPACITY`] bytes. Algorithm and seed are
+/// always kept whole, so no seed and no task name can make a run unexportable.
+///
+/// ```
+/// use host_trainer::run_dir::blob_label;
+/// assert_eq!(blob_label("nav-walls", "dcp", 0), "nav-walls__dcp__0");
+/// let long = blob_label("my-very-long-task-file-name", "ddpg", u64::MAX);
+/// assert_eq!(long, "m~__ddpg__18446744073709551615");
+/// assert!(long.len() <= policy_core::blob::LABEL_CAPACITY);
+/// ```
+pub fn blob_label(task: &str, algo: &str, seed: u64) -> String {
+    let full = run_name(task, algo, seed);
+    if full.len() <= LABEL_CAPACITY {
+        return full;
+    }
+    let tail = run_name("", algo, seed);
+    // Room for the task's first characters and the `~` that marks the cut.
+    let room = LABEL_CAPACITY.saturating_sub(tail.len() + 1);
+    let mut cut = room.min(task.len());
+    while !task.is_char_boundary(cut) {
+        cut -= 1;
+    }
+    let label = format!("{}~{tail}", &task[..cut]);
+    // An algorithm name too long to fit even alone (none exists) keeps the first bytes.
+    let mut end = label.len().min(LABEL_CAPACITY);
+    while !label.is_char_boundary(end) {
+        end -= 1;
+    }
+    label[..end].to_string()
+}
+
 /// An existing, writable run folder.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RunDir {
@@ -41,8 +86,9 @@ pub struct RunDir {
 }
 
 impl RunDir {
-    /// Creates (or reuses) `out/name`. `out` itself must already exist: a mistyped output folder
-    /// is an error, not something to create silently.
+    /// Creates `out/name` for a new run. `out` itself must already exist: a mistyped output
+    /// folder is an error, not something to create silently. A folder that already holds a run
+    /// is refused, so a finished run is never overwritten; continue it with `--resume`.
     ///
     /// ```
     /// let out = std::env::temp_dir().join(format!("run-dir-doc-{}", std::process::id()));
@@ -53,15 +99,19 @@ impl RunDir {
     /// ```
     pub fn create(out: &Path, name: &str) -> Result<RunDir, Error> {
         if !out.is_dir() {
-            return Err(Error::Io {
-                path: out.to_path_buf(),
-                source: std::io::Error::new(
-                    std::io::ErrorKind::NotFound,
-                    "output folder does not exist (create it first)",
-                ),
-            });
+            return Err(io_error(
+                out,
+                std::io::ErrorKind::NotFound,
+                "output folder does not exist (create it first)",
+            ));
         }
         let path = out.join(name);
+        if let Some(found) = RUN_FILES.iter().find(|f| path.join(f).exists()) {
+            return Err(Error::RunExists {
+                path,
+                found: (*found).to_string(),
+            });
+        }
         fs::create_dir_all(&path).map_err(|source| Error::Io {
             path: path.clone(),
             source,
@@ -70,17 +120,20 @@ impl RunDir {
         Ok(RunDir { path })
     }
 
-    /// Opens an existing run folder (for `--resume` and `export`).
+    /// Opens an existing run folder (for `--resume` and `export`) and removes temporary files
+    /// that a killed process left in it.
     pub fn open(path: &Path) -> Result<RunDir, Error> {
         if !path.is_dir() {
-            return Err(Error::Io {
-                path: path.to_path_buf(),
-                source: std::io::Error::new(
-                    std::io::ErrorKind::NotFound,
-                    "run folder does not exist",
-                ),
-            });
+            return Err(io_error(
+                path,
+                std::io::ErrorKind::NotFound,
+                "run folder does not exist",
+            ));
         }
+        files::remove_stale_temps(path, None).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
         Ok(RunDir {
             path: path.to_path_buf(),
         })
@@ -98,58 +151,31 @@ impl RunDir {
 
     /// Writes a file of the run atomically.
     pub fn write(&self, name: &str, bytes: &[u8]) -> Result<(), Error> {
-        write_atomic(&self.file(name), bytes)
+        let path = self.file(name);
+        files::write_atomic(&path, bytes).map_err(|source| Error::Io { path, source })
+    }
+
+    /// Reads a text file of the run.
+    pub fn read_text(&self, name: &str) -> Result<String, Error> {
+        let path = self.file(name);
+        fs::read_to_string(&path).map_err(|source| Error::Io { path, source })
+    }
+}
+
+fn io_error(path: &Path, kind: std::io::ErrorKind, message: &'static str) -> Error {
+    Error::Io {
+        path: path.to_path_buf(),
+        source: std::io::Error::new(kind, message),
     }
 }
 
 /// Fails early, with the folder in the message, if files cannot be created in `dir`: better
 /// than discovering it after an hour of training.
 fn probe_writable(dir: &Path) -> Result<(), Error> {
-    let probe = dir.join(format!(".write-probe-{}", std::process::id()));
-    fs::write(&probe, b"").map_err(|source| Error::Io {
+    files::check_output(&dir.join(CHECKPOINT)).map_err(|source| Error::Io {
         path: dir.to_path_buf(),
         source,
-    })?;
-    fs::remove_file(&probe).map_err(|source| Error::Io {
-        path: probe,
-        source,
     })
-}
-
-/// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so the
-/// file is never seen half-written. On any failure the temporary file is removed.
-///
-/// ```
-/// let path = std::env::temp_dir().join(format!("atomic-doc-{}.txt", std::process::id()));
-/// host_trainer::run_dir::write_atomic(&path, b"hello").unwrap();
-/// assert_eq!(std::fs::read(&path).unwrap(), b"hello");
-/// # std::fs::remove_file(&path).unwrap();
-/// ```
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Error> {
-    let tmp = temp_sibling(path);
-    let result = write_and_sync(&tmp, bytes).and_then(|()| fs::rename(&tmp, path));
-    result.map_err(|source| {
-        // Best effort: the temporary file may not even exist if creating it failed.
-        let _ = fs::remove_file(&tmp);
-        Error::Io {
-            path: path.to_path_buf(),
-            source,
-        }
-    })
-}
-
-fn temp_sibling(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
-}
-
-fn write_and_sync(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let mut file = fs::File::create(path)?;
-    file.write_all(bytes)?;
-    file.sync_all()
 }
 
 #[cfg(test)]
@@ -164,21 +190,6 @@ mod tests {
     }
 
     #[test]
-    fn atomic_write_replaces_and_leaves_no_temp_file() {
-        let dir = scratch("replace");
-        let path = dir.join("a.bin");
-        write_atomic(&path, b"one").expect("first write");
-        write_atomic(&path, b"two").expect("second write");
-        assert_eq!(fs::read(&path).expect("read"), b"two");
-        let names: Vec<_> = fs::read_dir(&dir)
-            .expect("list")
-            .map(|e| e.expect("entry").file_name())
-            .collect();
-        assert_eq!(names, vec![std::ffi::OsString::from("a.bin")]);
-        fs::remove_dir_all(&dir).expect("cleanup");
-    }
-
-    #[test]
     fn missing_output_folder_is_an_error_and_creates_nothing() {
         let dir = scratch("missing");
         let out = dir.join("no-such-folder");
@@ -188,15 +199,37 @@ mod tests {
         fs::remove_dir_all(&dir).expect("cleanup");
     }
 
+    /// Regression (issue 9, item 11): `train --out DIR` over a finished run silently
+    /// overwrote its checkpoint and metrics.
     #[test]
-    fn failed_write_keeps_the_old_file() {
-        let dir = scratch("failed");
-        let path = dir.join("keep.bin");
-        write_atomic(&path, b"old").expect("write");
-        // Writing into a folder that does not exist fails before anything is renamed.
-        let bad = dir.join("missing").join("keep.bin");
-        assert!(write_atomic(&bad, b"new").is_err());
-        assert_eq!(fs::read(&path).expect("read"), b"old");
+    fn a_folder_holding_a_run_is_not_reused() {
+        let dir = scratch("exists");
+        let run = RunDir::create(&dir, "x__y__0").expect("first");
+        run.write(CHECKPOINT, b"state").expect("write");
+        let err = RunDir::create(&dir, "x__y__0").expect_err("must refuse");
+        assert!(err.to_string().contains("--resume"), "{err}");
+        assert_eq!(fs::read(run.file(CHECKPOINT)).expect("kept"), b"state");
         fs::remove_dir_all(&dir).expect("cleanup");
+    }
+
+    /// Regression (issue 9, item 3): a long task name or a large seed made the label longer
+    /// than the blob format allows, and the run could never be exported.
+    #[test]
+    fn labels_always_fit_the_blob_header() {
+        for task in [
+            "",
+            "t",
+            "nav-walls",
+            "a-task-file-name-of-forty-characters-xx",
+            "äöü-éèê-ñ",
+        ] {
+            for algo in ["dcp", "ddpg"] {
+                for seed in [0, 7, 123_456_789, u64::MAX] {
+                    let label = blob_label(task, algo, seed);
+                    assert!(label.len() <= LABEL_CAPACITY, "{label}");
+                    assert!(label.ends_with(&format!("__{algo}__{seed}")), "{label}");
+                }
+            }
+        }
     }
 }

@@ -6,10 +6,12 @@
 //! same blob bytes. Wall-clock times appear only in `metrics.csv`'s `steps_per_s` column.
 
 use std::fmt;
+use std::ops::ControlFlow;
 use std::path::Path;
 use std::time::Instant;
 
 use firmware_sim::env::Env;
+use firmware_sim::harness::EvalConfig;
 use firmware_sim::nav::{NavEnv, Reward};
 use firmware_sim::scenario::Scenario;
 use rand_core::Rng as _;
@@ -17,8 +19,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::agent::{self, Agent};
 use crate::checkpoint::{Checkpoint, RngState};
+use crate::crash_test;
 use crate::dcp::{self, Dcp};
 use crate::ddpg::{self, Ddpg};
+use crate::export;
 use crate::plot::{self, Panel, Series};
 use crate::replay::Transition;
 use crate::run_dir::{self, RunDir};
@@ -129,6 +133,13 @@ impl TrainConfig {
             })
         };
         positive("episodes", self.episodes)?;
+        if self.episodes > MAX_EPISODES {
+            return Err(Error::InvalidConfig {
+                what: "episodes".into(),
+                expected: format!("at most {MAX_EPISODES}"),
+                found: self.episodes.to_string(),
+            });
+        }
         positive("checkpoint_every", self.checkpoint_every)?;
         positive("eval_episodes", self.eval_episodes)?;
         if self.algo == Algo::Dcp {
@@ -146,13 +157,25 @@ impl TrainConfig {
 
     /// The run folder's name, `{task}__{algo}__{seed}` (a scenario file contributes its stem).
     pub fn run_name(&self) -> String {
-        let task = Path::new(&self.task)
+        run_dir::run_name(&self.task_name(), &self.algo.to_string(), self.seed)
+    }
+
+    /// The label of the run's blobs: the run name, shortened to fit the blob header.
+    pub fn blob_label(&self) -> String {
+        run_dir::blob_label(&self.task_name(), &self.algo.to_string(), self.seed)
+    }
+
+    fn task_name(&self) -> String {
+        Path::new(&self.task)
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| self.task.clone());
-        run_dir::run_name(&task, &self.algo.to_string(), self.seed)
+            .unwrap_or_else(|| self.task.clone())
     }
 }
+
+/// The most training episodes a run may ask for: 1,000,000, over 300 times the paper's budget.
+/// Metrics and checkpoints grow with the episode count, so a mistyped count is refused up front.
+pub const MAX_EPISODES: usize = 1_000_000;
 
 fn one_line(s: &str) -> String {
     s.split_whitespace().collect::<Vec<_>>().join(" ")
@@ -199,25 +222,12 @@ impl From<RewardKind> for Reward {
     }
 }
 
-/// The scenario of a task (a built-in name or a scenario file), with the reward and the
-/// discount of the exit penalty overridden when given.
-pub fn scenario(
-    task: &str,
-    reward: Option<RewardKind>,
-    gamma: Option<f32>,
-) -> Result<Scenario, Error> {
-    let mut scenario = Scenario::resolve(task).map_err(|e| Error::Sim {
+/// The plant of a task: a built-in scenario name or a scenario file.
+pub fn scenario(task: &str) -> Result<Scenario, Error> {
+    Scenario::resolve(task).map_err(|e| Error::Sim {
         context: format!("task {task:?}"),
         message: e.to_string(),
-    })?;
-    if let Some(r) = reward {
-        scenario.reward = r.into();
-    }
-    if let Some(g) = gamma {
-        // Leaving the arena pays worst/(1 - γ): use the learner's γ so leaving never pays.
-        scenario.gamma = g;
-    }
-    Ok(scenario)
+    })
 }
 
 /// One row of `metrics.csv`.
@@ -375,6 +385,8 @@ pub struct Trainer {
     pub total_steps: u64,
     /// One row per completed episode.
     pub metrics: Vec<EpisodeRow>,
+    /// The plant, as resolved when the run started (before the reward and γ overrides).
+    pub scenario: Scenario,
     learner: Learner,
     env: NavEnv,
     rngs: Rngs,
@@ -386,12 +398,26 @@ const SETTLE_WINDOW: usize = 20;
 const SUCCESS_RADIUS: f32 = 2.0;
 
 impl Trainer {
-    /// A fresh run: networks initialised from `seed::stream(seed, "init")`.
+    /// A fresh run on the plant `config.task` names: networks initialised from
+    /// `seed::stream(seed, "init")`.
     pub fn new(config: TrainConfig) -> Result<Trainer, Error> {
+        let scenario = scenario(&config.task)?;
+        Trainer::on(config, scenario)
+    }
+
+    /// A fresh run on a given plant (a run folder's recorded `scenario.toml`). Every limit is
+    /// checked before anything large is allocated.
+    pub fn on(config: TrainConfig, scenario: Scenario) -> Result<Trainer, Error> {
         config.validate()?;
-        let env = make_env(&config)?;
-        let mut init = seed::stream(config.seed, "init");
+        check_eval_episodes(&config, &scenario)?;
+        let env = make_env(&config, &scenario)?;
         let space = env.action_space().clone();
+        export::check_supported(
+            env.observation_space().dim(),
+            space.dim(),
+            config.agent.hidden,
+        )?;
+        let mut init = seed::stream(config.seed, "init");
         let agent = Agent::new(
             config.agent.clone(),
             env.observation_space().dim(),
@@ -399,12 +425,13 @@ impl Trainer {
             &space.high,
             &mut init,
         )?;
-        // Fail before training if the shape cannot be exported.
-        agent.actor_blob("shape check")?;
+        // Fail before training if the network cannot be exported.
+        agent.actor_blob(&config.blob_label())?;
         Ok(Trainer {
             learner: learner(&config),
             rngs: Rngs::new(config.seed),
             env,
+            scenario,
             agent,
             config,
             episode: 0,
@@ -436,11 +463,14 @@ impl Trainer {
                 checkpoint.rngs.len()
             ))
         })?;
+        let scenario = Scenario::from_toml_str(&checkpoint.scenario_toml)
+            .map_err(|e| bad(format!("its recorded plant does not load: {e}")))?;
         let mut agent = checkpoint.agent;
         agent.config = config.agent.clone();
         Ok(Trainer {
             learner: learner(&config),
-            env: make_env(&config)?,
+            env: make_env(&config, &scenario)?,
+            scenario,
             rngs,
             agent,
             episode: checkpoint.episode,
@@ -454,6 +484,7 @@ impl Trainer {
     pub fn checkpoint(&self) -> Checkpoint {
         Checkpoint {
             config_toml: self.config.to_toml(),
+            scenario_toml: scenario_toml(&self.scenario),
             agent: self.agent.clone(),
             episode: self.episode,
             total_steps: self.total_steps,
@@ -593,7 +624,7 @@ impl Trainer {
 
     /// Exports `policy.postcard` and `critic.postcard`; returns the actor blob.
     pub fn export(&self, run: &RunDir) -> Result<Vec<u8>, Error> {
-        let label = self.config.run_name();
+        let label = self.config.blob_label();
         let actor = self.agent.actor_blob(&label)?;
         run.write(run_dir::POLICY, &actor)?;
         run.write(run_dir::CRITIC, &self.agent.critic_blob(&label)?)?;
@@ -608,12 +639,37 @@ fn learner(config: &TrainConfig) -> Learner {
     }
 }
 
-fn make_env(config: &TrainConfig) -> Result<NavEnv, Error> {
-    let scenario = scenario(&config.task, Some(config.reward), Some(config.agent.gamma))?;
+/// The training plant: the run's scenario with its reward, and the learner's γ for the exit
+/// penalty (leaving the arena pays worst/(1 - γ), so leaving never pays).
+fn make_env(config: &TrainConfig, base: &Scenario) -> Result<NavEnv, Error> {
+    let mut scenario = base.clone();
+    scenario.reward = config.reward.into();
+    scenario.gamma = config.agent.gamma;
     NavEnv::new(&scenario).map_err(|e| Error::Sim {
         context: format!("task {:?}", config.task),
         message: e.to_string(),
     })
+}
+
+/// The end-of-training evaluation's settings must pass firmware-sim's checks (its episode
+/// maximum among them) before the run starts, not after it.
+fn check_eval_episodes(config: &TrainConfig, scenario: &Scenario) -> Result<(), Error> {
+    let eval = EvalConfig {
+        episodes: config.eval_episodes,
+        ..EvalConfig::default()
+    };
+    eval.validate(scenario).map_err(|e| Error::InvalidConfig {
+        what: "eval_episodes".into(),
+        expected: "a count firmware-sim accepts".into(),
+        found: e.to_string(),
+    })
+}
+
+/// A scenario as TOML text (how run folders and checkpoints record the plant).
+pub fn scenario_toml(scenario: &Scenario) -> String {
+    // Plain data with string keys always serialises; fall back to Debug rather than panic.
+    toml::to_string(scenario)
+        .unwrap_or_else(|e| format!("# could not serialise the scenario: {e}\n# {scenario:?}\n"))
 }
 
 /// Distance of a navigation observation (the position) from the goal at the origin.
@@ -628,26 +684,41 @@ fn push_recent(recent: &mut Vec<f32>, d: f32) {
     recent.push(d);
 }
 
-/// Trains until the budget is used, checkpointing every `checkpoint_every` episodes.
+/// How a call to [`run`] ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    /// The episode budget is used up.
+    Finished,
+    /// `on_episode` asked to stop (Ctrl-C); a checkpoint of the last episode was written.
+    Stopped {
+        /// Completed episodes.
+        episode: usize,
+    },
+}
+
+/// Trains until the budget is used, checkpointing every `checkpoint_every` episodes, or until
+/// `on_episode` returns `ControlFlow::Break`, which writes a checkpoint and stops.
 ///
-/// A fresh run writes its config and an episode-0 checkpoint first, so a diverged run always
-/// has a last good checkpoint to keep. On divergence, the metrics of the completed episodes are
-/// written, the checkpoint is left untouched, and `Error::Diverged` names it.
+/// A fresh run writes its config, its plant and an episode-0 checkpoint first, so a diverged or
+/// killed run always has a last good state to continue from. On divergence, the metrics of the
+/// completed episodes are written, the checkpoint is left untouched, and `Error::Diverged`
+/// names it.
 pub fn run(
     trainer: &mut Trainer,
     run: &RunDir,
-    on_episode: &mut dyn FnMut(&EpisodeRow, &Trainer),
-) -> Result<(), Error> {
+    on_episode: &mut dyn FnMut(&EpisodeRow, &Trainer) -> ControlFlow<()>,
+) -> Result<Outcome, Error> {
     if trainer.episode == 0 {
         run.write(run_dir::CONFIG, trainer.config.to_toml().as_bytes())?;
+        run.write(
+            run_dir::SCENARIO,
+            scenario_toml(&trainer.scenario).as_bytes(),
+        )?;
         trainer.save(run)?;
     }
     while !trainer.done() {
-        match trainer.run_episode() {
-            Ok(row) => {
-                let row = *row;
-                on_episode(&row, trainer);
-            }
+        let row = match trainer.run_episode() {
+            Ok(row) => *row,
             Err(Error::Diverged { episode, what, .. }) => {
                 trainer.save_metrics(run)?;
                 return Err(Error::Diverged {
@@ -657,12 +728,20 @@ pub fn run(
                 });
             }
             Err(e) => return Err(e),
+        };
+        crash_test::episode_done(trainer.episode);
+        let flow = on_episode(&row, trainer);
+        if flow.is_break() {
+            trainer.save(run)?;
+            return Ok(Outcome::Stopped {
+                episode: trainer.episode,
+            });
         }
         if trainer.episode % trainer.config.checkpoint_every == 0 || trainer.done() {
             trainer.save(run)?;
         }
     }
-    Ok(())
+    Ok(Outcome::Finished)
 }
 
 /// The whole `metrics.csv`.

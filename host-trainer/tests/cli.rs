@@ -2,45 +2,8 @@
 //! and no partial files.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn host_trainer(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-trainer"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
-
-fn scratch(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("host-trainer-cli-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    dir
-}
-
-/// Asserts a failed run printed exactly one line on stderr, mentioning every `needle`.
-fn assert_one_line_error(out: &Output, needles: &[&str]) -> String {
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(!out.status.success(), "must fail; stderr: {stderr}");
-    assert_eq!(
-        stderr.trim_end().lines().count(),
-        1,
-        "one line only:\n{stderr}"
-    );
-    assert!(stderr.starts_with("host-trainer: "), "{stderr}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    for n in needles {
-        assert!(stderr.contains(n), "stderr should mention {n:?}: {stderr}");
-    }
-    stderr
-}
-
-fn entries(dir: &Path) -> Vec<String> {
-    std::fs::read_dir(dir)
-        .expect("list")
-        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
-        .collect()
-}
+use crate::support::{assert_one_line_error, entries, host_trainer, scratch};
 
 #[test]
 fn unknown_algorithm_is_one_line_and_writes_nothing() {

@@ -1,8 +1,6 @@
 //! Training runs with tiny budgets: smoke runs of both algorithms, determinism, resume, and
 //! divergence handling. Every run here is small enough for the debug profile.
 
-use std::path::PathBuf;
-
 use host_trainer::agent::Hidden;
 use host_trainer::checkpoint::Checkpoint;
 use host_trainer::dcp::Variant;
@@ -11,17 +9,15 @@ use host_trainer::run_dir::{self, RunDir};
 use host_trainer::train::{self, Algo, TrainConfig, Trainer};
 use host_trainer::Error;
 
-fn scratch(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("host-trainer-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    dir
-}
+use crate::support::scratch;
 
 fn train_to_end(config: TrainConfig, out: &std::path::Path) -> (Trainer, RunDir) {
     let mut trainer = Trainer::new(config).expect("trainer");
     let run = RunDir::create(out, &trainer.config.run_name()).expect("run dir");
-    train::run(&mut trainer, &run, &mut |_, _| {}).expect("training");
+    train::run(&mut trainer, &run, &mut |_, _| {
+        std::ops::ControlFlow::Continue(())
+    })
+    .expect("training");
     (trainer, run)
 }
 
@@ -126,7 +122,10 @@ fn resumed_run_equals_uninterrupted_run() {
     let mut resumed =
         Trainer::resume(Checkpoint::load(&path).expect("load"), Some(3), &path).expect("resume");
     assert_eq!(resumed.episode, 2);
-    train::run(&mut resumed, &run, &mut |_, _| {}).expect("resumed training");
+    train::run(&mut resumed, &run, &mut |_, _| {
+        std::ops::ControlFlow::Continue(())
+    })
+    .expect("resumed training");
 
     assert_eq!(
         resumed.agent.actor_blob("x").expect("blob"),
@@ -150,7 +149,10 @@ fn divergence_stops_with_a_clear_error_and_keeps_the_last_good_checkpoint() {
     config.agent.lr_actor = 1e30;
     let mut trainer = Trainer::new(config).expect("trainer");
     let run = RunDir::create(&out, &trainer.config.run_name()).expect("run dir");
-    let err = train::run(&mut trainer, &run, &mut |_, _| {}).expect_err("must diverge");
+    let err = train::run(&mut trainer, &run, &mut |_, _| {
+        std::ops::ControlFlow::Continue(())
+    })
+    .expect_err("must diverge");
     let message = err.to_string();
     assert!(matches!(err, Error::Diverged { .. }), "{message}");
     assert!(
@@ -200,9 +202,9 @@ fn unsupported_shape_is_refused_before_training() {
 fn old_or_truncated_checkpoints_are_clear_errors() {
     let out = scratch("corrupt");
     let old = out.join("old.postcard");
-    std::fs::write(&old, b"DCPCKPT1\x00\x01\x02").expect("write");
+    std::fs::write(&old, b"DCPCKPT2\x00\x01\x02").expect("write");
     let err = Checkpoint::load(&old).expect_err("old format");
-    assert!(err.to_string().contains("DCPCKPT2"), "{err}");
+    assert!(err.to_string().contains("older build"), "{err}");
 
     let mut config = TrainConfig::smoke(Algo::Dcp, 6);
     config.episodes = 1;
@@ -212,5 +214,54 @@ fn old_or_truncated_checkpoints_are_clear_errors() {
     std::fs::write(&cut, &bytes[..bytes.len() / 2]).expect("write");
     let err = Checkpoint::load(&cut).expect_err("truncated");
     assert!(err.to_string().contains("corrupt or truncated"), "{err}");
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+/// Regression (issue 9, item 14): a checkpoint had a version but no checksum, so a flipped bit
+/// in the middle was accepted by `--resume` and `export`.
+#[test]
+fn a_flipped_bit_anywhere_in_a_checkpoint_is_a_checksum_error() {
+    let out = scratch("bitflip");
+    let mut config = TrainConfig::smoke(Algo::Dcp, 8);
+    config.episodes = 1;
+    let (trainer, _) = train_to_end(config, &out);
+    let bytes = trainer.checkpoint().to_bytes().expect("encode");
+    assert!(Checkpoint::from_bytes(&bytes).is_ok());
+    // Every 97th bit past the magic (a full sweep of a multi-megabyte file is needlessly slow).
+    for bit in (64..bytes.len() * 8).step_by(97) {
+        let mut flipped = bytes.clone();
+        flipped[bit / 8] ^= 1 << (bit % 8);
+        let err = Checkpoint::from_bytes(&flipped).expect_err("flipped bit accepted");
+        assert!(err.contains("checksum mismatch"), "bit {bit}: {err}");
+    }
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+/// Regression (issue 9, item 12): a run trained on a scenario file could not be resumed once
+/// the file was gone, and silently continued on an edited one. The checkpoint holds the plant.
+#[test]
+fn a_checkpoint_carries_its_plant() {
+    let out = scratch("plant");
+    let task = out.join("mytask.toml");
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../firmware-sim/scenarios/nav-open.toml"
+    ))
+    .expect("built-in scenario file");
+    std::fs::write(&task, text.replace("time_limit = 200", "time_limit = 30")).expect("task");
+    let mut config = TrainConfig::smoke(Algo::Dcp, 2);
+    config.task = task.to_str().expect("utf-8").into();
+    config.episodes = 2;
+    let (trainer, run) = train_to_end(config, &out);
+    std::fs::remove_file(&task).expect("delete the task file");
+    let path = run.file(run_dir::CHECKPOINT);
+    let mut resumed =
+        Trainer::resume(Checkpoint::load(&path).expect("load"), Some(3), &path).expect("resume");
+    assert_eq!(resumed.scenario, trainer.scenario);
+    assert_eq!(resumed.scenario.time_limit, 30);
+    let episode = resumed
+        .run_episode()
+        .expect("an episode on the recorded plant");
+    assert!(episode.steps <= 30);
     std::fs::remove_dir_all(&out).expect("cleanup");
 }

@@ -17,7 +17,10 @@ fn trained_dcp_blob_runs_in_the_firmware_loop() {
     config.eval_episodes = TrainConfig::default().eval_episodes;
     let mut trainer = Trainer::new(config).expect("trainer");
     let run = RunDir::create(&out, &trainer.config.run_name()).expect("run dir");
-    train::run(&mut trainer, &run, &mut |_, _| {}).expect("training");
+    train::run(&mut trainer, &run, &mut |_, _| {
+        std::ops::ControlFlow::Continue(())
+    })
+    .expect("training");
     trainer.export(&run).expect("export");
 
     // The bytes on disk, exactly as they would be flashed.
@@ -31,7 +34,7 @@ fn trained_dcp_blob_runs_in_the_firmware_loop() {
         assert_eq!(action.to_vec(), trainer.agent.greedy(&obs), "obs {obs:?}");
     }
 
-    let scenario = train::scenario("nav-walls", None, None).expect("scenario");
+    let scenario = train::scenario("nav-walls").expect("scenario");
     let report = evaluate(
         &blob,
         &scenario,

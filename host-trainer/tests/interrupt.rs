@@ -1,0 +1,57 @@
+//! Ctrl-C during training writes a checkpoint, exits with 130 and says how to resume.
+
+use std::process::Stdio;
+use std::time::{Duration, Instant};
+
+use host_trainer::checkpoint::Checkpoint;
+use host_trainer::run_dir;
+
+use crate::support::{command, s, scratch, smoke_config_file, temporaries};
+
+#[test]
+fn ctrl_c_checkpoints_and_says_how_to_resume() {
+    let base = scratch("ctrl-c");
+    // Far more episodes than the test waits for: the run is still training when Ctrl-C comes.
+    let config = smoke_config_file(&base, 100_000);
+    let child = command(&[
+        "train",
+        "--config",
+        s(&config),
+        "--out",
+        s(&base),
+        "--quiet",
+    ])
+    .stdout(Stdio::null())
+    .stderr(Stdio::piped())
+    .spawn()
+    .expect("spawn");
+    let run = base.join("nav-walls__dcp__3");
+    // The episode-0 checkpoint exists once training has started (and the handler is set).
+    let started = Instant::now();
+    while !run.join(run_dir::METRICS).exists() {
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "training never started"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let sent = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .expect("kill");
+    assert!(sent.success());
+    let out = child.wait_with_output().expect("wait");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{stderr}");
+    assert!(stderr.contains("checkpoint written"), "{stderr}");
+    assert!(
+        stderr.contains(&format!("--resume {}", run.display())),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let kept = Checkpoint::load(&run.join(run_dir::CHECKPOINT)).expect("checkpoint");
+    assert!(kept.episode >= 1, "the checkpoint holds the episodes done");
+    assert_eq!(kept.metrics.len(), kept.episode);
+    assert_eq!(temporaries(&run), Vec::<String>::new());
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}

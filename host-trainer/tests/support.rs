@@ -1,0 +1,79 @@
+//! Helpers shared by the integration tests.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use host_trainer::train::{Algo, TrainConfig};
+
+/// Runs the `host-trainer` binary to the end.
+pub fn host_trainer(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_host-trainer"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+/// A `host-trainer` command, to add a working folder or environment before running it.
+pub fn command(args: &[&str]) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_host-trainer"));
+    c.args(args);
+    c
+}
+
+/// A fresh, empty folder for one test.
+pub fn scratch(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("host-trainer-it-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch dir");
+    dir
+}
+
+/// Asserts a failed run printed exactly one line on stderr, mentioning every `needle`.
+pub fn assert_one_line_error(out: &Output, needles: &[&str]) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "must fail; stderr: {stderr}");
+    assert_eq!(
+        stderr.trim_end().lines().count(),
+        1,
+        "one line only:\n{stderr}"
+    );
+    assert!(stderr.starts_with("host-trainer: "), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    for n in needles {
+        assert!(stderr.contains(n), "stderr should mention {n:?}: {stderr}");
+    }
+    stderr
+}
+
+/// The names in a folder, sorted.
+pub fn entries(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .expect("list")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+/// Temporary files (`.NAME.tmp-...`) anywhere in a folder.
+pub fn temporaries(dir: &Path) -> Vec<String> {
+    entries(dir)
+        .into_iter()
+        .filter(|n| n.contains(".tmp"))
+        .collect()
+}
+
+/// Writes the smoke config (tiny network, tiny batch) with `episodes` episodes to `dir` and
+/// returns its path.
+pub fn smoke_config_file(dir: &Path, episodes: usize) -> PathBuf {
+    let mut config = TrainConfig::smoke(Algo::Dcp, 3);
+    config.episodes = episodes;
+    let path = dir.join(format!("smoke-{episodes}.toml"));
+    std::fs::write(&path, config.to_toml()).expect("config file");
+    path
+}
+
+/// A path as the `&str` the CLI takes.
+pub fn s(path: &Path) -> &str {
+    path.to_str().expect("utf-8 path")
+}

@@ -1,0 +1,12 @@
+//! host-trainer's integration tests: one binary, one module per concern.
+
+/// The `host-trainer` binary on bad input: one clear line, a non-zero exit, nothing lost.
+mod cli;
+/// Kill -9 at seeded points, inside checkpoint writes included: resume gives the same blob.
+mod crash;
+/// Ctrl-C during training: a checkpoint, a clean exit, a hint how to resume.
+mod interrupt;
+/// Shared helpers: scratch folders, running the binary, tiny configs.
+mod support;
+/// Training runs with tiny budgets: smoke, determinism, resume, divergence, checkpoints.
+mod training;
