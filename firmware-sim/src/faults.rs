@@ -254,14 +254,29 @@ mod tests {
     #[test]
     fn a_fault_kind_given_twice_is_refused_naming_both_items() {
         for (spec, first, again) in [
-            ("wall:0@-2/1/2/1,wall:0@-2/-1/2/-1", "wall:0@-2/1/2/1", "wall:0@-2/-1/2/-1"),
-            ("dropout-nan:1,dropout-stale:0", "dropout-nan:1", "dropout-stale:0"),
-            ("dropout-nan:0.1, stuck:0@3, dropout-nan:0.2", "dropout-nan:0.1", "dropout-nan:0.2"),
+            (
+                "wall:0@-2/1/2/1,wall:0@-2/-1/2/-1",
+                "wall:0@-2/1/2/1",
+                "wall:0@-2/-1/2/-1",
+            ),
+            (
+                "dropout-nan:1,dropout-stale:0",
+                "dropout-nan:1",
+                "dropout-stale:0",
+            ),
+            (
+                "dropout-nan:0.1, stuck:0@3, dropout-nan:0.2",
+                "dropout-nan:0.1",
+                "dropout-nan:0.2",
+            ),
             ("stuck:0@3,stuck:1@5", "stuck:0@3", "stuck:1@5"),
         ] {
             let e = spec.parse::<Faults>().expect_err(spec).to_string();
             assert!(e.starts_with("faults:") && e.contains("given twice"), "{e}");
-            assert!(e.contains(&format!("{first:?}")) && e.contains(&format!("{again:?}")), "{e}");
+            assert!(
+                e.contains(&format!("{first:?}")) && e.contains(&format!("{again:?}")),
+                "{e}"
+            );
             assert!(!e.contains('\n'), "{e}");
         }
         let one_of_each: Faults = "dropout-stale:0.1,stuck:1@4,wall:2@-1/0/1/0"

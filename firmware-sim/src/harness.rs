@@ -277,10 +277,7 @@ impl Report {
         ];
         let mut out = format!(
             "{} | {} | {} tests, seed {}\n",
-            self.scenario,
-            self.controller,
-            self.config.episodes,
-            self.config.seed
+            self.scenario, self.controller, self.config.episodes, self.config.seed
         );
         for (k, v) in rows {
             out.push_str(&format!("  {k:<33} {v}\n"));
@@ -654,5 +651,51 @@ fn judge(r: &Report, s: &Scenario) -> PassOutcome {
     PassOutcome {
         passed: failures.is_empty(),
         failures,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::controller::Straight;
+
+    /// Regression (issue 9, item 2): `episodes = usize::MAX` panicked (`capacity overflow`) and
+    /// 10^12 aborted on a 152 TB allocation. Counts above `MAX_EPISODES` are refused by
+    /// `validate`, before anything is allocated or run.
+    #[test]
+    fn an_episode_count_beyond_the_maximum_is_refused_before_any_work() {
+        let s = Scenario::builtin("nav-open").expect("builtin");
+        for episodes in [usize::MAX, 1_000_000_000_000, MAX_EPISODES + 1] {
+            let cfg = EvalConfig {
+                episodes,
+                ..EvalConfig::default()
+            };
+            let e = evaluate_controller(&mut Straight { max_step: 0.25 }, &s, &cfg)
+                .expect_err("must be refused");
+            assert_eq!(
+                e.to_string(),
+                format!("episodes: must be in 1..=1000000, found {episodes}")
+            );
+        }
+    }
+
+    #[test]
+    fn an_error_from_the_episode_callback_stops_the_run() {
+        let s = Scenario::builtin("nav-open").expect("builtin");
+        let cfg = EvalConfig::default();
+        let mut seen = 0;
+        let result = evaluate_streaming(&mut Straight { max_step: 0.25 }, &s, &cfg, |_| {
+            seen += 1;
+            if seen == 3 {
+                Err(Error::Config {
+                    field: "test",
+                    message: "stop".into(),
+                })
+            } else {
+                Ok(())
+            }
+        });
+        assert_eq!(result.expect_err("stopped").to_string(), "test: stop");
+        assert_eq!(seen, 3);
     }
 }

@@ -152,8 +152,8 @@ mod tests {
             let path = dir.join("r.json");
             let mut json = JsonReportWriter::create(&path).expect("create");
             let mut c = reference("oracle", &s).expect("oracle");
-            let report = evaluate_streaming(c.as_mut(), &s, &cfg, |e| json.episode(&e))
-                .expect("streamed");
+            let report =
+                evaluate_streaming(c.as_mut(), &s, &cfg, |e| json.episode(&e)).expect("streamed");
             json.finish(&report).expect("finish");
             let mut c = reference("oracle", &s).expect("oracle");
             let mut full = evaluate_controller(c.as_mut(), &s, &cfg).expect("full");

@@ -160,7 +160,9 @@ impl Trace {
         let settled = mean(window).unwrap_or(self.start);
         let success = !self.left_arena
             && !window.is_empty()
-            && window.iter().all(|p| p.norm() <= self.metrics.success_radius);
+            && window
+                .iter()
+                .all(|p| p.norm() <= self.metrics.success_radius);
         let stuck_at = self.stuck.found;
         EpisodeRecord {
             seed: self.seed,
@@ -348,7 +350,11 @@ mod tests {
         let mut run = 0;
         let mut steps_to_goal = None;
         for (i, p) in positions.iter().enumerate() {
-            run = if p.norm() <= s.goal_radius { run + 1 } else { 0 };
+            run = if p.norm() <= s.goal_radius {
+                run + 1
+            } else {
+                0
+            };
             if run >= s.goal_hold && steps_to_goal.is_none() {
                 steps_to_goal = Some(i as u32 + 1);
             }
@@ -361,7 +367,11 @@ mod tests {
         let min_command = f64::from(m.stuck_min_command * s.max_step);
         let stuck_at = (w..=ticks.len()).find_map(|end| {
             let window = &ticks[end - w..end];
-            let before = if end > w { ticks[end - w - 1].position } else { start };
+            let before = if end > w {
+                ticks[end - w - 1].position
+            } else {
+                start
+            };
             let pushing = window.iter().all(|t| t.touched && t.command >= min_command);
             let progress = (window[w - 1].position - before).norm();
             (pushing && progress <= m.stuck_max_progress).then_some(end as u32)

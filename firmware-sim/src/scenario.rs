@@ -694,24 +694,25 @@ mod tests {
                 "walls[1].to",
                 r#"[2.0, 1.0, "junk", true]"#,
             ),
-            (r#"{ from = [-2.0], to = [2.0, 1.0] }"#, "walls[1].from", "[-2.0]"),
-            (r#"{ from = [-2, "1"], to = [2, 1] }"#, "walls[1].from", r#"[-2.0, "1"]"#),
+            (
+                r#"{ from = [-2.0], to = [2.0, 1.0] }"#,
+                "walls[1].from",
+                "[-2.0]",
+            ),
+            (
+                r#"{ from = [-2, "1"], to = [2, 1] }"#,
+                "walls[1].from",
+                r#"[-2.0, "1"]"#,
+            ),
         ] {
-            let text =
-                format!("{NAV_OPEN}
-walls = [{{ from = [0, 0], to = [1, 0] }}, {wall}]
-");
-            let e = Scenario::from_toml_str(&text)
-                .expect_err(wall)
-                .to_string();
+            let text = format!("walls = [{{ from = [0, 0], to = [1, 0] }}, {wall}]\n{NAV_OPEN}");
+            let e = Scenario::from_toml_str(&text).expect_err(wall).to_string();
             assert!(e.contains(field) && e.contains(found), "{wall}: {e}");
             assert!(e.contains("expected a point [x, y] of two numbers"), "{e}");
             assert!(!e.contains('\n'), "{e}");
         }
         // Integers are numbers too.
-        let ok = format!("{NAV_OPEN}
-walls = [{{ from = [-2, 1], to = [2, 1] }}]
-");
+        let ok = format!("walls = [{{ from = [-2, 1], to = [2, 1] }}]\n{NAV_OPEN}");
         let s = Scenario::from_toml_str(&ok).expect("integer points");
         assert_eq!(s.walls[0].from, [-2.0, 1.0]);
     }
