@@ -38,7 +38,7 @@ use crate::actuator::{Actuator, ActuatorModel};
 use crate::controller::{BlobPolicy, Controller, SafeState};
 use crate::env::Env;
 use crate::faults::Faults;
-use crate::metrics::{EpisodeRecord, Tick, Trace};
+use crate::metrics::{EpisodeMeter, EpisodeRecord, Tick};
 use crate::nav::NavEnv;
 use crate::scenario::Scenario;
 use crate::seed::{episode_seed, stream};
@@ -46,8 +46,9 @@ use crate::sensor::{Sensor, SensorModel};
 use crate::Error;
 
 /// The most episodes one evaluation runs (1,000,000). A larger count is refused by
-/// [`EvalConfig::validate`] before anything is allocated: 1,000,000 episodes of the 200-step
-/// scenarios take about twenty minutes, and more is almost surely a typo.
+/// [`EvalConfig::validate`] before anything is allocated or run: a million episodes of the
+/// shipped 200-step scenarios already take minutes (100,000 take about 30 s), so a larger
+/// count is almost surely a typo, and `Report::episodes` stays a size a caller can hold.
 pub const MAX_EPISODES: usize = 1_000_000;
 
 /// How to run a test: how many starts, which seed, which sensor, actuator and faults.
@@ -468,7 +469,7 @@ fn run_episode(
     controller.reset();
     let mut firmware = Firmware::new(env, cfg, index);
     let changed_walls = cfg.faults.changed_walls(env.scenario());
-    let mut trace = Trace::new(
+    let mut meter = EpisodeMeter::new(
         seed,
         env.position(),
         2,
@@ -481,22 +482,22 @@ fn run_episode(
                 env.set_walls(walls.iter().map(|w| w.segment()).collect());
             }
         }
-        let action = firmware.control(tick, &truth, controller, clock, &mut trace.saturated);
+        let action = firmware.control(tick, &truth, controller, clock, &mut meter.saturated);
         let step = env.step(action);
         let command = f64::from(action[0]).hypot(f64::from(action[1]));
         let touched = step.info.margin_touched;
-        trace.push(Tick {
+        meter.push(Tick {
             position: env.position(),
             touched,
             command,
         });
         truth = step.observation;
         if step.terminated {
-            trace.left_arena = env.outside();
+            meter.left_arena = env.outside();
             break;
         }
     }
-    (trace.record(), firmware.actuator.sanitized)
+    (meter.record(), firmware.actuator.sanitized)
 }
 
 /// The firmware's side of the loop for one episode: sensor in, controller, actuator out.

@@ -155,7 +155,8 @@ fn run(args: &RunArgs) -> Result<bool> {
     Ok(report.pass.passed)
 }
 
-/// Item 13 of issue 9: a path that cannot be written is reported before the work, not after.
+/// A path that cannot be written is reported before the work, so a long run never ends in
+/// "cannot write" with its results lost (issue 9, item 13).
 fn check_outputs(args: &RunArgs) -> Result<()> {
     if let (Some(json), Some(svg)) = (&args.json, &args.svg) {
         if json == svg {

@@ -75,10 +75,10 @@ pub struct EpisodeRecord {
     pub trajectory: Vec<[f32; 2]>,
 }
 
-/// One episode being measured: fed every tick ([`Trace::push`]), turned into an
-/// [`EpisodeRecord`] at the end ([`Trace::record`]).
+/// One episode being measured: fed every tick ([`EpisodeMeter::push`]), turned into an
+/// [`EpisodeRecord`] at the end ([`EpisodeMeter::record`]).
 #[derive(Debug)]
-pub(crate) struct Trace {
+pub(crate) struct EpisodeMeter {
     seed: u64,
     start: Vec2,
     metrics: Metrics,
@@ -102,7 +102,7 @@ pub(crate) struct Trace {
     pub left_arena: bool,
 }
 
-impl Trace {
+impl EpisodeMeter {
     /// An episode of scenario `s` starting at `start`, with `actions` action dimensions.
     pub(crate) fn new(
         seed: u64,
@@ -110,9 +110,9 @@ impl Trace {
         actions: usize,
         s: &Scenario,
         keep_trajectory: bool,
-    ) -> Trace {
+    ) -> EpisodeMeter {
         let m = &s.metrics;
-        Trace {
+        EpisodeMeter {
             seed,
             start,
             metrics: m.clone(),
@@ -278,11 +278,11 @@ mod tests {
     }
 
     fn record(ticks: &[Tick], s: &Scenario, keep_trajectory: bool) -> EpisodeRecord {
-        let mut trace = Trace::new(0, Vec2::new(0.0, -3.6), 2, s, keep_trajectory);
+        let mut meter = EpisodeMeter::new(0, Vec2::new(0.0, -3.6), 2, s, keep_trajectory);
         for t in ticks {
-            trace.push(*t);
+            meter.push(*t);
         }
-        trace.record()
+        meter.record()
     }
 
     #[test]
@@ -426,11 +426,11 @@ mod tests {
             s.goal_radius = 0.07;
             s.metrics.near_radius = 0.03;
             let start = Vec2::new(0.0, -0.1);
-            let mut trace = Trace::new(0, start, 2, &s, false);
+            let mut meter = EpisodeMeter::new(0, start, 2, &s, false);
             for t in &ticks {
-                trace.push(*t);
+                meter.push(*t);
             }
-            prop_assert_eq!(trace.record(), reference(start, &ticks, &s));
+            prop_assert_eq!(meter.record(), reference(start, &ticks, &s));
         }
     }
 }
