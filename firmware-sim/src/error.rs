@@ -92,6 +92,14 @@ impl fmt::Display for Error {
 
 impl std::error::Error for Error {}
 
+/// So that a streaming evaluation ([`crate::harness::evaluate_streaming`]) can write its
+/// records to files and return either kind of error as an `io::Error`.
+impl From<Error> for std::io::Error {
+    fn from(e: Error) -> Self {
+        std::io::Error::new(std::io::ErrorKind::InvalidInput, e)
+    }
+}
+
 impl From<policy_core::Error> for Error {
     fn from(e: policy_core::Error) -> Self {
         Error::Blob(e)

@@ -11,6 +11,10 @@
 //! | `wall:T@X0/Y0/X1/Y1`      | at tick T a wall from (X0, Y0) to (X1, Y1) appears             |
 //! | `wall:T@X0/Y0/X1/Y1@I`    | at tick T wall number I of the scenario moves there            |
 //!
+//! At most one fault of each kind per run: one dropout (`dropout-nan` or `dropout-stale`, they
+//! share the sensor), one stuck actuator, one wall change. A kind given twice is an error
+//! rather than the last one silently winning (issue 9, item 8).
+//!
 //! ```
 //! use firmware_sim::faults::{DropoutMode, Faults};
 //! let f: Faults = "dropout-nan:0.1,stuck:0@50,wall:20@-2/0/2/0".parse().unwrap();
@@ -18,6 +22,8 @@
 //! assert_eq!(f.stuck.unwrap().from_tick, 50);
 //! assert_eq!(f.wall.unwrap().wall.to, [2.0, 0.0]);
 //! assert!("stuck:x@3".parse::<Faults>().is_err());
+//! let twice = "wall:0@-2/1/2/1,wall:0@-2/-1/2/-1".parse::<Faults>().unwrap_err();
+//! assert!(twice.to_string().contains("given twice"), "{twice}");
 //! ```
 
 use std::str::FromStr;
@@ -150,33 +156,54 @@ impl FromStr for Faults {
 
     fn from_str(spec: &str) -> Result<Faults, Error> {
         let mut faults = Faults::default();
+        // The item that set each kind, to name both in the error when one comes again.
+        let mut seen: [Option<&str>; 3] = [None; 3];
         for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
             let (kind, arg) = item.split_once(':').ok_or_else(|| unknown(item))?;
-            match kind {
-                "dropout-nan" | "dropout-stale" => {
-                    let mode = if kind == "dropout-nan" {
-                        DropoutMode::Nan
-                    } else {
-                        DropoutMode::Stale
-                    };
-                    faults.dropout = Some(Dropout {
-                        probability: number(arg, item)?,
-                        mode,
-                    });
-                }
-                "stuck" => {
-                    let (dim, tick) = arg.split_once('@').ok_or_else(|| unknown(item))?;
-                    faults.stuck = Some(ActuatorStuck {
-                        dim: number(dim, item)?,
-                        from_tick: number(tick, item)?,
-                    });
-                }
-                "wall" => faults.wall = Some(parse_wall(arg, item)?),
+            let slot = match kind {
+                "dropout-nan" | "dropout-stale" => 0,
+                "stuck" => 1,
+                "wall" => 2,
                 _ => return Err(unknown(item)),
+            };
+            if let Some(first) = seen[slot].replace(item) {
+                return Err(twice(first, item));
+            }
+            match slot {
+                0 => faults.dropout = Some(parse_dropout(kind, arg, item)?),
+                1 => faults.stuck = Some(parse_stuck(arg, item)?),
+                _ => faults.wall = Some(parse_wall(arg, item)?),
             }
         }
         Ok(faults)
     }
+}
+
+fn twice(first: &str, again: &str) -> Error {
+    bad(format!(
+        "{first:?} and {again:?}: a fault kind given twice; at most one of each kind per run \
+         (one dropout-nan or dropout-stale, one stuck, one wall)"
+    ))
+}
+
+fn parse_dropout(kind: &str, arg: &str, item: &str) -> Result<Dropout, Error> {
+    let mode = if kind == "dropout-nan" {
+        DropoutMode::Nan
+    } else {
+        DropoutMode::Stale
+    };
+    Ok(Dropout {
+        probability: number(arg, item)?,
+        mode,
+    })
+}
+
+fn parse_stuck(arg: &str, item: &str) -> Result<ActuatorStuck, Error> {
+    let (dim, tick) = arg.split_once('@').ok_or_else(|| unknown(item))?;
+    Ok(ActuatorStuck {
+        dim: number(dim, item)?,
+        from_tick: number(tick, item)?,
+    })
 }
 
 fn parse_wall(arg: &str, item: &str) -> Result<WallChange, Error> {
@@ -215,4 +242,47 @@ fn unknown(item: &str) -> Error {
     bad(format!(
         "unknown fault {item:?}: expected dropout-nan:P, dropout-stale:P, stuck:D@T, wall:T@X0/Y0/X1/Y1[@I]"
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Regression (issue 9, item 8): `wall:…,wall:…,dropout-nan:1,dropout-stale:0` was accepted
+    /// and only the last wall and the last dropout applied. A kind given twice is refused, and
+    /// the two dropout modes share one slot.
+    #[test]
+    fn a_fault_kind_given_twice_is_refused_naming_both_items() {
+        for (spec, first, again) in [
+            (
+                "wall:0@-2/1/2/1,wall:0@-2/-1/2/-1",
+                "wall:0@-2/1/2/1",
+                "wall:0@-2/-1/2/-1",
+            ),
+            (
+                "dropout-nan:1,dropout-stale:0",
+                "dropout-nan:1",
+                "dropout-stale:0",
+            ),
+            (
+                "dropout-nan:0.1, stuck:0@3, dropout-nan:0.2",
+                "dropout-nan:0.1",
+                "dropout-nan:0.2",
+            ),
+            ("stuck:0@3,stuck:1@5", "stuck:0@3", "stuck:1@5"),
+        ] {
+            let e = spec.parse::<Faults>().expect_err(spec).to_string();
+            assert!(e.starts_with("faults:") && e.contains("given twice"), "{e}");
+            assert!(
+                e.contains(&format!("{first:?}")) && e.contains(&format!("{again:?}")),
+                "{e}"
+            );
+            assert!(!e.contains('\n'), "{e}");
+        }
+        let one_of_each: Faults = "dropout-stale:0.1,stuck:1@4,wall:2@-1/0/1/0"
+            .parse()
+            .expect("one of each kind");
+        assert!(one_of_each.dropout.is_some() && one_of_each.stuck.is_some());
+        assert!(one_of_each.wall.is_some());
+    }
 }

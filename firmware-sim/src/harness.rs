@@ -8,6 +8,12 @@
 //! and the plant steps. Each test runs the full time limit (DESIGN.md's protocol: reaching the
 //! centre does not end a test; leaving the arena does).
 //!
+//! [`evaluate_streaming`] is the core: it hands each episode's record to a callback as soon as
+//! the episode ends and keeps only running totals, so its memory does not depend on the episode
+//! count (the CLI streams the records into its JSON report and SVG plot). [`evaluate`] and
+//! [`evaluate_controller`] are built on it and keep every record in [`Report::episodes`]. One
+//! evaluation runs at most [`MAX_EPISODES`] episodes.
+//!
 //! ```
 //! use firmware_sim::controller::Straight;
 //! use firmware_sim::harness::{evaluate, evaluate_controller, EvalConfig};
@@ -32,17 +38,23 @@ use crate::actuator::{Actuator, ActuatorModel};
 use crate::controller::{BlobPolicy, Controller, SafeState};
 use crate::env::Env;
 use crate::faults::Faults;
-use crate::metrics::{EpisodeRecord, Tick, Trace};
+use crate::metrics::{EpisodeMeter, EpisodeRecord, Tick};
 use crate::nav::NavEnv;
 use crate::scenario::Scenario;
 use crate::seed::{episode_seed, stream};
 use crate::sensor::{Sensor, SensorModel};
 use crate::Error;
 
+/// The most episodes one evaluation runs (1,000,000). A larger count is refused by
+/// [`EvalConfig::validate`] before anything is allocated or run: a million episodes of the
+/// shipped 200-step scenarios already take minutes (100,000 take about 30 s), so a larger
+/// count is almost surely a typo, and `Report::episodes` stays a size a caller can hold.
+pub const MAX_EPISODES: usize = 1_000_000;
+
 /// How to run a test: how many starts, which seed, which sensor, actuator and faults.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EvalConfig {
-    /// Number of test episodes (100, as in the paper).
+    /// Number of test episodes (100, as in the paper), in `1..=MAX_EPISODES`.
     pub episodes: usize,
     /// Seed of every random stream (starts, sensor noise, dropouts).
     pub seed: u64,
@@ -71,10 +83,22 @@ impl Default for EvalConfig {
 
 impl EvalConfig {
     /// Checks the settings against the scenario.
+    ///
+    /// ```
+    /// use firmware_sim::harness::{EvalConfig, MAX_EPISODES};
+    /// use firmware_sim::scenario::Scenario;
+    /// let s = Scenario::builtin("nav-open").unwrap();
+    /// let cfg = EvalConfig { episodes: MAX_EPISODES + 1, ..EvalConfig::default() };
+    /// let err = cfg.validate(&s).unwrap_err().to_string();
+    /// assert_eq!(err, "episodes: must be in 1..=1000000, found 1000001");
+    /// ```
     pub fn validate(&self, scenario: &Scenario) -> Result<(), Error> {
         let bad = |field, message| Err(Error::Config { field, message });
-        if self.episodes == 0 {
-            return bad("episodes", "must be > 0, found 0".into());
+        if !(1..=MAX_EPISODES).contains(&self.episodes) {
+            return bad(
+                "episodes",
+                format!("must be in 1..={MAX_EPISODES}, found {}", self.episodes),
+            );
         }
         let s = self.sensor;
         if !(s.noise_std.is_finite() && s.noise_std >= 0.0) {
@@ -182,6 +206,15 @@ impl Report {
         }
     }
 
+    /// Records that the blob did not boot (the loop ran in the safe state): the report fails.
+    pub fn mark_boot_failure(&mut self, e: &Error) {
+        self.boot_error = Some(e.to_string());
+        self.pass.passed = false;
+        self.pass
+            .failures
+            .insert(0, format!("blob did not boot: {e}"));
+    }
+
     /// The summary table the CLI prints.
     ///
     /// ```
@@ -245,10 +278,7 @@ impl Report {
         ];
         let mut out = format!(
             "{} | {} | {} tests, seed {}\n",
-            self.scenario,
-            self.controller,
-            self.episodes.len(),
-            self.config.seed
+            self.scenario, self.controller, self.config.episodes, self.config.seed
         );
         for (k, v) in rows {
             out.push_str(&format!("  {k:<33} {v}\n"));
@@ -260,21 +290,32 @@ impl Report {
 /// Boots a blob and runs the test protocol. `Err` only for an invalid scenario or config; a
 /// blob that fails to boot gives a report with `boot_error` set.
 pub fn evaluate(blob: &[u8], scenario: &Scenario, cfg: &EvalConfig) -> Result<Report, Error> {
+    let (mut controller, boot_error) = boot_or_safe_state(blob);
+    let mut report = evaluate_controller(controller.as_mut(), scenario, cfg)?;
+    if let Some(e) = boot_error {
+        report.mark_boot_failure(&e);
+    }
+    Ok(report)
+}
+
+/// Boots a blob as [`boot`] does; a blob that does not boot gives the safe state (zero action)
+/// and the reason, which the report then carries ([`Report::mark_boot_failure`]).
+///
+/// ```
+/// use firmware_sim::harness::boot_or_safe_state;
+/// let (safe, error) = boot_or_safe_state(b"not a blob");
+/// assert_eq!(safe.name(), "safe-state");
+/// assert!(error.unwrap().to_string().contains("magic"));
+/// ```
+pub fn boot_or_safe_state(blob: &[u8]) -> (Box<dyn Controller>, Option<Error>) {
     match boot(blob) {
-        Ok(mut policy) => evaluate_controller(&mut policy, scenario, cfg),
+        Ok(policy) => (Box::new(policy), None),
         Err(e) => {
-            let mut safe = SafeState {
+            let safe = SafeState {
                 observations: 2,
                 actions: 2,
             };
-            let mut report = evaluate_controller(&mut safe, scenario, cfg)?;
-            report.boot_error = Some(e.to_string());
-            report.pass.passed = false;
-            report
-                .pass
-                .failures
-                .insert(0, format!("blob did not boot: {e}"));
-            Ok(report)
+            (Box::new(safe), Some(e))
         }
     }
 }
@@ -316,7 +357,8 @@ fn check_sizes(c: &dyn Controller) -> Result<(), Error> {
 }
 
 /// Runs the test protocol with any controller (a booted blob, `straight`, `oracle`, or the
-/// trainer's own).
+/// trainer's own), keeping every episode's record in [`Report::episodes`] (for large counts,
+/// [`evaluate_streaming`] keeps none).
 ///
 /// ```
 /// use firmware_sim::controller::reference;
@@ -333,26 +375,56 @@ pub fn evaluate_controller(
     scenario: &Scenario,
     cfg: &EvalConfig,
 ) -> Result<Report, Error> {
+    let mut episodes = Vec::new();
+    let mut report = evaluate_streaming(controller, scenario, cfg, |e| {
+        episodes.push(e);
+        Ok::<(), Error>(())
+    })?;
+    report.episodes = episodes;
+    Ok(report)
+}
+
+/// Runs the test protocol, handing each episode's record to `on_episode` as soon as the
+/// episode ends, in order; returns the report of running totals, with `episodes` empty. Its
+/// memory does not grow with the episode count. An error from `on_episode` stops the run and
+/// is returned.
+///
+/// ```
+/// use firmware_sim::controller::Straight;
+/// use firmware_sim::harness::{evaluate_controller, evaluate_streaming, EvalConfig};
+/// use firmware_sim::scenario::Scenario;
+/// let s = Scenario::builtin("nav-walls").unwrap();
+/// let cfg = EvalConfig { episodes: 4, ..EvalConfig::default() };
+/// let mut stuck = 0;
+/// let report = evaluate_streaming(&mut Straight { max_step: 0.25 }, &s, &cfg, |e| {
+///     stuck += usize::from(e.stuck);
+///     Ok::<(), firmware_sim::Error>(())
+/// })
+/// .unwrap();
+/// assert!(report.episodes.is_empty());
+/// assert_eq!(report.stuck_rate, stuck as f64 / 4.0);
+/// let mut full = evaluate_controller(&mut Straight { max_step: 0.25 }, &s, &cfg).unwrap();
+/// full.episodes.clear();
+/// assert_eq!(report.without_timing(), full.without_timing());
+/// ```
+pub fn evaluate_streaming<E: From<Error>>(
+    controller: &mut dyn Controller,
+    scenario: &Scenario,
+    cfg: &EvalConfig,
+    mut on_episode: impl FnMut(EpisodeRecord) -> Result<(), E>,
+) -> Result<Report, E> {
     cfg.validate(scenario)?;
     check_sizes(controller)?;
     let mut env = NavEnv::new(scenario)?;
     env.set_goal_terminates(false);
     let mut clock = Clock::default();
-    let mut sanitized = 0;
-    let mut episodes = Vec::with_capacity(cfg.episodes);
+    let mut totals = Totals::default();
     for i in 0..cfg.episodes as u64 {
-        let (trace, cleaned) = run_episode(controller, &mut env, cfg, i, &mut clock);
-        sanitized += cleaned;
-        episodes.push(trace.record(scenario, cfg.record_trajectories));
+        let (record, sanitized) = run_episode(controller, &mut env, cfg, i, &mut clock);
+        totals.add(&record, sanitized);
+        on_episode(record)?;
     }
-    Ok(summarise(
-        controller.name(),
-        scenario,
-        cfg,
-        episodes,
-        sanitized,
-        clock.timing(),
-    ))
+    Ok(totals.report(controller.name(), scenario, cfg, clock.timing()))
 }
 
 /// Wall-clock statistics of the `act` calls.
@@ -383,7 +455,7 @@ impl Clock {
     }
 }
 
-/// One test episode of the firmware loop; returns its trace and the number of sanitised
+/// One test episode of the firmware loop; returns its record and the number of sanitised
 /// commands.
 fn run_episode(
     controller: &mut dyn Controller,
@@ -391,35 +463,41 @@ fn run_episode(
     cfg: &EvalConfig,
     index: u64,
     clock: &mut Clock,
-) -> (Trace, u64) {
+) -> (EpisodeRecord, u64) {
     let seed = episode_seed(cfg.seed, index);
     let mut truth = env.reset(seed);
     controller.reset();
     let mut firmware = Firmware::new(env, cfg, index);
     let changed_walls = cfg.faults.changed_walls(env.scenario());
-    let mut trace = Trace::new(seed, env.position(), 2);
+    let mut meter = EpisodeMeter::new(
+        seed,
+        env.position(),
+        2,
+        env.scenario(),
+        cfg.record_trajectories,
+    );
     for tick in 0..env.scenario().time_limit {
         if let (Some(walls), Some(change)) = (&changed_walls, cfg.faults.wall) {
             if change.at_tick == tick {
                 env.set_walls(walls.iter().map(|w| w.segment()).collect());
             }
         }
-        let action = firmware.control(tick, &truth, controller, clock, &mut trace.saturated);
+        let action = firmware.control(tick, &truth, controller, clock, &mut meter.saturated);
         let step = env.step(action);
         let command = f64::from(action[0]).hypot(f64::from(action[1]));
         let touched = step.info.margin_touched;
-        trace.ticks.push(Tick {
+        meter.push(Tick {
             position: env.position(),
             touched,
             command,
         });
         truth = step.observation;
         if step.terminated {
-            trace.left_arena = env.outside();
+            meter.left_arena = env.outside();
             break;
         }
     }
-    (trace, firmware.actuator.sanitized)
+    (meter.record(), firmware.actuator.sanitized)
 }
 
 /// The firmware's side of the loop for one episode: sensor in, controller, actuator out.
@@ -479,59 +557,82 @@ fn count_saturated(command: &[f32], high: &[f32], counts: &mut [u32]) {
     }
 }
 
-fn summarise(
-    controller: String,
-    scenario: &Scenario,
-    cfg: &EvalConfig,
-    episodes: Vec<EpisodeRecord>,
+/// Running totals over the episodes, in episode order (the sums are those a pass over all the
+/// records would make, so the report is the same bit for bit).
+#[derive(Debug, Default)]
+struct Totals {
+    episodes: u64,
+    success: u64,
+    reached: u64,
+    near_pass: u64,
+    stuck: u64,
+    left_arena: u64,
+    error_sum: f64,
+    steps: u64,
+    contact_steps: u64,
+    saturated_steps: [u64; 2],
+    goal_reached: u64,
+    goal_steps_sum: f64,
     sanitized: u64,
-    timing: Timing,
-) -> Report {
-    let n = episodes.len() as f64;
-    let rate =
-        |f: &dyn Fn(&EpisodeRecord) -> bool| episodes.iter().filter(|e| f(e)).count() as f64 / n;
-    let total_steps: u64 = episodes.iter().map(|e| u64::from(e.steps)).sum();
-    let contact: u64 = episodes.iter().map(|e| u64::from(e.contact_steps)).sum();
-    let saturation_fraction = (0..2)
-        .map(|d| {
-            episodes
-                .iter()
-                .map(|e| f64::from(e.saturated_steps[d]))
-                .sum::<f64>()
-                / total_steps.max(1) as f64
-        })
-        .collect();
-    let goal_steps: Vec<f64> = episodes
-        .iter()
-        .filter_map(|e| e.steps_to_goal)
-        .map(f64::from)
-        .collect();
-    let mut report = Report {
-        scenario: scenario.name.clone(),
-        controller,
-        boot_error: None,
-        config: cfg.clone(),
-        success_rate: rate(&|e| e.success),
-        mean_error: episodes.iter().map(|e| e.error).sum::<f64>() / n,
-        strict_reach_rate: rate(&|e| e.reached),
-        near_pass_rate: rate(&|e| e.near_pass),
-        mean_steps_to_goal: (!goal_steps.is_empty())
-            .then(|| goal_steps.iter().sum::<f64>() / goal_steps.len() as f64),
-        stuck_rate: rate(&|e| e.stuck),
-        left_arena_rate: rate(&|e| e.left_arena),
-        contact_fraction: contact as f64 / total_steps.max(1) as f64,
-        saturation_fraction,
-        sanitized_commands: sanitized,
-        total_steps,
-        timing,
-        pass: PassOutcome {
-            passed: true,
-            failures: Vec::new(),
-        },
-        episodes,
-    };
-    report.pass = judge(&report, scenario);
-    report
+}
+
+impl Totals {
+    fn add(&mut self, e: &EpisodeRecord, sanitized: u64) {
+        self.episodes += 1;
+        self.success += u64::from(e.success);
+        self.reached += u64::from(e.reached);
+        self.near_pass += u64::from(e.near_pass);
+        self.stuck += u64::from(e.stuck);
+        self.left_arena += u64::from(e.left_arena);
+        self.error_sum += e.error;
+        self.steps += u64::from(e.steps);
+        self.contact_steps += u64::from(e.contact_steps);
+        for (total, n) in self.saturated_steps.iter_mut().zip(&e.saturated_steps) {
+            *total += u64::from(*n);
+        }
+        if let Some(steps) = e.steps_to_goal {
+            self.goal_reached += 1;
+            self.goal_steps_sum += f64::from(steps);
+        }
+        self.sanitized += sanitized;
+    }
+
+    fn report(
+        &self,
+        controller: String,
+        scenario: &Scenario,
+        cfg: &EvalConfig,
+        timing: Timing,
+    ) -> Report {
+        let n = self.episodes as f64;
+        let per_step = |count: u64| count as f64 / self.steps.max(1) as f64;
+        let mut report = Report {
+            scenario: scenario.name.clone(),
+            controller,
+            boot_error: None,
+            config: cfg.clone(),
+            success_rate: self.success as f64 / n,
+            mean_error: self.error_sum / n,
+            strict_reach_rate: self.reached as f64 / n,
+            near_pass_rate: self.near_pass as f64 / n,
+            mean_steps_to_goal: (self.goal_reached > 0)
+                .then(|| self.goal_steps_sum / self.goal_reached as f64),
+            stuck_rate: self.stuck as f64 / n,
+            left_arena_rate: self.left_arena as f64 / n,
+            contact_fraction: per_step(self.contact_steps),
+            saturation_fraction: self.saturated_steps.map(per_step).to_vec(),
+            sanitized_commands: self.sanitized,
+            total_steps: self.steps,
+            timing,
+            pass: PassOutcome {
+                passed: true,
+                failures: Vec::new(),
+            },
+            episodes: Vec::new(),
+        };
+        report.pass = judge(&report, scenario);
+        report
+    }
 }
 
 fn judge(r: &Report, s: &Scenario) -> PassOutcome {
@@ -551,5 +652,51 @@ fn judge(r: &Report, s: &Scenario) -> PassOutcome {
     PassOutcome {
         passed: failures.is_empty(),
         failures,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::controller::Straight;
+
+    /// Regression (issue 9, item 2): `episodes = usize::MAX` panicked (`capacity overflow`) and
+    /// 10^12 aborted on a 152 TB allocation. Counts above `MAX_EPISODES` are refused by
+    /// `validate`, before anything is allocated or run.
+    #[test]
+    fn an_episode_count_beyond_the_maximum_is_refused_before_any_work() {
+        let s = Scenario::builtin("nav-open").expect("builtin");
+        for episodes in [usize::MAX, 1_000_000_000_000, MAX_EPISODES + 1] {
+            let cfg = EvalConfig {
+                episodes,
+                ..EvalConfig::default()
+            };
+            let e = evaluate_controller(&mut Straight { max_step: 0.25 }, &s, &cfg)
+                .expect_err("must be refused");
+            assert_eq!(
+                e.to_string(),
+                format!("episodes: must be in 1..=1000000, found {episodes}")
+            );
+        }
+    }
+
+    #[test]
+    fn an_error_from_the_episode_callback_stops_the_run() {
+        let s = Scenario::builtin("nav-open").expect("builtin");
+        let cfg = EvalConfig::default();
+        let mut seen = 0;
+        let result = evaluate_streaming(&mut Straight { max_step: 0.25 }, &s, &cfg, |_| {
+            seen += 1;
+            if seen == 3 {
+                Err(Error::Config {
+                    field: "test",
+                    message: "stop".into(),
+                })
+            } else {
+                Ok(())
+            }
+        });
+        assert_eq!(result.expect_err("stopped").to_string(), "test: stop");
+        assert_eq!(seen, 3);
     }
 }

@@ -9,7 +9,8 @@
 //!   [`geometry`]: exact sliding motion among zero-thickness walls.
 //! - [`harness`]: the firmware loop (boot from a blob, sensor, actuator, faults) and its margin
 //!   metrics; [`controller`]: blob policies of every compiled shape and reference controllers.
-//! - [`files`]: atomic output files, output paths checked before work, bounded blob reads.
+//! - [`files`]: atomic output files, output paths checked before work, bounded blob reads;
+//!   [`json_report`] and [`svg`]: the CLI's report and plot, streamed episode by episode.
 #![deny(missing_docs)]
 
 pub mod actuator;
@@ -20,6 +21,7 @@ pub mod faults;
 pub mod files;
 pub mod geometry;
 pub mod harness;
+pub mod json_report;
 pub mod metrics;
 pub mod nav;
 pub mod oracle;

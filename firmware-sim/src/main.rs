@@ -1,20 +1,28 @@
 //! `firmware-sim run`: the closed-loop test of a policy blob (or a reference controller) as a
 //! CI gate. Exit codes: 0 the scenario's pass criteria hold, 1 they fail (or the blob did not
-//! boot), 2 bad input.
+//! boot), 2 bad input (one line on stderr).
+//!
+//! Every input is checked, and every output path probed, before the first episode runs. Memory
+//! does not grow with `--episodes`: the summary comes from running totals, and each episode's
+//! record is streamed into the JSON report and the SVG plot as soon as it ends. Outputs appear
+//! only when complete (written to temporary files and renamed into place).
 
+use std::io;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use clap::{Args, Parser, Subcommand};
+use clap::{Args, CommandFactory, Parser, Subcommand};
 
 use firmware_sim::actuator::ActuatorModel;
-use firmware_sim::controller::reference;
-use firmware_sim::faults::Faults;
-use firmware_sim::harness::{evaluate, evaluate_controller, EvalConfig, Report};
+use firmware_sim::controller::{reference, Controller};
+use firmware_sim::files::{self, AtomicFile};
+use firmware_sim::harness::{boot_or_safe_state, evaluate_streaming, EvalConfig, Report};
+use firmware_sim::json_report::JsonReportWriter;
+use firmware_sim::metrics::EpisodeRecord;
 use firmware_sim::scenario::Scenario;
 use firmware_sim::sensor::SensorModel;
-use firmware_sim::svg;
+use firmware_sim::svg::SvgWriter;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -48,13 +56,14 @@ struct RunArgs {
     /// Built-in scenario name (nav-walls, nav-open) or a TOML file.
     #[arg(long, default_value = "nav-walls")]
     scenario: String,
-    /// Number of test starts.
+    /// Number of test starts, at most 1,000,000.
     #[arg(long, default_value_t = 100)]
     episodes: usize,
     /// Seed of every random stream.
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Faults, comma-separated: dropout-nan:P, dropout-stale:P, stuck:D@T, wall:T@X0/Y0/X1/Y1[@I].
+    /// At most one of each kind (dropout-nan and dropout-stale count as one kind).
     #[arg(long, default_value = "")]
     faults: String,
     /// Sensor noise standard deviation.
@@ -69,10 +78,10 @@ struct RunArgs {
     /// Largest actuator change per tick and dimension.
     #[arg(long)]
     rate_limit: Option<f32>,
-    /// Write the full JSON report here.
+    /// Write the full JSON report here (every episode's record; with --svg, their trajectories).
     #[arg(long)]
     json: Option<PathBuf>,
-    /// Draw walls and trajectories to this SVG file.
+    /// Draw walls and every episode's trajectory to this SVG file.
     #[arg(long)]
     svg: Option<PathBuf>,
 }
@@ -85,14 +94,7 @@ fn main() -> ExitCode {
             return ExitCode::SUCCESS;
         }
         Err(e) => {
-            // clap's message up to its usage block, folded into one line.
-            let text = e.to_string();
-            let head: Vec<&str> = text
-                .lines()
-                .take_while(|l| !l.trim().is_empty())
-                .map(str::trim)
-                .collect();
-            eprintln!("{}", head.join(" "));
+            eprintln!("{}", usage_error(&e));
             return ExitCode::from(2);
         }
     };
@@ -107,10 +109,68 @@ fn main() -> ExitCode {
     }
 }
 
-/// Runs the evaluation; `Ok(passed)`.
+/// A command-line error as one line.
+fn usage_error(e: &clap::Error) -> String {
+    use clap::error::ErrorKind;
+    if matches!(
+        e.kind(),
+        ErrorKind::MissingSubcommand | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+    ) {
+        // clap prints the whole help here, whose first line does not say what is wrong.
+        let cli = Cli::command();
+        let names: Vec<&str> = cli.get_subcommands().map(|c| c.get_name()).collect();
+        return format!(
+            "{}: missing a subcommand: {} (see --help)",
+            cli.get_name(),
+            names.join(", ")
+        );
+    }
+    // clap's message up to its usage block, folded into one line.
+    let text = e.to_string();
+    let head: Vec<&str> = text
+        .lines()
+        .take_while(|l| !l.trim().is_empty())
+        .map(str::trim)
+        .collect();
+    head.join(" ")
+}
+
+/// Runs the evaluation; `Ok(passed)`. All input is checked before the first episode.
 fn run(args: &RunArgs) -> Result<bool> {
+    check_outputs(args)?;
     let scenario = Scenario::resolve(&args.scenario)?;
-    let cfg = EvalConfig {
+    let cfg = eval_config(args)?;
+    cfg.validate(&scenario)?;
+    let (mut controller, boot_error) = controller(args, &scenario)?;
+    let mut outputs = Outputs::create(args, &scenario, &controller.name())?;
+    let mut report = evaluate_streaming(controller.as_mut(), &scenario, &cfg, |e| {
+        outputs.episode(&e)
+    })?;
+    if let Some(e) = &boot_error {
+        report.mark_boot_failure(e);
+    }
+    print!("{}", report.summary());
+    outputs.finish(&report)?;
+    report_failures(&report, args.blob.as_deref());
+    Ok(report.pass.passed)
+}
+
+/// A path that cannot be written is reported before the work, so a long run never ends in
+/// "cannot write" with its results lost (issue 9, item 13).
+fn check_outputs(args: &RunArgs) -> Result<()> {
+    if let (Some(json), Some(svg)) = (&args.json, &args.svg) {
+        if json == svg {
+            anyhow::bail!("--json and --svg name the same file {}", json.display());
+        }
+    }
+    for path in args.json.iter().chain(&args.svg) {
+        files::check_output(path).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(())
+}
+
+fn eval_config(args: &RunArgs) -> Result<EvalConfig> {
+    Ok(EvalConfig {
         episodes: args.episodes,
         seed: args.seed,
         sensor: SensorModel {
@@ -121,30 +181,76 @@ fn run(args: &RunArgs) -> Result<bool> {
         actuator: ActuatorModel {
             rate_limit: args.rate_limit,
         },
-        faults: args.faults.parse::<Faults>()?,
+        faults: args.faults.parse()?,
         record_trajectories: args.svg.is_some(),
-    };
-    let report = match (&args.blob, &args.controller) {
+    })
+}
+
+/// The booted blob (or the safe state and why the blob did not boot), or a reference controller.
+fn controller(
+    args: &RunArgs,
+    scenario: &Scenario,
+) -> Result<(Box<dyn Controller>, Option<firmware_sim::Error>)> {
+    match (&args.blob, &args.controller) {
         (Some(path), _) => {
-            let bytes = std::fs::read(path)
+            let bytes = files::read_blob(path)
                 .with_context(|| format!("cannot read blob {}", path.display()))?;
-            evaluate(&bytes, &scenario, &cfg)?
+            Ok(boot_or_safe_state(&bytes))
         }
-        (None, Some(name)) => {
-            evaluate_controller(reference(name, &scenario)?.as_mut(), &scenario, &cfg)?
-        }
+        (None, Some(name)) => Ok((reference(name, scenario)?, None)),
         (None, None) => anyhow::bail!("give --blob FILE or --controller straight|oracle"),
-    };
-    print!("{}", report.summary());
-    if let Some(path) = &args.json {
-        let text = serde_json::to_string_pretty(&report)?;
-        write_atomic(path, text.as_bytes())?;
     }
-    if let Some(path) = &args.svg {
-        write_atomic(path, svg::render(&scenario, &report).as_bytes())?;
+}
+
+/// The output files being written while the episodes run.
+struct Outputs {
+    json: Option<(JsonReportWriter, PathBuf)>,
+    svg: Option<(SvgWriter<AtomicFile>, PathBuf)>,
+}
+
+impl Outputs {
+    fn create(args: &RunArgs, scenario: &Scenario, controller: &str) -> Result<Outputs> {
+        let json = args
+            .json
+            .as_ref()
+            .map(|p| written(JsonReportWriter::create(p), p).map(|w| (w, p.clone())))
+            .transpose()?;
+        let svg = args
+            .svg
+            .as_ref()
+            .map(|p| {
+                let plot =
+                    AtomicFile::create(p).and_then(|f| SvgWriter::start(f, scenario, controller));
+                written(plot, p).map(|w| (w, p.clone()))
+            })
+            .transpose()?;
+        Ok(Outputs { json, svg })
     }
-    report_failures(&report, args.blob.as_deref());
-    Ok(report.pass.passed)
+
+    fn episode(&mut self, e: &EpisodeRecord) -> Result<()> {
+        if let Some((json, path)) = &mut self.json {
+            written(json.episode(e), path)?;
+        }
+        if let Some((svg, path)) = &mut self.svg {
+            written(svg.episode(e), path)?;
+        }
+        Ok(())
+    }
+
+    /// Writes the summary into the JSON report and commits both files.
+    fn finish(self, report: &Report) -> Result<()> {
+        if let Some((svg, path)) = self.svg {
+            written(svg.finish().and_then(AtomicFile::commit), &path)?;
+        }
+        if let Some((json, path)) = self.json {
+            written(json.finish(report), &path)?;
+        }
+        Ok(())
+    }
+}
+
+fn written<T>(result: io::Result<T>, path: &Path) -> Result<T> {
+    result.with_context(|| format!("cannot write {}", path.display()))
 }
 
 fn report_failures(report: &Report, blob: Option<&Path>) {
@@ -156,24 +262,4 @@ fn report_failures(report: &Report, blob: Option<&Path>) {
     } else if !report.pass.passed {
         eprintln!("FAIL: {}", report.pass.failures.join("; "));
     }
-}
-
-/// Writes through a temporary file in the same directory and renames it over `path`, so a
-/// reader never sees half a report.
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .with_context(|| format!("{} is not a file path", path.display()))?;
-    let tmp = dir.join(format!(
-        ".{}.tmp{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    std::fs::write(&tmp, bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, path)
-        .with_context(|| format!("cannot move the output to {}", path.display()))
 }

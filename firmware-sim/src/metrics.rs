@@ -10,11 +10,19 @@
 //! - **stuck at margin**: for `stuck_window` consecutive steps the agent touched a wall every
 //!   step, the actuator commanded a step of at least `stuck_min_command · max_step`, and the
 //!   agent moved less than `stuck_max_progress` over the window.
+//!
+//! The metrics are computed online, tick by tick, keeping only the windows they need (the last
+//! `settle_window` positions, the last `stuck_window + 1` positions, a few counters): an
+//! episode's memory does not grow with the time limit (issue 9, item 5), unless the evaluation
+//! records trajectories for plots. The results are bit for bit those of the definitions above
+//! applied to the whole episode (the sums run in the same order); a property test checks it.
+
+use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::Vec2;
-use crate::scenario::Scenario;
+use crate::scenario::{Metrics, Scenario};
 
 /// What the loop saw at one tick.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -67,99 +75,191 @@ pub struct EpisodeRecord {
     pub trajectory: Vec<[f32; 2]>,
 }
 
-/// Everything recorded during one episode, turned into an [`EpisodeRecord`] at the end.
+/// One episode being measured: fed every tick ([`EpisodeMeter::push`]), turned into an
+/// [`EpisodeRecord`] at the end ([`EpisodeMeter::record`]).
 #[derive(Debug)]
-pub(crate) struct Trace {
-    pub seed: u64,
-    pub start: Vec2,
-    pub ticks: Vec<Tick>,
+pub(crate) struct EpisodeMeter {
+    seed: u64,
+    start: Vec2,
+    metrics: Metrics,
+    goal_radius: f64,
+    goal_hold: u32,
+    steps: u32,
+    contact_steps: u32,
+    end: Vec2,
+    min_distance: f64,
+    /// The last `settle_window` positions.
+    settle: Window,
+    /// Consecutive steps within `goal_radius` so far.
+    hold: u32,
+    steps_to_goal: Option<u32>,
+    stuck: StuckDetector,
+    /// Positions from the start, when the evaluation records trajectories.
+    trajectory: Option<Vec<[f32; 2]>>,
+    /// Steps whose command was saturated, per action dimension (counted by the loop).
     pub saturated: Vec<u32>,
+    /// The episode ended by leaving the arena.
     pub left_arena: bool,
 }
 
-impl Trace {
-    /// An empty trace for an episode starting at `start` with `actions` action dimensions.
-    pub(crate) fn new(seed: u64, start: Vec2, actions: usize) -> Trace {
-        Trace {
+impl EpisodeMeter {
+    /// An episode of scenario `s` starting at `start`, with `actions` action dimensions.
+    pub(crate) fn new(
+        seed: u64,
+        start: Vec2,
+        actions: usize,
+        s: &Scenario,
+        keep_trajectory: bool,
+    ) -> EpisodeMeter {
+        let m = &s.metrics;
+        EpisodeMeter {
             seed,
             start,
-            ticks: Vec::new(),
+            metrics: m.clone(),
+            goal_radius: s.goal_radius,
+            goal_hold: s.goal_hold,
+            steps: 0,
+            contact_steps: 0,
+            end: start,
+            min_distance: start.norm(),
+            settle: Window::new(m.settle_window),
+            hold: 0,
+            steps_to_goal: None,
+            stuck: StuckDetector::new(s, start),
+            trajectory: keep_trajectory.then(|| vec![[start.x as f32, start.y as f32]]),
             saturated: vec![0; actions],
             left_arena: false,
         }
     }
 
-    pub(crate) fn record(&self, s: &Scenario, keep_trajectory: bool) -> EpisodeRecord {
-        let m = &s.metrics;
-        let positions: Vec<Vec2> = self.ticks.iter().map(|t| t.position).collect();
-        let window = &positions[positions.len().saturating_sub(m.settle_window as usize)..];
+    /// Takes in one tick.
+    pub(crate) fn push(&mut self, t: Tick) {
+        self.steps += 1;
+        self.contact_steps += u32::from(t.touched);
+        let p = t.position;
+        self.end = p;
+        self.min_distance = self.min_distance.min(p.norm());
+        self.settle.push(p);
+        self.hold = if p.norm() <= self.goal_radius {
+            self.hold + 1
+        } else {
+            0
+        };
+        if self.hold >= self.goal_hold && self.steps_to_goal.is_none() {
+            self.steps_to_goal = Some(self.steps);
+        }
+        self.stuck.push(self.steps, &t);
+        if let Some(path) = &mut self.trajectory {
+            path.push([p.x as f32, p.y as f32]);
+        }
+    }
+
+    /// The episode's record.
+    pub(crate) fn record(self) -> EpisodeRecord {
+        let window = &self.settle.positions;
         let settled = mean(window).unwrap_or(self.start);
         let success = !self.left_arena
             && !window.is_empty()
-            && window.iter().all(|p| p.norm() <= m.success_radius);
-        let steps_to_goal = first_hold(&positions, s.goal_radius, s.goal_hold);
-        let min_distance = positions
-            .iter()
-            .map(|p| p.norm())
-            .fold(self.start.norm(), f64::min);
-        let stuck_at = self.first_stuck(s);
-        let end = positions.last().copied().unwrap_or(self.start);
+            && window
+                .iter()
+                .all(|p| p.norm() <= self.metrics.success_radius);
+        let stuck_at = self.stuck.found;
         EpisodeRecord {
             seed: self.seed,
             start: [self.start.x, self.start.y],
-            end: [end.x, end.y],
+            end: [self.end.x, self.end.y],
             settled: [settled.x, settled.y],
             error: settled.norm(),
             success,
-            reached: steps_to_goal.is_some(),
-            steps_to_goal,
-            near_pass: min_distance <= m.near_radius,
-            min_distance,
-            steps: self.ticks.len() as u32,
-            contact_steps: self.ticks.iter().filter(|t| t.touched).count() as u32,
+            reached: self.steps_to_goal.is_some(),
+            steps_to_goal: self.steps_to_goal,
+            near_pass: self.min_distance <= self.metrics.near_radius,
+            min_distance: self.min_distance,
+            steps: self.steps,
+            contact_steps: self.contact_steps,
             stuck: stuck_at.is_some(),
             stuck_at,
             left_arena: self.left_arena,
-            saturated_steps: self.saturated.clone(),
-            trajectory: if keep_trajectory {
-                self.trajectory()
-            } else {
-                Vec::new()
-            },
+            saturated_steps: self.saturated,
+            trajectory: self.trajectory.unwrap_or_default(),
         }
-    }
-
-    fn trajectory(&self) -> Vec<[f32; 2]> {
-        let start = [self.start.x as f32, self.start.y as f32];
-        let rest = self
-            .ticks
-            .iter()
-            .map(|t| [t.position.x as f32, t.position.y as f32]);
-        std::iter::once(start).chain(rest).collect()
-    }
-
-    /// The first step ending a window of pushing against a wall without progress.
-    fn first_stuck(&self, s: &Scenario) -> Option<u32> {
-        let w = s.metrics.stuck_window as usize;
-        let min_command = f64::from(s.metrics.stuck_min_command * s.max_step);
-        for end in w..=self.ticks.len() {
-            let window = &self.ticks[end - w..end];
-            let before = if end > w {
-                self.ticks[end - w - 1].position
-            } else {
-                self.start
-            };
-            let pushing = window.iter().all(|t| t.touched && t.command >= min_command);
-            let progress = (window[w - 1].position - before).norm();
-            if pushing && progress <= s.metrics.stuck_max_progress {
-                return Some(end as u32);
-            }
-        }
-        None
     }
 }
 
-fn mean(points: &[Vec2]) -> Option<Vec2> {
+/// The last `len` positions, oldest first. Grows only as positions arrive, so a window longer
+/// than the episode costs no more than the episode.
+#[derive(Debug)]
+struct Window {
+    positions: VecDeque<Vec2>,
+    len: usize,
+}
+
+impl Window {
+    fn new(len: u32) -> Window {
+        Window {
+            positions: VecDeque::new(),
+            len: len as usize,
+        }
+    }
+
+    fn push(&mut self, p: Vec2) {
+        if self.positions.len() == self.len {
+            self.positions.pop_front();
+        }
+        self.positions.push_back(p);
+    }
+}
+
+/// Finds the first step ending `stuck_window` steps of pushing against a wall without progress.
+#[derive(Debug)]
+struct StuckDetector {
+    window: u32,
+    min_command: f64,
+    max_progress: f64,
+    /// Consecutive steps touching a wall while pushing, so far.
+    pushing: u32,
+    /// The last `window + 1` positions, the start included: the front is where the current
+    /// window began.
+    recent: Window,
+    /// Step (1-based) at which it was first found stuck.
+    found: Option<u32>,
+}
+
+impl StuckDetector {
+    fn new(s: &Scenario, start: Vec2) -> StuckDetector {
+        let m = &s.metrics;
+        let mut recent = Window::new(m.stuck_window.saturating_add(1));
+        recent.push(start);
+        StuckDetector {
+            window: m.stuck_window,
+            min_command: f64::from(m.stuck_min_command * s.max_step),
+            max_progress: m.stuck_max_progress,
+            pushing: 0,
+            recent,
+            found: None,
+        }
+    }
+
+    /// Takes in step `step` (1-based).
+    fn push(&mut self, step: u32, t: &Tick) {
+        self.recent.push(t.position);
+        self.pushing = if t.touched && t.command >= self.min_command {
+            self.pushing + 1
+        } else {
+            0
+        };
+        if self.found.is_some() || self.pushing < self.window {
+            return;
+        }
+        if let Some(before) = self.recent.positions.front() {
+            if (t.position - *before).norm() <= self.max_progress {
+                self.found = Some(step);
+            }
+        }
+    }
+}
+
+fn mean(points: &VecDeque<Vec2>) -> Option<Vec2> {
     if points.is_empty() {
         return None;
     }
@@ -167,34 +267,22 @@ fn mean(points: &[Vec2]) -> Option<Vec2> {
     Some(sum.scale(1.0 / points.len() as f64))
 }
 
-/// The 1-based step at which the agent has been within `radius` for `hold` consecutive steps.
-fn first_hold(positions: &[Vec2], radius: f64, hold: u32) -> Option<u32> {
-    let mut run = 0;
-    for (i, p) in positions.iter().enumerate() {
-        run = if p.norm() <= radius { run + 1 } else { 0 };
-        if run >= hold {
-            return Some(i as u32 + 1);
-        }
-    }
-    None
-}
-
 #[cfg(test)]
 mod tests {
+    use proptest::prelude::*;
+
     use super::*;
 
     fn scenario() -> Scenario {
         Scenario::builtin("nav-walls").expect("builtin")
     }
 
-    fn trace(ticks: Vec<Tick>) -> Trace {
-        Trace {
-            seed: 0,
-            start: Vec2::new(0.0, -3.6),
-            ticks,
-            saturated: vec![0, 0],
-            left_arena: false,
+    fn record(ticks: &[Tick], s: &Scenario, keep_trajectory: bool) -> EpisodeRecord {
+        let mut meter = EpisodeMeter::new(0, Vec2::new(0.0, -3.6), 2, s, keep_trajectory);
+        for t in ticks {
+            meter.push(*t);
         }
+        meter.record()
     }
 
     #[test]
@@ -204,7 +292,7 @@ mod tests {
             touched: true,
             command: 0.25,
         };
-        let r = trace(vec![tick; 25]).record(&scenario(), false);
+        let r = record(&[tick; 25], &scenario(), false);
         assert!(r.stuck && !r.success);
         // The first window ends at step 20 but the move from the start (0.1) is progress.
         assert_eq!(r.stuck_at, Some(21));
@@ -212,14 +300,14 @@ mod tests {
 
     #[test]
     fn sliding_along_a_wall_is_not_stuck() {
-        let ticks = (0..40)
+        let ticks: Vec<Tick> = (0..40)
             .map(|i| Tick {
                 position: Vec2::new(f64::from(i) * 0.1, -3.5),
                 touched: true,
                 command: 0.25,
             })
             .collect();
-        assert!(!trace(ticks).record(&scenario(), false).stuck);
+        assert!(!record(&ticks, &scenario(), false).stuck);
     }
 
     #[test]
@@ -229,7 +317,7 @@ mod tests {
             touched: true,
             command: 0.0,
         };
-        assert!(!trace(vec![tick; 40]).record(&scenario(), false).stuck);
+        assert!(!record(&[tick; 40], &scenario(), false).stuck);
     }
 
     #[test]
@@ -246,10 +334,103 @@ mod tests {
             touched: false,
             command: 0.0,
         }));
-        let r = trace(ticks).record(&scenario(), true);
+        let r = record(&ticks, &scenario(), true);
         assert!(r.success && r.reached && r.near_pass);
         assert_eq!(r.steps_to_goal, Some(38));
         assert!((r.error - 0.05).abs() < 1e-12);
         assert_eq!(r.trajectory.len(), 49);
+    }
+
+    /// The metrics as first written: over the whole stored episode, one slice at a time.
+    fn reference(start: Vec2, ticks: &[Tick], s: &Scenario) -> EpisodeRecord {
+        let m = &s.metrics;
+        let positions: Vec<Vec2> = ticks.iter().map(|t| t.position).collect();
+        let window = &positions[positions.len().saturating_sub(m.settle_window as usize)..];
+        let settled = mean(&window.iter().copied().collect()).unwrap_or(start);
+        let mut run = 0;
+        let mut steps_to_goal = None;
+        for (i, p) in positions.iter().enumerate() {
+            run = if p.norm() <= s.goal_radius {
+                run + 1
+            } else {
+                0
+            };
+            if run >= s.goal_hold && steps_to_goal.is_none() {
+                steps_to_goal = Some(i as u32 + 1);
+            }
+        }
+        let min_distance = positions
+            .iter()
+            .map(|p| p.norm())
+            .fold(start.norm(), f64::min);
+        let w = m.stuck_window as usize;
+        let min_command = f64::from(m.stuck_min_command * s.max_step);
+        let stuck_at = (w..=ticks.len()).find_map(|end| {
+            let window = &ticks[end - w..end];
+            let before = if end > w {
+                ticks[end - w - 1].position
+            } else {
+                start
+            };
+            let pushing = window.iter().all(|t| t.touched && t.command >= min_command);
+            let progress = (window[w - 1].position - before).norm();
+            (pushing && progress <= m.stuck_max_progress).then_some(end as u32)
+        });
+        let end = positions.last().copied().unwrap_or(start);
+        EpisodeRecord {
+            seed: 0,
+            start: [start.x, start.y],
+            end: [end.x, end.y],
+            settled: [settled.x, settled.y],
+            error: settled.norm(),
+            success: !window.is_empty() && window.iter().all(|p| p.norm() <= m.success_radius),
+            reached: steps_to_goal.is_some(),
+            steps_to_goal,
+            near_pass: min_distance <= m.near_radius,
+            min_distance,
+            steps: ticks.len() as u32,
+            contact_steps: ticks.iter().filter(|t| t.touched).count() as u32,
+            stuck: stuck_at.is_some(),
+            stuck_at,
+            left_arena: false,
+            saturated_steps: vec![0, 0],
+            trajectory: Vec::new(),
+        }
+    }
+
+    fn tick() -> impl Strategy<Value = Tick> {
+        // A coarse grid near the centre and the wall, so holds, settling and stuck windows
+        // all happen often.
+        (-4i32..=4, -4i32..=4, any::<bool>(), 0u8..=2).prop_map(|(x, y, touched, c)| Tick {
+            position: Vec2::new(f64::from(x) * 0.03, f64::from(y) * 0.03 - 0.02),
+            touched,
+            command: f64::from(c) * 0.125,
+        })
+    }
+
+    proptest! {
+        /// Regression (issue 9, item 5): the metrics stored every tick of an episode, so a
+        /// huge time limit grew memory without bound. The online metrics, which keep only
+        /// their windows, must equal the whole-episode definitions bit for bit.
+        #[test]
+        fn online_metrics_equal_the_whole_episode_definitions(
+            ticks in prop::collection::vec(tick(), 0..80),
+            settle in 1u32..30,
+            stuck in 1u32..12,
+            hold in 1u32..6,
+        ) {
+            let mut s = scenario();
+            s.metrics.settle_window = settle;
+            s.metrics.stuck_window = stuck;
+            s.goal_hold = hold;
+            s.goal_radius = 0.07;
+            s.metrics.near_radius = 0.03;
+            let start = Vec2::new(0.0, -0.1);
+            let mut meter = EpisodeMeter::new(0, start, 2, &s, false);
+            for t in &ticks {
+                meter.push(*t);
+            }
+            prop_assert_eq!(meter.record(), reference(start, &ticks, &s));
+        }
     }
 }

@@ -27,6 +27,11 @@ use crate::Error;
 /// The default scenario: the pinwheel of DESIGN.md section 2.
 pub const DEFAULT_SCENARIO: &str = "nav-walls";
 
+/// The longest episode a scenario may ask for, in ticks (100,000: 500 times the shipped
+/// scenarios' 200). A test runs the full time limit, so a typo such as `time_limit =
+/// 4294967295` would otherwise run for hours.
+pub const MAX_TIME_LIMIT: u32 = 100_000;
+
 /// Names accepted by [`Scenario::builtin`].
 pub const BUILTIN_NAMES: [&str; 2] = ["nav-walls", "nav-open"];
 
@@ -50,7 +55,7 @@ pub struct Scenario {
     pub reward: Reward,
     /// Discount used for the exit penalty `worst / (1 - gamma)` (0.99).
     pub gamma: f32,
-    /// Steps before truncation (200).
+    /// Steps before truncation (200), at most [`MAX_TIME_LIMIT`].
     pub time_limit: u32,
     /// The goal is the centre; within this distance counts as there (0.1).
     pub goal_radius: f64,
@@ -64,7 +69,7 @@ pub struct Scenario {
     /// What `firmware-sim run` requires to exit with success.
     pub pass: PassCriteria,
     /// Zero-thickness walls.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "deserialize_walls")]
     pub walls: Vec<Wall>,
 }
 
@@ -125,14 +130,142 @@ pub struct PassCriteria {
     pub max_stuck_rate: f64,
 }
 
-/// A wall segment as written in a scenario.
+/// A wall segment as written in a scenario: each end is exactly two numbers `[x, y]`.
+///
+/// ```
+/// use firmware_sim::scenario::Wall;
+/// let w: Wall = serde_json::from_str(r#"{ "from": [0, 1], "to": [2.5, 1] }"#).unwrap();
+/// assert_eq!(w.to, [2.5, 1.0]);
+/// let err = serde_json::from_str::<Wall>(r#"{ "from": [0, 1, 7], "to": [2, 1] }"#).unwrap_err();
+/// assert!(err.to_string().starts_with("from: expected a point [x, y] of two numbers"), "{err}");
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(try_from = "RawWall")]
 pub struct Wall {
     /// One end.
     pub from: [f64; 2],
     /// The other end.
     pub to: [f64; 2],
+}
+
+/// A wall as written, before its points are checked. serde reads `[f64; 2]` from the first two
+/// values of a TOML array and ignores the rest (issue 9, item 6), so the ends are read as lists
+/// of any values and checked here.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawWall {
+    from: Vec<Coordinate>,
+    to: Vec<Coordinate>,
+}
+
+impl RawWall {
+    /// The wall, or `"FIELD: message"`.
+    fn check(self) -> Result<Wall, String> {
+        Ok(Wall {
+            from: point(&self.from).map_err(|e| format!("from: {e}"))?,
+            to: point(&self.to).map_err(|e| format!("to: {e}"))?,
+        })
+    }
+}
+
+impl TryFrom<RawWall> for Wall {
+    type Error = String;
+
+    fn try_from(raw: RawWall) -> Result<Wall, String> {
+        raw.check()
+    }
+}
+
+/// Exactly two numbers.
+fn point(values: &[Coordinate]) -> Result<[f64; 2], String> {
+    match values {
+        [Coordinate::Number(x), Coordinate::Number(y)] => Ok([*x, *y]),
+        _ => {
+            let found: Vec<String> = values.iter().map(Coordinate::to_string).collect();
+            Err(format!(
+                "expected a point [x, y] of two numbers, found [{}]",
+                found.join(", ")
+            ))
+        }
+    }
+}
+
+/// The walls, each checked as [`RawWall::check`] does, with the wall's index in the error.
+fn deserialize_walls<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<Wall>, D::Error> {
+    Vec::<RawWall>::deserialize(d)?
+        .into_iter()
+        .enumerate()
+        .map(|(i, w)| {
+            w.check()
+                .map_err(|e| serde::de::Error::custom(format!("walls[{i}].{e}")))
+        })
+        .collect()
+}
+
+/// One value of a point as written: a number, or something else (kept to be named in the
+/// error).
+#[derive(Debug)]
+enum Coordinate {
+    Number(f64),
+    Other(String),
+}
+
+impl std::fmt::Display for Coordinate {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Coordinate::Number(x) => write!(f, "{x:?}"),
+            Coordinate::Other(what) => f.write_str(what),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Coordinate {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(CoordinateVisitor)
+    }
+}
+
+struct CoordinateVisitor;
+
+impl<'de> serde::de::Visitor<'de> for CoordinateVisitor {
+    type Value = Coordinate;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("a number")
+    }
+
+    fn visit_f64<E>(self, v: f64) -> Result<Coordinate, E> {
+        Ok(Coordinate::Number(v))
+    }
+
+    fn visit_i64<E>(self, v: i64) -> Result<Coordinate, E> {
+        Ok(Coordinate::Number(v as f64))
+    }
+
+    fn visit_u64<E>(self, v: u64) -> Result<Coordinate, E> {
+        Ok(Coordinate::Number(v as f64))
+    }
+
+    fn visit_bool<E>(self, v: bool) -> Result<Coordinate, E> {
+        Ok(Coordinate::Other(v.to_string()))
+    }
+
+    fn visit_str<E>(self, v: &str) -> Result<Coordinate, E> {
+        Ok(Coordinate::Other(format!("{v:?}")))
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Coordinate, A::Error> {
+        while seq.next_element::<serde::de::IgnoredAny>()?.is_some() {}
+        Ok(Coordinate::Other("an array".into()))
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<Coordinate, A::Error> {
+        while map
+            .next_entry::<serde::de::IgnoredAny, serde::de::IgnoredAny>()?
+            .is_some()
+        {}
+        Ok(Coordinate::Other("a table".into()))
+    }
 }
 
 impl Wall {
@@ -266,10 +399,11 @@ impl Scenario {
             "gamma",
             format!("must be in [0, 1), found {g}"),
         )?;
+        let t = self.time_limit;
         self.check(
-            self.time_limit > 0,
+            (1..=MAX_TIME_LIMIT).contains(&t),
             "time_limit",
-            "must be > 0, found 0".into(),
+            format!("must be in 1..={MAX_TIME_LIMIT}, found {t}"),
         )?;
         self.check(
             self.goal_hold > 0,
@@ -513,6 +647,7 @@ mod tests {
         for (from, to, field) in [
             ("time_limit = 200", "time_limit = -5", "time_limit"),
             ("time_limit = 200", "time_limit = 0", "time_limit"),
+            ("time_limit = 200", "time_limit = 100001", "time_limit"),
             ("max_step = 0.25", "max_step = -0.25", "max_step"),
             ("goal_radius = 0.1", "goal_radius = 0.0", "goal_radius"),
             ("gamma = 0.99", "gamma = 1.0", "gamma"),
@@ -523,5 +658,62 @@ mod tests {
                 .to_string();
             assert!(e.contains(field), "{to}: {e}");
         }
+    }
+
+    /// Regression (issue 9, item 5): `time_limit = 4294967295` validated, then the test grew
+    /// memory for 28 s and aborted. The limit is now refused, in one line, before any work.
+    #[test]
+    fn a_time_limit_beyond_the_maximum_is_refused() {
+        let at_max = NAV_OPEN.replace("time_limit = 200", "time_limit = 100000");
+        assert_eq!(
+            Scenario::from_toml_str(&at_max).expect("at max").time_limit,
+            MAX_TIME_LIMIT
+        );
+        let huge = NAV_OPEN.replace("time_limit = 200", "time_limit = 4294967295");
+        let e = Scenario::from_toml_str(&huge)
+            .expect_err("must be refused")
+            .to_string();
+        assert_eq!(
+            e,
+            "scenario nav-open: time_limit: must be in 1..=100000, found 4294967295"
+        );
+    }
+
+    /// Regression (issue 9, item 6): a wall end written with extra values
+    /// (`from = [-2.0, 1.0, 77.0]`) was accepted and the extra values silently ignored.
+    #[test]
+    fn a_wall_end_must_be_exactly_two_numbers() {
+        for (wall, field, found) in [
+            (
+                r#"{ from = [-2.0, 1.0, 77.0], to = [2.0, 1.0] }"#,
+                "walls[1].from",
+                "[-2.0, 1.0, 77.0]",
+            ),
+            (
+                r#"{ from = [-2.0, 1.0], to = [2.0, 1.0, "junk", true] }"#,
+                "walls[1].to",
+                r#"[2.0, 1.0, "junk", true]"#,
+            ),
+            (
+                r#"{ from = [-2.0], to = [2.0, 1.0] }"#,
+                "walls[1].from",
+                "[-2.0]",
+            ),
+            (
+                r#"{ from = [-2, "1"], to = [2, 1] }"#,
+                "walls[1].from",
+                r#"[-2.0, "1"]"#,
+            ),
+        ] {
+            let text = format!("walls = [{{ from = [0, 0], to = [1, 0] }}, {wall}]\n{NAV_OPEN}");
+            let e = Scenario::from_toml_str(&text).expect_err(wall).to_string();
+            assert!(e.contains(field) && e.contains(found), "{wall}: {e}");
+            assert!(e.contains("expected a point [x, y] of two numbers"), "{e}");
+            assert!(!e.contains('\n'), "{e}");
+        }
+        // Integers are numbers too.
+        let ok = format!("walls = [{{ from = [-2, 1], to = [2, 1] }}]\n{NAV_OPEN}");
+        let s = Scenario::from_toml_str(&ok).expect("integer points");
+        assert_eq!(s.walls[0].from, [-2.0, 1.0]);
     }
 }

@@ -1,12 +1,16 @@
 //! Trajectory plots as SVG: the arena, the walls, and every test's path (like the paper's
 //! trajectory figures). Green paths settled near the centre, red ones got stuck at a wall,
 //! orange ones did neither (wandered, looped, or left the arena).
+//!
+//! [`render`] draws a whole report; [`SvgWriter`] draws the same document one episode at a
+//! time, for evaluations too large to keep (every trajectory is drawn either way).
 
 use std::fmt::Write;
+use std::io;
 
 use crate::harness::Report;
 use crate::metrics::EpisodeRecord;
-use crate::scenario::Scenario;
+use crate::scenario::{Scenario, Wall};
 
 /// Pixels per arena unit.
 const SCALE: f64 = 40.0;
@@ -30,53 +34,141 @@ const BORDER: f64 = 20.0;
 /// assert_eq!(svg.matches("class=\"wall\"").count(), 13);
 /// ```
 pub fn render(scenario: &Scenario, report: &Report) -> String {
-    let h = scenario.arena_half_size;
-    let size = 2.0 * h * SCALE + 2.0 * BORDER;
-    let px = |x: f64| BORDER + (x + h) * SCALE;
-    let py = |y: f64| BORDER + (h - y) * SCALE;
-    let mut out = String::new();
-    let _ = writeln!(
-        out,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{size}" height="{size}" viewBox="0 0 {size} {size}">"#
-    );
-    let _ = writeln!(
-        out,
-        "<title>{} — {}</title>",
-        escape(&report.scenario),
-        escape(&report.controller)
-    );
-    let _ = writeln!(
-        out,
-        r##"<rect x="{b}" y="{b}" width="{w}" height="{w}" fill="#fbfbf8" stroke="#888" stroke-dasharray="6 4"/>"##,
-        b = BORDER,
-        w = 2.0 * h * SCALE
-    );
-    let r = scenario.metrics.success_radius * SCALE;
-    let _ = writeln!(
-        out,
-        r##"<circle cx="{c}" cy="{c}" r="{r}" fill="none" stroke="#9c9" stroke-dasharray="3 3"/>"##,
-        c = px(0.0)
-    );
+    let mut plot = Plot::start(scenario, &report.controller);
     for e in &report.episodes {
-        path(&mut out, e, &px, &py);
+        plot.episode(e);
     }
-    for w in &scenario.walls {
+    plot.finish()
+}
+
+/// A plot drawn piece by piece, so the CLI can stream it: [`SvgWriter::start`] writes the
+/// header, [`SvgWriter::episode`] one trajectory as soon as its episode ends, and
+/// [`SvgWriter::finish`] the walls (drawn over the paths) and the closing tag. Only one
+/// episode's path is held at a time.
+///
+/// ```
+/// use firmware_sim::controller::Straight;
+/// use firmware_sim::harness::{evaluate_controller, evaluate_streaming, EvalConfig};
+/// use firmware_sim::scenario::Scenario;
+/// use firmware_sim::svg::{render, SvgWriter};
+/// let s = Scenario::builtin("nav-walls").unwrap();
+/// let cfg = EvalConfig { episodes: 3, record_trajectories: true, ..EvalConfig::default() };
+/// let mut svg = SvgWriter::start(Vec::new(), &s, "straight").unwrap();
+/// evaluate_streaming(&mut Straight { max_step: 0.25 }, &s, &cfg, |e| svg.episode(&e)).unwrap();
+/// let streamed = svg.finish().unwrap();
+/// let r = evaluate_controller(&mut Straight { max_step: 0.25 }, &s, &cfg).unwrap();
+/// assert_eq!(String::from_utf8(streamed).unwrap(), render(&s, &r));
+/// ```
+#[derive(Debug)]
+pub struct SvgWriter<W: io::Write> {
+    out: W,
+    plot: Plot,
+}
+
+impl<W: io::Write> SvgWriter<W> {
+    /// Writes the header: the arena, the success circle, the title.
+    pub fn start(mut out: W, scenario: &Scenario, controller: &str) -> io::Result<Self> {
+        let mut plot = Plot::start(scenario, controller);
+        out.write_all(plot.take().as_bytes())?;
+        Ok(SvgWriter { out, plot })
+    }
+
+    /// Draws one episode's trajectory (nothing if it was not recorded).
+    pub fn episode(&mut self, e: &EpisodeRecord) -> io::Result<()> {
+        self.plot.episode(e);
+        self.out.write_all(self.plot.take().as_bytes())
+    }
+
+    /// Draws the walls and closes the document; returns the writer.
+    pub fn finish(mut self) -> io::Result<W> {
+        self.out.write_all(self.plot.finish().as_bytes())?;
+        Ok(self.out)
+    }
+}
+
+/// The SVG text of a plot, built in order; `pending` holds what is not yet written out.
+#[derive(Debug)]
+struct Plot {
+    half_size: f64,
+    walls: Vec<Wall>,
+    pending: String,
+}
+
+impl Plot {
+    fn start(scenario: &Scenario, controller: &str) -> Plot {
+        let h = scenario.arena_half_size;
+        let mut plot = Plot {
+            half_size: h,
+            walls: scenario.walls.clone(),
+            pending: String::new(),
+        };
+        let size = 2.0 * h * SCALE + 2.0 * BORDER;
+        let c = plot.px(0.0);
+        let out = &mut plot.pending;
         let _ = writeln!(
             out,
-            r##"<line class="wall" x1="{:.2}" y1="{:.2}" x2="{:.2}" y2="{:.2}" stroke="#222" stroke-width="4" stroke-linecap="round"/>"##,
-            px(w.from[0]),
-            py(w.from[1]),
-            px(w.to[0]),
-            py(w.to[1])
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{size}" height="{size}" viewBox="0 0 {size} {size}">"#
         );
+        let _ = writeln!(
+            out,
+            "<title>{} — {}</title>",
+            escape(&scenario.name),
+            escape(controller)
+        );
+        let _ = writeln!(
+            out,
+            r##"<rect x="{b}" y="{b}" width="{w}" height="{w}" fill="#fbfbf8" stroke="#888" stroke-dasharray="6 4"/>"##,
+            b = BORDER,
+            w = 2.0 * h * SCALE
+        );
+        let r = scenario.metrics.success_radius * SCALE;
+        let _ = writeln!(
+            out,
+            r##"<circle cx="{c}" cy="{c}" r="{r}" fill="none" stroke="#9c9" stroke-dasharray="3 3"/>"##
+        );
+        plot
     }
-    let _ = writeln!(
-        out,
-        r##"<circle cx="{c}" cy="{c}" r="4" fill="#070"/>"##,
-        c = px(0.0)
-    );
-    out.push_str("</svg>\n");
-    out
+
+    fn px(&self, x: f64) -> f64 {
+        BORDER + (x + self.half_size) * SCALE
+    }
+
+    fn py(&self, y: f64) -> f64 {
+        BORDER + (self.half_size - y) * SCALE
+    }
+
+    fn episode(&mut self, e: &EpisodeRecord) {
+        let mut out = std::mem::take(&mut self.pending);
+        path(&mut out, e, &|x| self.px(x), &|y| self.py(y));
+        self.pending = out;
+    }
+
+    fn finish(mut self) -> String {
+        let mut out = std::mem::take(&mut self.pending);
+        for w in &self.walls {
+            let _ = writeln!(
+                out,
+                r##"<line class="wall" x1="{:.2}" y1="{:.2}" x2="{:.2}" y2="{:.2}" stroke="#222" stroke-width="4" stroke-linecap="round"/>"##,
+                self.px(w.from[0]),
+                self.py(w.from[1]),
+                self.px(w.to[0]),
+                self.py(w.to[1])
+            );
+        }
+        let _ = writeln!(
+            out,
+            r##"<circle cx="{c}" cy="{c}" r="4" fill="#070"/>"##,
+            c = self.px(0.0)
+        );
+        out.push_str("</svg>\n");
+        self.pending = out;
+        self.take()
+    }
+
+    /// The text not yet written out.
+    fn take(&mut self) -> String {
+        std::mem::take(&mut self.pending)
+    }
 }
 
 fn path(out: &mut String, e: &EpisodeRecord, px: &dyn Fn(f64) -> f64, py: &dyn Fn(f64) -> f64) {

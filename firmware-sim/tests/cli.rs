@@ -1,5 +1,10 @@
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+use firmware_sim::controller::reference;
+use firmware_sim::harness::{evaluate_controller, EvalConfig, Report};
+use firmware_sim::scenario::Scenario;
+use firmware_sim::svg;
 
 use crate::util::random_blob;
 
@@ -193,4 +198,217 @@ fn bad_input_is_one_line_and_exit_code_2() {
         ]),
         &["/nonexistent/dir"],
     );
+}
+
+/// The names in a folder, sorted.
+fn names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .expect("list")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// The JSON report without its wall-clock part.
+fn json_without_timing(bytes: &[u8]) -> serde_json::Value {
+    let mut v: serde_json::Value = serde_json::from_slice(bytes).expect("valid json");
+    v["timing"] = serde_json::Value::Null;
+    v
+}
+
+/// Regression (issue 9, item 2): `--episodes 18446744073709551615` panicked with `capacity
+/// overflow` (exit 101) and `--episodes 1000000000000` aborted on a 152 TB allocation.
+#[test]
+fn an_episode_count_beyond_the_maximum_is_one_line_and_exit_2() {
+    for n in ["18446744073709551615", "1000000000000", "1000001"] {
+        let o = run(&["--controller", "straight", "--episodes", n]);
+        assert_bad_input(&o, &["episodes", "1..=1000000", n]);
+        assert!(o.stdout.is_empty(), "no work was done");
+    }
+}
+
+/// Regression (issue 9, items 5 and 6): `time_limit = 4294967295` validated and then grew
+/// memory until it aborted; a wall end with extra values was accepted and the extras ignored.
+#[test]
+fn a_huge_time_limit_and_a_wall_end_of_four_values_are_refused() {
+    let dir = scratch("scenario-limits");
+    let open = include_str!("../scenarios/nav-open.toml");
+    let huge = dir.join("huge.toml");
+    std::fs::write(
+        &huge,
+        open.replace("time_limit = 200", "time_limit = 4294967295"),
+    )
+    .expect("write");
+    assert_bad_input(
+        &run(&["--controller", "straight", "--scenario", path(&huge)]),
+        &["time_limit", "1..=100000", "4294967295"],
+    );
+    let junk = dir.join("junk.toml");
+    let wall = r#"walls = [{ from = [-2.0, 1.0, 77.0], to = [2.0, 1.0, "junk", true] }]"#;
+    std::fs::write(&junk, format!("{wall}\n{open}")).expect("write");
+    assert_bad_input(
+        &run(&["--controller", "straight", "--scenario", path(&junk)]),
+        &["junk.toml:1:", "walls[0].from", "two numbers", "77.0"],
+    );
+}
+
+/// Regression (issue 9, item 8): two walls and two dropouts exited 0 with only the last of
+/// each applied.
+#[test]
+fn a_fault_kind_given_twice_is_one_line_and_exit_2() {
+    let faults = "wall:0@-2/1/2/1,wall:0@-2/-1/2/-1,dropout-nan:1,dropout-stale:0";
+    assert_bad_input(
+        &run(&["--controller", "straight", "--faults", faults]),
+        &["given twice", "wall:0@-2/1/2/1", "wall:0@-2/-1/2/-1"],
+    );
+    assert_bad_input(
+        &run(&[
+            "--controller",
+            "straight",
+            "--faults",
+            "dropout-nan:1,dropout-stale:0",
+        ]),
+        &["given twice", "dropout-nan:1", "dropout-stale:0"],
+    );
+}
+
+/// Regression (issue 9, item 9): `--json DIR` failed but left `.DIR.tmpNNNN` behind.
+#[test]
+fn a_folder_as_output_fails_and_leaves_nothing_behind() {
+    let dir = scratch("json-dir");
+    let out = dir.join("out");
+    std::fs::create_dir(&out).expect("folder");
+    for flag in ["--json", "--svg"] {
+        assert_bad_input(
+            &run(&[
+                "--controller",
+                "straight",
+                "--episodes",
+                "2",
+                flag,
+                path(&out),
+            ]),
+            &["cannot write", "is a folder"],
+        );
+        assert_eq!(names(&dir), ["out"]);
+        assert!(names(&out).is_empty());
+    }
+}
+
+/// Regression (issue 9, item 13): output paths were checked only after the work; a bad
+/// `--json` path lost a 6 s run's report and the `--svg` file was never written.
+#[test]
+fn output_paths_are_checked_before_any_work() {
+    let dir = scratch("outputs-first");
+    let svg = dir.join("ok.svg");
+    let o = run(&[
+        "--controller",
+        "straight",
+        "--episodes",
+        "20000",
+        "--json",
+        "/nonexistent/r.json",
+        "--svg",
+        path(&svg),
+    ]);
+    assert_bad_input(
+        &o,
+        &["cannot write /nonexistent/r.json", "folder does not exist"],
+    );
+    assert!(o.stdout.is_empty(), "no episode ran");
+    assert!(names(&dir).is_empty(), "{:?}", names(&dir));
+    let same = dir.join("both");
+    assert_bad_input(
+        &run(&[
+            "--controller",
+            "straight",
+            "--json",
+            path(&same),
+            "--svg",
+            path(&same),
+        ]),
+        &["--json and --svg name the same file"],
+    );
+}
+
+/// Regression (issue 9, item 15): no subcommand printed the description and exited 2 without
+/// saying what was missing.
+#[test]
+fn a_missing_subcommand_is_named() {
+    let o = Command::new(BIN).output().expect("spawn firmware-sim");
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(
+        stderr(&o),
+        "firmware-sim: missing a subcommand: run (see --help)\n"
+    );
+}
+
+/// Regression (issue 9, blob files): a huge file passed as a blob was read whole.
+#[test]
+fn a_file_too_large_for_a_blob_is_refused_unread() {
+    let dir = scratch("huge-blob");
+    let blob = dir.join("huge.postcard");
+    let f = std::fs::File::create(&blob).expect("create");
+    f.set_len(1 << 30).expect("sparse 1 GiB");
+    assert_bad_input(
+        &run(&["--blob", path(&blob)]),
+        &["cannot read blob", "huge.postcard", "larger than any blob"],
+    );
+}
+
+/// Regression (issue 9, streaming): the CLI held every record in memory. Streamed, its JSON
+/// report must still be the library's report key for key (and, timing aside, byte for byte
+/// the pretty-printed one), and its SVG the library's plot.
+#[test]
+fn streamed_json_and_svg_equal_the_library_report() {
+    let dir = scratch("streamed");
+    let (json, svg) = (dir.join("r.json"), dir.join("p.svg"));
+    let faults = "dropout-stale:0.1,wall:60@-2/-2/2/-2";
+    let o = run(&[
+        "--controller",
+        "straight",
+        "--episodes",
+        "9",
+        "--seed",
+        "4",
+        "--noise",
+        "0.02",
+        "--faults",
+        faults,
+        "--json",
+        path(&json),
+        "--svg",
+        path(&svg),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let s = Scenario::builtin("nav-walls").expect("builtin");
+    let mut cfg = EvalConfig {
+        episodes: 9,
+        seed: 4,
+        faults: faults.parse().expect("faults"),
+        record_trajectories: true,
+        ..EvalConfig::default()
+    };
+    cfg.sensor.noise_std = 0.02;
+    let mut c = reference("straight", &s).expect("straight");
+    let mut report = evaluate_controller(c.as_mut(), &s, &cfg).expect("eval");
+    let written = std::fs::read(&json).expect("json written");
+    let expected = serde_json::to_vec_pretty(&report).expect("json");
+    assert_eq!(
+        json_without_timing(&written),
+        json_without_timing(&expected)
+    );
+    let parsed: Report = serde_json::from_slice(&written).expect("a Report");
+    report.timing = parsed.timing;
+    assert_eq!(written, serde_json::to_vec_pretty(&report).expect("json"));
+    assert_eq!(
+        std::fs::read_to_string(&svg).expect("svg written"),
+        svg::render(&s, &report)
+    );
+    assert_eq!(names(&dir), ["p.svg", "r.json"]);
+}
+
+fn path(p: &Path) -> &str {
+    p.to_str().expect("utf8")
 }
