@@ -2,7 +2,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use firmware_sim::controller::reference;
-use firmware_sim::harness::{evaluate_controller, EvalConfig, Report};
+use firmware_sim::harness::{evaluate_controller, EvalConfig};
 use firmware_sim::scenario::Scenario;
 use firmware_sim::svg;
 
@@ -392,16 +392,15 @@ fn streamed_json_and_svg_equal_the_library_report() {
     };
     cfg.sensor.noise_std = 0.02;
     let mut c = reference("straight", &s).expect("straight");
-    let mut report = evaluate_controller(c.as_mut(), &s, &cfg).expect("eval");
+    let report = evaluate_controller(c.as_mut(), &s, &cfg).expect("eval");
     let written = std::fs::read(&json).expect("json written");
     let expected = serde_json::to_vec_pretty(&report).expect("json");
     assert_eq!(
         json_without_timing(&written),
         json_without_timing(&expected)
     );
-    let parsed: Report = serde_json::from_slice(&written).expect("a Report");
-    report.timing = parsed.timing;
-    assert_eq!(written, serde_json::to_vec_pretty(&report).expect("json"));
+    // (Timing is wall-clock, and serde_json's float parsing is not an exact round trip without
+    // its `float_roundtrip` feature, so the comparison above leaves timing out.)
     assert_eq!(
         std::fs::read_to_string(&svg).expect("svg written"),
         svg::render(&s, &report)

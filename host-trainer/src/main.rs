@@ -304,10 +304,9 @@ fn resume(dir: &Path, episodes: Option<usize>) -> Result<(Trainer, RunDir)> {
 
 fn restart(run: &RunDir, episodes: Option<usize>) -> Result<Trainer> {
     let config_path = run.file(run_dir::CONFIG);
-    let scenario_path = run.file(run_dir::SCENARIO);
-    if !(config_path.exists() && scenario_path.exists()) {
+    if !config_path.exists() {
         anyhow::bail!(
-            "{} holds no checkpoint and no recorded config and plant: not a run folder, or killed before it recorded anything (start it again)",
+            "{} holds no checkpoint and no config: not a run folder, or killed before it recorded anything (start it again with train)",
             run.path().display()
         );
     }
@@ -315,10 +314,17 @@ fn restart(run: &RunDir, episodes: Option<usize>) -> Result<Trainer> {
     if let Some(n) = episodes {
         config.episodes = n;
     }
-    let scenario = Scenario::load(&scenario_path)
-        .with_context(|| format!("the recorded plant of {}", run.path().display()))?;
+    // The plant is recorded right after the config; a kill between the two leaves only the
+    // config, and the task it names is then the plant (nothing has trained on it yet).
+    let scenario_path = run.file(run_dir::SCENARIO);
+    let scenario = if scenario_path.exists() {
+        Scenario::load(&scenario_path)
+            .with_context(|| format!("the recorded plant of {}", run.path().display()))?
+    } else {
+        train::scenario(&config.task)?
+    };
     eprintln!(
-        "host-trainer: {} has no checkpoint yet (stopped before its first one); starting it again from its recorded config and plant",
+        "host-trainer: {} has no checkpoint yet (stopped before its first one); starting it again from its recorded config",
         run.path().display()
     );
     Ok(Trainer::on(config, scenario)?)

@@ -55,7 +55,7 @@ pub fn run_name(task: &str, algo: &str, seed: u64) -> String {
 /// use host_trainer::run_dir::blob_label;
 /// assert_eq!(blob_label("nav-walls", "dcp", 0), "nav-walls__dcp__0");
 /// let long = blob_label("my-very-long-task-file-name", "ddpg", u64::MAX);
-/// assert_eq!(long, "m~__ddpg__18446744073709551615");
+/// assert_eq!(long, "my-~__ddpg__18446744073709551615");
 /// assert!(long.len() <= policy_core::blob::LABEL_CAPACITY);
 /// ```
 pub fn blob_label(task: &str, algo: &str, seed: u64) -> String {

@@ -3,7 +3,12 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::support::{assert_one_line_error, entries, host_trainer, scratch};
+use policy_core::{ActionBounds, Critic, Normalizer, Policy};
+
+use crate::support::{
+    assert_one_line_error, command, entries, host_trainer, s, scratch, smoke_config_file,
+    temporaries,
+};
 
 #[test]
 fn unknown_algorithm_is_one_line_and_writes_nothing() {
@@ -28,6 +33,16 @@ fn malformed_values_are_rejected_before_any_file_is_written() {
         ("--task", "nav-nowhere", "nav-nowhere"),
         ("--reward", "best", "best"),
         ("--noise", "brownian", "brownian"),
+        // Regression (issue 9, item 4): these aborted on 40 GB allocations before the shape
+        // check ran.
+        ("--hidden", "100x100000", "unsupported network shape"),
+        ("--hidden", "4x65536", "unsupported network shape"),
+        // Regression (issue 9, item 7): a NaN or infinite reward scale was not validated.
+        ("--reward-scale", "nan", "agent.reward_scale"),
+        ("--reward-scale", "inf", "agent.reward_scale"),
+        ("--reward-scale", "0", "agent.reward_scale"),
+        // Limits checked before anything is allocated.
+        ("--episodes", "18446744073709551615", "episodes"),
     ] {
         let out = host_trainer(&["train", flag, value, "--out", dir, "--episodes", "1"]);
         assert_one_line_error(&out, &[needle]);
@@ -140,4 +155,281 @@ fn help_succeeds() {
     let out = host_trainer(&["train", "--help"]);
     assert!(out.status.success());
     assert!(String::from_utf8_lossy(&out.stdout).contains("--episodes"));
+}
+
+/// A valid actor blob of the navigation shape (zero weights), and the same blob with one weight
+/// set to NaN under a correct CRC.
+fn actor_blobs() -> (Vec<u8>, Vec<u8>) {
+    let mut p = Policy::<2, 32, 1, 2>::ZERO;
+    p.normalizer = Normalizer::identity(5.0);
+    p.bounds = ActionBounds::symmetric(0.25);
+    let good = p.to_blob("ok").expect("blob");
+    let v = policy_core::blob::verify(&good).expect("verify");
+    let payload_at = good.len() - 4 - v.payload.len();
+    let mut nan = good.clone();
+    // The 20th parameter is a first-layer weight (after 5 normaliser and 4 bound values).
+    let at = payload_at + 4 * 20;
+    nan[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+    let body = nan.len() - 4;
+    let crc = policy_core::crc32(&nan[..body]);
+    nan[body..].copy_from_slice(&crc.to_le_bytes());
+    (good, nan)
+}
+
+/// Regression (issue 9, item 1): `eval` of a blob that does not boot (a critic, a NaN weight
+/// under a valid CRC) printed "boot error" and exited 0, so a CI gate on `eval` passed a policy
+/// that never ran.
+#[test]
+fn eval_of_a_blob_that_does_not_boot_fails() {
+    let base = scratch("eval-boot");
+    let critic = Critic::<2, 2, 32, 1>::ZERO
+        .to_blob("critic")
+        .expect("critic blob");
+    let (good, nan) = actor_blobs();
+    for (name, bytes, needle) in [
+        ("critic.postcard", &critic, "kind"),
+        ("nan.postcard", &nan, "finite"),
+    ] {
+        let path = base.join(name);
+        std::fs::write(&path, bytes).expect("write");
+        let out = host_trainer(&["eval", "--blob", s(&path), "--episodes", "2"]);
+        assert_one_line_error(&out, &[name, "does not boot", needle]);
+        assert!(out.stdout.is_empty(), "no report for a blob that never ran");
+    }
+    let path = base.join("good.postcard");
+    std::fs::write(&path, good).expect("write");
+    let out = host_trainer(&["eval", "--blob", s(&path), "--episodes", "2"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// Regression (issue 9, items 2 and 13): `eval --episodes 18446744073709551615` panicked with
+/// `capacity overflow`, and an unwritable `--json` was found only after the evaluation.
+#[test]
+fn eval_checks_its_limits_and_output_before_any_work() {
+    let base = scratch("eval-limits");
+    let (good, _) = actor_blobs();
+    let blob = base.join("good.postcard");
+    std::fs::write(&blob, good).expect("write");
+    for n in ["18446744073709551615", "1000000000000"] {
+        let out = host_trainer(&["eval", "--blob", s(&blob), "--episodes", n]);
+        assert_one_line_error(&out, &["episodes", n]);
+    }
+    // A million episodes would run for a minute; the missing folder must stop it first, before
+    // anything is printed.
+    let out = host_trainer(&[
+        "eval",
+        "--blob",
+        s(&blob),
+        "--episodes",
+        "1000000",
+        "--json",
+        "/nonexistent/r.json",
+    ]);
+    assert_one_line_error(&out, &["/nonexistent/r.json", "folder does not exist"]);
+    assert!(out.stdout.is_empty());
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// Regression (issue 9, item 15): no subcommand printed the description and exited 2 without
+/// saying what was missing.
+#[test]
+fn a_missing_subcommand_is_named() {
+    let out = host_trainer(&[]);
+    assert_one_line_error(&out, &["missing a subcommand", "train", "eval", "export"]);
+    assert_eq!(out.status.code(), Some(2));
+}
+
+/// Regression (issue 9, item 3): `--seed 18446744073709551615`, or a task file name longer than
+/// 16 characters, trained to the end and then failed with "label longer than 32 bytes": no
+/// blob, and export of that run failed forever.
+#[test]
+fn a_huge_seed_and_a_long_task_name_still_export() {
+    let base = scratch("long-label");
+    let task = base.join("a-task-file-with-a-long-name.toml");
+    std::fs::write(
+        &task,
+        std::fs::read(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../firmware-sim/scenarios/nav-open.toml"
+        ))
+        .expect("scenario"),
+    )
+    .expect("task");
+    let config = smoke_config_file(&base, 1);
+    let out = host_trainer(&[
+        "train",
+        "--config",
+        s(&config),
+        "--task",
+        s(&task),
+        "--seed",
+        "18446744073709551615",
+        "--out",
+        s(&base),
+        "--quiet",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let run = base.join("a-task-file-with-a-long-name__dcp__18446744073709551615");
+    let blob = std::fs::read(run.join("policy.postcard")).expect("blob");
+    let label = policy_core::blob::verify(&blob)
+        .expect("verify")
+        .header
+        .label;
+    assert_eq!(label.as_str(), "a-ta~__dcp__18446744073709551615");
+    let out = host_trainer(&["export", "--run", s(&run)]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// Regression (issue 9, item 11): `train --out DIR` over a finished run silently overwrote its
+/// checkpoint and metrics.
+#[test]
+fn training_into_a_finished_run_is_refused_and_keeps_it() {
+    let base = scratch("overwrite");
+    let config = smoke_config_file(&base, 1);
+    let train = || {
+        host_trainer(&[
+            "train",
+            "--config",
+            s(&config),
+            "--out",
+            s(&base),
+            "--quiet",
+        ])
+    };
+    assert!(train().status.success());
+    let run = base.join("nav-walls__dcp__3");
+    let before: Vec<Vec<u8>> = ["checkpoint.postcard", "policy.postcard", "eval.json"]
+        .iter()
+        .map(|f| std::fs::read(run.join(f)).expect("run file"))
+        .collect();
+    let out = train();
+    assert_one_line_error(&out, &["already holds a run", "--resume"]);
+    let after: Vec<Vec<u8>> = ["checkpoint.postcard", "policy.postcard", "eval.json"]
+        .iter()
+        .map(|f| std::fs::read(run.join(f)).expect("run file"))
+        .collect();
+    assert_eq!(before, after);
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// Regression (issue 9, item 12): a run trained with a relative `--task mytask.toml` could not
+/// be resumed or exported from another folder or after the file was deleted, and an edited file
+/// was silently used by `--resume`.
+#[test]
+fn a_run_resumes_and_exports_from_its_own_folder_alone() {
+    let base = scratch("own-folder");
+    let work = base.join("work");
+    std::fs::create_dir_all(&work).expect("dir");
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../firmware-sim/scenarios/nav-open.toml"
+    ))
+    .expect("scenario");
+    std::fs::write(work.join("mytask.toml"), &text).expect("task");
+    let config = smoke_config_file(&base, 2);
+    let out = command(&[
+        "train",
+        "--config",
+        s(&config),
+        "--task",
+        "mytask.toml",
+        "--episodes",
+        "1",
+        "--out",
+        ".",
+        "--quiet",
+    ])
+    .current_dir(&work)
+    .output()
+    .expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let run = work.join("mytask__dcp__3");
+    assert!(
+        run.join("scenario.toml").exists(),
+        "the run records its plant"
+    );
+
+    // Edited: resume says so and continues on the recorded plant.
+    std::fs::write(
+        work.join("mytask.toml"),
+        text.replace("time_limit = 200", "time_limit = 20"),
+    )
+    .expect("edit");
+    let out = command(&[
+        "train",
+        "--resume",
+        "mytask__dcp__3",
+        "--episodes",
+        "2",
+        "--quiet",
+    ])
+    .current_dir(&work)
+    .output()
+    .expect("runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("has changed") && stderr.contains("recorded plant"),
+        "{stderr}"
+    );
+
+    // Deleted, and from another folder: export and resume still work.
+    std::fs::remove_file(work.join("mytask.toml")).expect("delete");
+    let out = host_trainer(&["export", "--run", s(&run)]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = host_trainer(&["train", "--resume", s(&run), "--episodes", "3", "--quiet"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(temporaries(&run), Vec::<String>::new());
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// Regression (issue 9, item 14): a checkpoint with a flipped bit was accepted by `export`.
+#[test]
+fn export_of_a_corrupt_checkpoint_is_one_line() {
+    let base = scratch("corrupt-export");
+    let config = smoke_config_file(&base, 1);
+    let out = host_trainer(&[
+        "train",
+        "--config",
+        s(&config),
+        "--out",
+        s(&base),
+        "--quiet",
+    ]);
+    assert!(out.status.success());
+    let run = base.join("nav-walls__dcp__3");
+    let path = run.join("checkpoint.postcard");
+    let mut bytes = std::fs::read(&path).expect("checkpoint");
+    let middle = bytes.len() / 2;
+    bytes[middle] ^= 0x10;
+    std::fs::write(&path, bytes).expect("corrupt it");
+    let out = host_trainer(&["export", "--run", s(&run)]);
+    assert_one_line_error(&out, &["checkpoint", "checksum mismatch"]);
+    std::fs::remove_dir_all(&base).expect("cleanup");
 }
