@@ -5,6 +5,9 @@
 //! Random kills rarely land inside a checkpoint write, so the child kills itself at a chosen
 //! point (`HOST_TRAINER_CRASH_AT`, see `host_trainer::crash_test`). The points are fixed, so the
 //! test cannot be flaky: the same kills land in the same places on every run.
+//!
+//! Regression (issue 9, item 10): `kill -9` during a checkpoint write left temporaries that
+//! nothing removed, and a run killed before its first checkpoint could not be resumed.
 
 use std::os::unix::process::ExitStatusExt;
 use std::path::Path;
