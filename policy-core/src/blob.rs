@@ -2,16 +2,19 @@
 //! host. `docs/blob-format.md` specifies it byte by byte.
 //!
 //! ```text
-//! blob    = header payload crc
-//! header  = postcard(Header)            magic "DCPB", version, kind, shape, activation,
-//!                                       label, payload length in bytes
-//! payload = postcard((f32, f32, ...))   every parameter, 4 bytes little-endian each
-//! crc     = u32 little-endian           CRC-32/ISO-HDLC of header and payload
+//! blob    = header padding payload crc
+//! header  = postcard(Header)            magic "DCPB", version 2, kind, encoding, shape,
+//!                                       activation, label, payload length in bytes
+//! padding = 0 to 3 zero bytes           so that the payload starts at a multiple of 4
+//! payload = every parameter             f32: 4 bytes little-endian each
+//! crc     = u32 little-endian           CRC-32/ISO-HDLC of everything before it
 //! ```
 //!
-//! Loading checks, in order: magic, version, header, length, checksum, kind, shape, finite
-//! values, parameter rules; it then copies the parameters into the caller's slot. Nothing is
-//! written to the slot unless every check passed.
+//! Version 1 blobs (no encoding field, no `choices` in the shape, no padding) still load.
+//!
+//! Loading checks, in order: magic, version, header, limits, length, padding, checksum; then
+//! ([`crate::model::Model::from_blob`] or [`load_into`]) kind, shape, finite values and the
+//! parameter rules. Nothing runs, and nothing is written to a slot, unless every check passed.
 
 use heapless::String;
 use serde::{Deserialize, Serialize};
@@ -20,15 +23,17 @@ use crate::{crc32, Activation, Error};
 
 /// The four bytes every blob starts with.
 pub const MAGIC: [u8; 4] = *b"DCPB";
-/// The format version this build reads and writes.
-pub const VERSION: u16 = 1;
+/// The format version this build writes.
+pub const VERSION: u16 = 2;
+/// The format versions this build reads.
+pub const VERSIONS_READ: [u16; 2] = [1, 2];
 /// Capacity of the free-text label in the header, in bytes.
 pub const LABEL_CAPACITY: usize = 32;
 /// Bytes of the trailing checksum.
 pub const CRC_LEN: usize = 4;
-/// The largest encoded header: magic 4, version 3, kind 1, shape 10, activation 1, label 33,
-/// payload length 5 (postcard varints at their widest).
-pub const MAX_HEADER_LEN: usize = 57;
+/// The largest encoded header with its padding: magic 4, version 3, kind 1, encoding 1, shape 13,
+/// activation 1, label 33, payload length 5 (postcard varints at their widest), padding 3.
+pub const MAX_HEADER_LEN: usize = 64;
 /// The largest payload the format allows: 16 MiB, four million `f32` parameters, far above any
 /// network a microcontroller can hold. A header declaring more is malformed, so a reader can
 /// refuse an oversized file before reading it whole.
@@ -43,6 +48,10 @@ pub enum ModelKind {
     Actor,
     /// A critic Q(s, a): normaliser and Q network.
     Critic,
+    /// A discrete policy (DQN): normaliser, action bounds, a table of `choices` action vectors
+    /// and a Q network with one output per row; the action is the row of the largest Q value.
+    /// Version 2 only.
+    Discrete,
 }
 
 impl core::fmt::Display for ModelKind {
@@ -50,22 +59,54 @@ impl core::fmt::Display for ModelKind {
         f.write_str(match self {
             ModelKind::Actor => "actor",
             ModelKind::Critic => "critic",
+            ModelKind::Discrete => "discrete policy",
         })
     }
 }
 
-/// The sizes of a network, as the blob names them and as the compiled types fix them.
+/// How the payload stores each parameter. A seam for quantised encodings (f16, int8), which
+/// later versions add; this build knows one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Encoding {
+    /// 4-byte little-endian IEEE-754 single precision.
+    F32,
+}
+
+impl core::fmt::Display for Encoding {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Encoding::F32 => "f32",
+        })
+    }
+}
+
+/// The one description of a network's sizes: what a blob header names, what the runtime runs
+/// and what a compiled type fixes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Shape {
     /// Observation size.
     pub observations: u16,
-    /// Action size.
+    /// Action size (of each action-table row, for a discrete policy).
     pub actions: u16,
     /// Hidden width.
     pub width: u16,
     /// Number of hidden layers (the paper's "4" in 4×48).
     pub depth: u8,
+    /// Rows of a discrete policy's action table (its Q network's outputs); 0 for actors and
+    /// critics.
+    pub choices: u16,
 }
+
+/// The largest observation size a blob may declare.
+pub const MAX_OBSERVATIONS: usize = 1024;
+/// The largest action size a blob may declare.
+pub const MAX_ACTIONS: usize = 256;
+/// The largest hidden width a blob may declare.
+pub const MAX_WIDTH: usize = 1024;
+/// The most hidden layers a blob may declare.
+pub const MAX_DEPTH: usize = 64;
+/// The most action-table rows a discrete policy may declare.
+pub const MAX_CHOICES: usize = 1024;
 
 impl Shape {
     /// Number of `f32` parameters a model of this kind and shape stores, or `None` if it does
@@ -73,21 +114,26 @@ impl Shape {
     ///
     /// ```
     /// use policy_core::{ModelKind, Shape};
-    /// let s = Shape { observations: 2, actions: 2, width: 48, depth: 4 };
+    /// let s = Shape { observations: 2, actions: 2, width: 48, depth: 4, choices: 0 };
     /// // normaliser 2+2+1, bounds 2+2, layers 2*48+48 + 3*(48*48+48) + 48*2+2
     /// assert_eq!(s.param_count(ModelKind::Actor), Some(9 + 144 + 7056 + 98));
+    /// // A discrete policy with 8 rows adds its table (8*2) and has 8 outputs.
+    /// let d = Shape { choices: 8, ..s };
+    /// assert_eq!(d.param_count(ModelKind::Discrete), Some(9 + 16 + 144 + 7056 + 8 * 48 + 8));
     /// ```
     pub fn param_count(&self, kind: ModelKind) -> Option<usize> {
-        let (s, a, h) = (
+        let (s, a, h, k) = (
             self.observations as usize,
             self.actions as usize,
             self.width as usize,
+            self.choices as usize,
         );
         let hidden_layers = (self.depth as usize).checked_sub(1)?;
         // Checked throughout: on a 16-bit target even `2 * s` can overflow.
-        let (inputs, outputs, bounds) = match kind {
-            ModelKind::Actor => (s, a, a.checked_mul(2)?),
-            ModelKind::Critic => (s.checked_add(a)?, 1, 0),
+        let (inputs, outputs, bounds, table) = match kind {
+            ModelKind::Actor => (s, a, a.checked_mul(2)?, 0),
+            ModelKind::Critic => (s.checked_add(a)?, 1, 0, 0),
+            ModelKind::Discrete => (s, k, a.checked_mul(2)?, k.checked_mul(a)?),
         };
         let normalizer = s.checked_mul(2)?.checked_add(1)?;
         let first = inputs.checked_mul(h)?.checked_add(h)?;
@@ -98,9 +144,92 @@ impl Shape {
         let output = h.checked_mul(outputs)?.checked_add(outputs)?;
         normalizer
             .checked_add(bounds)?
+            .checked_add(table)?
             .checked_add(first)?
             .checked_add(hidden)?
             .checked_add(output)
+    }
+
+    /// Inputs of the first layer: observations, plus the action for a critic.
+    pub fn inputs(&self, kind: ModelKind) -> usize {
+        let s = self.observations as usize;
+        match kind {
+            ModelKind::Critic => s + self.actions as usize,
+            ModelKind::Actor | ModelKind::Discrete => s,
+        }
+    }
+
+    /// Outputs of the last layer: actions, one Q value, or one Q value per table row.
+    pub fn outputs(&self, kind: ModelKind) -> usize {
+        match kind {
+            ModelKind::Actor => self.actions as usize,
+            ModelKind::Critic => 1,
+            ModelKind::Discrete => self.choices as usize,
+        }
+    }
+
+    /// The width a runtime scratch buffer needs: the widest vector of the forward pass.
+    ///
+    /// ```
+    /// use policy_core::{ModelKind, Shape};
+    /// let s = Shape { observations: 2, actions: 2, width: 48, depth: 4, choices: 0 };
+    /// assert_eq!(s.scratch_width(ModelKind::Actor), 48);
+    /// ```
+    pub fn scratch_width(&self, kind: ModelKind) -> usize {
+        self.inputs(kind)
+            .max(self.width as usize)
+            .max(self.outputs(kind))
+            .max(self.actions as usize)
+    }
+
+    /// Checks the shape against the format's limits and the kind's rules: at least one hidden
+    /// layer of width at least 1, sizes within the documented maxima, and `choices` set for a
+    /// discrete policy only.
+    ///
+    /// ```
+    /// use policy_core::{Error, ModelKind, Shape};
+    /// let s = Shape { observations: 2, actions: 2, width: 48, depth: 4, choices: 0 };
+    /// assert_eq!(s.check(ModelKind::Actor), Ok(()));
+    /// let huge = Shape { width: 4096, ..s };
+    /// assert!(matches!(huge.check(ModelKind::Actor), Err(Error::ShapeBeyondLimits { .. })));
+    /// assert!(s.check(ModelKind::Discrete).is_err()); // a discrete policy needs choices >= 1
+    /// ```
+    pub fn check(&self, kind: ModelKind) -> Result<(), Error> {
+        let limits = [
+            (
+                "observations",
+                self.observations as usize,
+                1,
+                MAX_OBSERVATIONS,
+            ),
+            ("actions", self.actions as usize, 1, MAX_ACTIONS),
+            ("width", self.width as usize, 1, MAX_WIDTH),
+            ("depth", self.depth as usize, 1, MAX_DEPTH),
+        ];
+        for (what, found, min, max) in limits {
+            if found < min || found > max {
+                return Err(Error::ShapeBeyondLimits {
+                    what,
+                    min,
+                    max,
+                    found,
+                });
+            }
+        }
+        let (min, max) = match kind {
+            ModelKind::Discrete => (1, MAX_CHOICES),
+            ModelKind::Actor | ModelKind::Critic => (0, 0),
+        };
+        let choices = self.choices as usize;
+        if choices < min || choices > max {
+            return Err(Error::ShapeBeyondLimits {
+                what: "choices",
+                min,
+                max,
+                found: choices,
+            });
+        }
+        Ok(())
     }
 
     /// The shape of a compiled model; used only in `const` items, where an assertion failure is
@@ -118,6 +247,7 @@ impl Shape {
             actions: a as u16,
             width: h as u16,
             depth: (hidden_to_hidden + 1) as u8,
+            choices: 0,
         }
     }
 
@@ -125,7 +255,7 @@ impl Shape {
     ///
     /// ```
     /// use policy_core::{ModelKind, Shape};
-    /// let s = Shape { observations: 2, actions: 2, width: 32, depth: 2 };
+    /// let s = Shape { observations: 2, actions: 2, width: 32, depth: 2, choices: 0 };
     /// assert_eq!(s.payload_len(ModelKind::Critic), Some(4 * (5 + 4 * 32 + 32 + 32 * 32 + 32 + 33)));
     /// ```
     pub fn payload_len(&self, kind: ModelKind) -> Option<usize> {
@@ -139,19 +269,26 @@ impl core::fmt::Display for Shape {
             f,
             "{}x{} hidden, {} observations, {} actions",
             self.depth, self.width, self.observations, self.actions
-        )
+        )?;
+        if self.choices > 0 {
+            write!(f, ", {} choices", self.choices)?;
+        }
+        Ok(())
     }
 }
 
-/// The blob header. `payload_len` lets a reader tell a truncated blob from a corrupt one.
+/// The blob header (version 2). `payload_len` lets a reader tell a truncated blob from a corrupt
+/// one.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Header {
     /// Always [`MAGIC`].
     pub magic: [u8; 4],
-    /// Format version, [`VERSION`].
+    /// Format version: [`VERSION`] when written; a version-1 blob reads as version 1.
     pub version: u16,
-    /// Actor or critic.
+    /// Actor, critic or discrete policy.
     pub kind: ModelKind,
+    /// How the parameters are stored.
+    pub encoding: Encoding,
     /// Network sizes.
     pub shape: Shape,
     /// Hidden-layer activation.
@@ -199,15 +336,23 @@ pub fn verify(bytes: &[u8]) -> Result<Verified<'_>, Error> {
     // The version is read on its own first so that a future format whose header differs is
     // reported as a version problem, not as garbage.
     let (version, _) = postcard::take_from_bytes::<u16>(after_magic).map_err(header_error)?;
-    if version != VERSION {
-        return Err(Error::UnsupportedVersion {
-            supported: VERSION,
-            found: version,
-        });
-    }
-    let (header, rest) = postcard::take_from_bytes::<Header>(bytes).map_err(header_error)?;
+    let (header, rest) = match version {
+        1 => {
+            let (v1, rest) = postcard::take_from_bytes::<HeaderV1>(bytes).map_err(header_error)?;
+            (v1.into_current()?, rest)
+        }
+        VERSION => postcard::take_from_bytes::<Header>(bytes).map_err(header_error)?,
+        found => {
+            return Err(Error::UnsupportedVersion {
+                supported: VERSION,
+                found,
+            })
+        }
+    };
+    header.shape.check(header.kind)?;
     let payload_len = checked_payload_len(&header)?;
-    let header_len = bytes.len() - rest.len();
+    let encoded_len = bytes.len() - rest.len();
+    let header_len = padded_header_len(header.version, encoded_len);
     // Checked: on a 32-bit chip a hostile `payload_len` near `u32::MAX` must not wrap.
     let total = header_len
         .checked_add(payload_len)
@@ -233,6 +378,14 @@ pub fn verify(bytes: &[u8]) -> Result<Verified<'_>, Error> {
             found: bytes.len(),
         });
     };
+    if body
+        .get(encoded_len..header_len)
+        .is_some_and(|pad| pad.iter().any(|&b| b != 0))
+    {
+        return Err(Error::Malformed {
+            what: "padding after the header is not zero",
+        });
+    }
     let stored = u32::from_le_bytes(*crc);
     let computed = crc32(body);
     if stored != computed {
@@ -242,10 +395,67 @@ pub fn verify(bytes: &[u8]) -> Result<Verified<'_>, Error> {
     Ok(Verified { header, payload })
 }
 
+/// The header's length with the padding that aligns the payload to 4 bytes (version 2 on;
+/// version 1 had none).
+fn padded_header_len(version: u16, encoded_len: usize) -> usize {
+    if version == 1 {
+        encoded_len
+    } else {
+        encoded_len.next_multiple_of(4)
+    }
+}
+
+/// The version-1 header: no encoding field (always f32) and no `choices` in the shape.
+#[derive(Deserialize)]
+struct HeaderV1 {
+    magic: [u8; 4],
+    version: u16,
+    kind: ModelKind,
+    shape: ShapeV1,
+    activation: Activation,
+    label: String<LABEL_CAPACITY>,
+    payload_len: u32,
+}
+
+#[derive(Deserialize)]
+struct ShapeV1 {
+    observations: u16,
+    actions: u16,
+    width: u16,
+    depth: u8,
+}
+
+impl HeaderV1 {
+    fn into_current(self) -> Result<Header, Error> {
+        if self.kind == ModelKind::Discrete {
+            // Version 1 knew two kinds; the third enum value was invalid then.
+            return Err(Error::Malformed {
+                what: "unknown kind or activation",
+            });
+        }
+        Ok(Header {
+            magic: self.magic,
+            version: self.version,
+            kind: self.kind,
+            encoding: Encoding::F32,
+            shape: Shape {
+                observations: self.shape.observations,
+                actions: self.shape.actions,
+                width: self.shape.width,
+                depth: self.shape.depth,
+                choices: 0,
+            },
+            activation: self.activation,
+            label: self.label,
+            payload_len: self.payload_len,
+        })
+    }
+}
+
 /// The header's payload length, after checking it is the one its kind and shape imply.
 fn checked_payload_len(header: &Header) -> Result<usize, Error> {
     let expected = header.shape.payload_len(header.kind);
-    if header.shape.depth == 0 || header.shape.width == 0 || expected.is_none() {
+    if expected.is_none() {
         return Err(Error::Malformed {
             what: "shape has no hidden layer or is too large",
         });
@@ -298,9 +508,11 @@ pub fn payload_values(payload: &[u8]) -> impl Iterator<Item = f32> + '_ {
         .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
 }
 
-/// A model that can be stored in a blob: its kind, its compiled shape, and its parameters in
-/// blob order. [`Policy`](crate::Policy) and [`Critic`](crate::Critic) implement it.
-pub trait Model {
+/// A model whose shape is fixed at compile time ([`Policy`](crate::Policy),
+/// [`Critic`](crate::Critic)): its kind, its shape, and its parameters in blob order. The runtime
+/// [`Model`](crate::model::Model) needs none of this; compiled types remain for code that wants
+/// the sizes in its types.
+pub trait Compiled {
     /// Actor or critic.
     const KIND: ModelKind;
     /// The shape fixed by the const generics.
@@ -313,15 +525,13 @@ pub trait Model {
     fn params<'a>(&'a self, f: &mut dyn FnMut(&'a [f32]));
     /// Visits every parameter slice mutably, in blob order.
     fn params_mut(&mut self, f: &mut dyn FnMut(&mut [f32]));
-    /// Checks the rules on the leading parameters (normaliser, bounds) taken from `values`,
-    /// before anything is written to the model.
-    fn validate_prefix(values: &mut dyn Iterator<Item = f32>) -> Result<(), Error>;
 }
 
 /// Loads a verified blob into `slot`; `slot` is untouched unless the whole load succeeds.
 ///
 /// The generic form of [`Policy::load_into`](crate::Policy::load_into) and
-/// [`Critic::load_into`](crate::Critic::load_into).
+/// [`Critic::load_into`](crate::Critic::load_into). The parameter rules are the runtime model's
+/// ([`Model::from_blob`](crate::model::Model::from_blob)), so both accept exactly the same blobs.
 ///
 /// ```
 /// use policy_core::{blob, Policy};
@@ -330,8 +540,9 @@ pub trait Model {
 /// blob::load_into(&mut slot, BLOB).unwrap();
 /// assert_eq!(slot.normalizer.clip, 5.0);
 /// ```
-pub fn load_into<M: Model>(slot: &mut M, bytes: &[u8]) -> Result<(), Error> {
-    let Verified { header, payload } = verify(bytes)?;
+pub fn load_into<M: Compiled>(slot: &mut M, bytes: &[u8]) -> Result<(), Error> {
+    let model = crate::model::Model::from_blob(bytes)?;
+    let header = model.header();
     if header.kind != M::KIND {
         return Err(Error::WrongKind {
             expected: M::KIND,
@@ -345,11 +556,7 @@ pub fn load_into<M: Model>(slot: &mut M, bytes: &[u8]) -> Result<(), Error> {
         });
     }
     check_param_count(slot)?;
-    if let Some(index) = payload_values(payload).position(|v| !v.is_finite()) {
-        return Err(Error::NonFiniteParameter { index });
-    }
-    M::validate_prefix(&mut payload_values(payload))?;
-    let mut values = payload_values(payload);
+    let mut values = model.values();
     slot.params_mut(&mut |dst| {
         for (d, v) in dst.iter_mut().zip(&mut values) {
             *d = v;
@@ -359,9 +566,9 @@ pub fn load_into<M: Model>(slot: &mut M, bytes: &[u8]) -> Result<(), Error> {
     Ok(())
 }
 
-/// Guards against a [`Model`] implementation whose `params` disagree with its `SHAPE` (a bug in
-/// that implementation, never in a blob): loading or writing it would silently misplace values.
-fn check_param_count<M: Model>(model: &M) -> Result<(), Error> {
+/// Guards against a [`Compiled`] implementation whose `params` disagree with its `SHAPE` (a bug
+/// in that implementation, never in a blob): loading or writing it would misplace values.
+fn check_param_count<M: Compiled>(model: &M) -> Result<(), Error> {
     let mut count = 0usize;
     model.params(&mut |p| count = count.saturating_add(p.len()));
     if Some(count) != M::SHAPE.param_count(M::KIND) {
@@ -372,31 +579,160 @@ fn check_param_count<M: Model>(model: &M) -> Result<(), Error> {
     Ok(())
 }
 
-/// Bytes a blob of this model with this label occupies.
+/// What a blob to be written is: everything in the header except the lengths.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Spec<'a> {
+    /// Actor, critic or discrete policy.
+    pub kind: ModelKind,
+    /// Network sizes.
+    pub shape: Shape,
+    /// Hidden activation.
+    pub activation: Activation,
+    /// Free text, at most [`LABEL_CAPACITY`] bytes.
+    pub label: &'a str,
+}
+
+impl Spec<'_> {
+    fn header(&self) -> Result<Header, Error> {
+        self.shape.check(self.kind)?;
+        let label = String::try_from(self.label).map_err(|_| Error::Malformed {
+            what: "label longer than 32 bytes",
+        })?;
+        let payload_len = self
+            .shape
+            .payload_len(self.kind)
+            .filter(|&n| n <= MAX_PAYLOAD_LEN)
+            .and_then(|n| u32::try_from(n).ok())
+            .ok_or(Error::Malformed {
+                what: "payload larger than the format's 16 MiB maximum",
+            })?;
+        Ok(Header {
+            magic: MAGIC,
+            version: VERSION,
+            kind: self.kind,
+            encoding: Encoding::F32,
+            shape: self.shape,
+            activation: self.activation,
+            label,
+            payload_len,
+        })
+    }
+}
+
+/// Bytes the blob of `spec` occupies: header, padding, payload, CRC.
+///
+/// ```
+/// use policy_core::{blob::{self, Spec}, Activation, ModelKind, Shape};
+/// let shape = Shape { observations: 2, actions: 2, width: 48, depth: 4, choices: 0 };
+/// let spec = Spec { kind: ModelKind::Actor, shape, activation: Activation::Relu, label: "nav" };
+/// // 20-byte header (3-byte label; already a multiple of 4), 7307 parameters, CRC
+/// assert_eq!(blob::encoded_len(&spec).unwrap(), 20 + 4 * 7307 + 4);
+/// ```
+pub fn encoded_len(spec: &Spec<'_>) -> Result<usize, Error> {
+    let header = spec.header()?;
+    let mut scratch = [0u8; MAX_HEADER_LEN];
+    let encoded = postcard::to_slice(&header, &mut scratch)
+        .map_err(|_| Error::Malformed {
+            what: "header cannot be encoded",
+        })?
+        .len();
+    Ok(padded_header_len(VERSION, encoded) + header.payload_len as usize + CRC_LEN)
+}
+
+/// Writes a blob into `out` from its spec and its parameters in blob order (`params` calls its
+/// argument with slices that together hold exactly the shape's parameter count); returns the
+/// number of bytes written. Only `out[..n]` is written. The runtime shape needs no compiled type.
+///
+/// ```
+/// use policy_core::{blob::{self, Spec}, model::Model, Activation, ModelKind, Shape};
+/// let shape = Shape { observations: 1, actions: 1, width: 2, depth: 1, choices: 0 };
+/// let spec = Spec { kind: ModelKind::Actor, shape, activation: Activation::Tanh, label: "x" };
+/// // normaliser (mean, inv_std, clip), bounds (low, high), layer 1 (2 + 2), output (2 + 1)
+/// let params = [0.0, 1.0, 5.0, -1.0, 1.0, 0.5, -0.5, 0.0, 0.0, 1.0, 1.0, 0.0];
+/// let mut out = [0u8; 128];
+/// let n = blob::write(&spec, &mut |sink| sink(&params), &mut out).unwrap();
+/// assert_eq!(n, 16 + 4 * 12 + 4);
+/// let model = Model::from_blob(&out[..n]).unwrap();
+/// assert_eq!(model.header().shape, shape);
+/// ```
+pub fn write(
+    spec: &Spec<'_>,
+    params: &mut dyn FnMut(&mut dyn FnMut(&[f32])),
+    out: &mut [u8],
+) -> Result<usize, Error> {
+    let needed = encoded_len(spec)?;
+    let header = spec.header()?;
+    let too_small = Error::BufferTooSmall {
+        needed,
+        found: out.len(),
+    };
+    let out = out.get_mut(..needed).ok_or(too_small)?;
+    let encoded = postcard::to_slice(&header, out)
+        .map_err(|_| Error::Malformed {
+            what: "header cannot be encoded",
+        })?
+        .len();
+    let header_len = padded_header_len(VERSION, encoded);
+    let (body, crc) = out.split_last_chunk_mut::<CRC_LEN>().ok_or(too_small)?;
+    body.get_mut(encoded..header_len)
+        .unwrap_or_default()
+        .fill(0);
+    let mut slots = body
+        .get_mut(header_len..)
+        .unwrap_or_default()
+        .chunks_exact_mut(4);
+    let mut written = 0usize;
+    params(&mut |src| {
+        // `src` first: `zip` polls its left side first, so an exhausted `src` must not cost
+        // a slot.
+        for (v, dst) in src.iter().zip(&mut slots) {
+            dst.copy_from_slice(&v.to_le_bytes());
+            written += 1;
+        }
+    });
+    if slots.next().is_some() || Some(written) != spec.shape.param_count(spec.kind) {
+        return Err(Error::Malformed {
+            what: "parameters do not match the declared shape",
+        });
+    }
+    *crc = crc32(body).to_le_bytes();
+    Ok(needed)
+}
+
+/// [`write`] into a new vector (host side).
+#[cfg(feature = "std")]
+pub fn to_vec_with(
+    spec: &Spec<'_>,
+    params: &mut dyn FnMut(&mut dyn FnMut(&[f32])),
+) -> Result<std::vec::Vec<u8>, Error> {
+    let mut out = std::vec![0u8; encoded_len(spec)?];
+    let n = write(spec, params, &mut out)?;
+    out.truncate(n);
+    Ok(out)
+}
+
+fn spec_of<'a, M: Compiled>(model: &M, label: &'a str) -> Spec<'a> {
+    Spec {
+        kind: M::KIND,
+        shape: M::SHAPE,
+        activation: model.activation(),
+        label,
+    }
+}
+
+/// Bytes a blob of this compiled model with this label occupies.
 ///
 /// ```
 /// use policy_core::{blob, Policy};
 /// let policy = Policy::<2, 48, 3, 2>::ZERO;
 /// let n = blob::blob_len(&policy, "nav").unwrap();
-/// assert_eq!(n, 18 + 4 * 7307 + 4); // 18-byte header (3-byte label), 7307 parameters, CRC
+/// assert_eq!(n, 20 + 4 * 7307 + 4); // 20-byte header (3-byte label), 7307 parameters, CRC
 /// ```
-pub fn blob_len<M: Model>(model: &M, label: &str) -> Result<usize, Error> {
-    let header = header_for(model, label)?;
-    let mut scratch = [0u8; MAX_HEADER_LEN];
-    let header_len = postcard::to_slice(&header, &mut scratch)
-        .map_err(|_| Error::Malformed {
-            what: "header cannot be encoded",
-        })?
-        .len();
-    M::SHAPE
-        .payload_len(M::KIND)
-        .and_then(|n| n.checked_add(header_len + CRC_LEN))
-        .ok_or(Error::Malformed {
-            what: "model too large for a blob",
-        })
+pub fn blob_len<M: Compiled>(model: &M, label: &str) -> Result<usize, Error> {
+    encoded_len(&spec_of(model, label))
 }
 
-/// Writes `model` as a blob into `out`; returns the number of bytes written.
+/// Writes a compiled `model` as a blob into `out`; returns the number of bytes written.
 ///
 /// Only `out[..n]` is written. A label longer than [`LABEL_CAPACITY`] bytes is an error, as is
 /// a buffer shorter than [`blob_len`].
@@ -408,68 +744,26 @@ pub fn blob_len<M: Model>(model: &M, label: &str) -> Result<usize, Error> {
 /// assert!(matches!(blob::write_into(&policy, "x", &mut out), Err(Error::BufferTooSmall { .. })));
 /// let mut out = [0u8; 128];
 /// let n = blob::write_into(&policy, "x", &mut out).unwrap();
-/// assert_eq!(n, 66); // 14-byte header, 12 parameters, CRC
+/// assert_eq!(n, 68); // 16-byte header (15 + 1 padding), 12 parameters, CRC
 /// ```
-pub fn write_into<M: Model>(model: &M, label: &str, out: &mut [u8]) -> Result<usize, Error> {
-    let needed = blob_len(model, label)?;
+pub fn write_into<M: Compiled>(model: &M, label: &str, out: &mut [u8]) -> Result<usize, Error> {
     check_param_count(model)?;
-    let too_small = Error::BufferTooSmall {
-        needed,
-        found: out.len(),
-    };
-    let out = out.get_mut(..needed).ok_or(too_small)?;
-    let header = header_for(model, label)?;
-    let header_len = postcard::to_slice(&header, out)
-        .map_err(|_| Error::Malformed {
-            what: "header cannot be encoded",
-        })?
-        .len();
-    let (body, crc) = out.split_last_chunk_mut::<CRC_LEN>().ok_or(too_small)?;
-    let mut slots = body
-        .get_mut(header_len..)
-        .unwrap_or_default()
-        .chunks_exact_mut(4);
-    model.params(&mut |src| {
-        // `src` first: `zip` polls its left side first, so an exhausted `src` must not cost
-        // a slot.
-        for (v, dst) in src.iter().zip(&mut slots) {
-            dst.copy_from_slice(&v.to_le_bytes());
-        }
-    });
-    *crc = crc32(body).to_le_bytes();
-    Ok(needed)
+    write(
+        &spec_of(model, label),
+        &mut |sink| model.params(&mut |p| sink(p)),
+        out,
+    )
 }
 
-fn header_for<M: Model>(model: &M, label: &str) -> Result<Header, Error> {
-    let label = String::try_from(label).map_err(|_| Error::Malformed {
-        what: "label longer than 32 bytes",
-    })?;
-    let payload_len = M::SHAPE
-        .payload_len(M::KIND)
-        .and_then(|n| u32::try_from(n).ok())
-        .ok_or(Error::Malformed {
-            what: "model too large for a blob",
-        })?;
-    Ok(Header {
-        magic: MAGIC,
-        version: VERSION,
-        kind: M::KIND,
-        shape: M::SHAPE,
-        activation: model.activation(),
-        label,
-        payload_len,
-    })
-}
-
-/// Writes `model` as a blob into a new vector (host side).
+/// Writes a compiled `model` as a blob into a new vector (host side).
 ///
 /// ```
 /// use policy_core::{blob, Policy};
 /// let bytes = blob::to_vec(&Policy::<1, 2, 0, 1>::ZERO, "x").unwrap();
-/// assert_eq!(bytes.len(), 66);
+/// assert_eq!(bytes.len(), 68);
 /// ```
 #[cfg(feature = "std")]
-pub fn to_vec<M: Model>(model: &M, label: &str) -> Result<std::vec::Vec<u8>, Error> {
+pub fn to_vec<M: Compiled>(model: &M, label: &str) -> Result<std::vec::Vec<u8>, Error> {
     let mut out = std::vec![0u8; blob_len(model, label)?];
     let n = write_into(model, label, &mut out)?;
     out.truncate(n);

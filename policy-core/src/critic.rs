@@ -2,7 +2,7 @@
 
 use nalgebra::{ArrayStorage, SMatrix};
 
-use crate::blob::{self, Model, ModelKind, Shape};
+use crate::blob::{self, Compiled, ModelKind, Shape};
 use crate::mlp::accumulate;
 use crate::{Activation, Dense, Error, Normalizer, Trunk};
 
@@ -130,7 +130,9 @@ impl<const S: usize, const A: usize, const H: usize, const L: usize> Critic<S, A
     }
 }
 
-impl<const S: usize, const A: usize, const H: usize, const L: usize> Model for Critic<S, A, H, L> {
+impl<const S: usize, const A: usize, const H: usize, const L: usize> Compiled
+    for Critic<S, A, H, L>
+{
     const KIND: ModelKind = ModelKind::Critic;
     const SHAPE: Shape = Shape::compiled(S, A, H, L);
 
@@ -156,13 +158,5 @@ impl<const S: usize, const A: usize, const H: usize, const L: usize> Model for C
         f(self.action_w.as_mut_slice());
         f(self.input.b.as_mut_slice());
         self.trunk.params_mut(f);
-    }
-
-    fn validate_prefix(values: &mut dyn Iterator<Item = f32>) -> Result<(), Error> {
-        let mut normalizer = Normalizer::<S>::ZERO;
-        for dst in normalizer.params_mut() {
-            dst.iter_mut().zip(&mut *values).for_each(|(d, v)| *d = v);
-        }
-        normalizer.validate()
     }
 }

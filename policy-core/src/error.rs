@@ -75,6 +75,33 @@ pub enum Error {
         /// Index of the offending component (observation or action dimension).
         index: usize,
     },
+    /// A shape is outside the format's documented limits (or the kind's rules).
+    ShapeBeyondLimits {
+        /// Which size.
+        what: &'static str,
+        /// The smallest allowed value.
+        min: usize,
+        /// The largest allowed value.
+        max: usize,
+        /// The value found.
+        found: usize,
+    },
+    /// A firmware's (or caller's) observation or action size differs from the blob's.
+    SizeMismatch {
+        /// Which size.
+        what: &'static str,
+        /// The size the caller has.
+        expected: usize,
+        /// The size the blob declares.
+        found: usize,
+    },
+    /// The caller's scratch buffer is narrower than the blob's widest layer.
+    ScratchTooSmall {
+        /// Width the blob needs.
+        needed: usize,
+        /// Width of the scratch buffer.
+        found: usize,
+    },
     /// The output buffer is too small for the blob being written.
     BufferTooSmall {
         /// Bytes the blob needs.
@@ -125,6 +152,27 @@ impl fmt::Display for Error {
             Error::InvalidParameter { what, index } => {
                 write!(f, "invalid parameter in dimension {index}: {what}")
             }
+            Error::ShapeBeyondLimits {
+                what,
+                min,
+                max,
+                found,
+            } => write!(
+                f,
+                "shape beyond the format's limits: {what} must be in {min}..={max}, found {found}"
+            ),
+            Error::SizeMismatch {
+                what,
+                expected,
+                found,
+            } => write!(
+                f,
+                "{what} mismatch: the firmware has {expected}, the blob declares {found}"
+            ),
+            Error::ScratchTooSmall { needed, found } => write!(
+                f,
+                "scratch buffer too small: the blob needs width {needed}, the buffer has {found}"
+            ),
             Error::BufferTooSmall { needed, found } => {
                 write!(
                     f,

@@ -57,11 +57,12 @@ pub mod crc32;
 pub mod critic;
 pub mod error;
 pub mod mlp;
+pub mod model;
 pub mod normalizer;
 pub mod policy;
 pub mod tanh;
 
-pub use blob::{ModelKind, Shape};
+pub use blob::{Encoding, ModelKind, Shape};
 pub use bounds::ActionBounds;
 pub use crc32::crc32;
 pub use critic::Critic;

@@ -131,6 +131,82 @@ fn accumulate_block<const I: usize, const O: usize, const B: usize>(
     *out = acc;
 }
 
+/// `y = b + W x` with the weights and biases read from little-endian `f32` bytes (a blob's
+/// payload): `weights` holds `x.len()` columns of `y.len()` values, `bias` `y.len()` values. The
+/// same operations in the same order as [`accumulate`] on the same numbers, so the same bits;
+/// the runtime [`Model`](crate::model::Model) runs every layer through it. Lengths that do not
+/// fit leave the missing terms out rather than panic (a verified blob always fits).
+///
+/// ```
+/// use policy_core::mlp::accumulate_bytes;
+/// let f = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+/// let (w, b) = (f(&[1.0, 4.0, 2.0, 5.0, 3.0, 6.0]), f(&[0.5, -0.5])); // 2 outputs, 3 inputs
+/// let mut y = [0.0; 2];
+/// accumulate_bytes(&w, &b, &[1.0, 0.0, -1.0], &mut y);
+/// assert_eq!(y, [0.5 + 1.0 - 3.0, -0.5 + 4.0 - 6.0]);
+/// ```
+// Not inlined, for the reason given at `accumulate`.
+#[inline(never)]
+pub fn accumulate_bytes(weights: &[u8], bias: &[u8], x: &[f32], y: &mut [f32]) {
+    for (yo, b) in y.iter_mut().zip(bias.chunks_exact(4)) {
+        *yo = le_f32(b);
+    }
+    let column = 4 * y.len();
+    if column == 0 {
+        return;
+    }
+    let mut start = 0;
+    while start + WIDE_BLOCK <= y.len() {
+        accumulate_bytes_block::<WIDE_BLOCK>(weights, column, x, y, start);
+        start += WIDE_BLOCK;
+    }
+    if WIDE_BLOCK > 16 && start + 16 <= y.len() {
+        accumulate_bytes_block::<16>(weights, column, x, y, start);
+        start += 16;
+    }
+    let rest = y.get_mut(start..).unwrap_or_default();
+    for (col, &xj) in weights.chunks_exact(column).zip(x) {
+        let col = col.get(4 * start..).unwrap_or_default();
+        for (yo, w) in rest.iter_mut().zip(col.chunks_exact(4)) {
+            *yo += le_f32(w) * xj;
+        }
+    }
+}
+
+/// [`accumulate_bytes`] for outputs `start..start + B`, their sums kept in registers for the
+/// whole pass (see [`accumulate_block`]).
+#[inline(always)]
+fn accumulate_bytes_block<const B: usize>(
+    weights: &[u8],
+    column: usize,
+    x: &[f32],
+    y: &mut [f32],
+    start: usize,
+) {
+    let Some(Ok(out)) = y.get_mut(start..start + B).map(<&mut [f32; B]>::try_from) else {
+        return;
+    };
+    let mut acc = *out;
+    for (col, &xj) in weights.chunks_exact(column).zip(x) {
+        let Some(wb) = col.get(4 * start..4 * (start + B)) else {
+            return;
+        };
+        for (a, w) in acc.iter_mut().zip(wb.chunks_exact(4)) {
+            *a += le_f32(w) * xj;
+        }
+    }
+    *out = acc;
+}
+
+/// A little-endian `f32` from 4 bytes (0.0 from a shorter slice, which callers never pass).
+#[inline(always)]
+fn le_f32(bytes: &[u8]) -> f32 {
+    match <[u8; 4]>::try_from(bytes) {
+        Ok(b) => f32::from_le_bytes(b),
+        Err(_) => 0.0,
+    }
+}
+
 /// A dense layer `y = b + W x` with `I` inputs and `O` outputs.
 ///
 /// `w` is stored column-major (nalgebra's layout): column `j` holds the weights from input `j`.

@@ -2,7 +2,7 @@
 
 use nalgebra::SVector;
 
-use crate::blob::{self, Model, ModelKind, Shape};
+use crate::blob::{self, Compiled, ModelKind, Shape};
 use crate::{ActionBounds, Activation, Dense, Error, Normalizer, Trunk};
 
 /// A DCP (or DDPG) actor ready to run: `act(obs) = scale(tanh(mlp(normalize(obs))))`.
@@ -152,7 +152,9 @@ impl<const S: usize, const H: usize, const L: usize, const A: usize> Policy<S, H
     }
 }
 
-impl<const S: usize, const H: usize, const L: usize, const A: usize> Model for Policy<S, H, L, A> {
+impl<const S: usize, const H: usize, const L: usize, const A: usize> Compiled
+    for Policy<S, H, L, A>
+{
     const KIND: ModelKind = ModelKind::Actor;
     const SHAPE: Shape = Shape::compiled(S, A, H, L);
 
@@ -176,19 +178,5 @@ impl<const S: usize, const H: usize, const L: usize, const A: usize> Model for P
         self.bounds.params_mut().into_iter().for_each(&mut *f);
         self.input.params_mut().into_iter().for_each(&mut *f);
         self.trunk.params_mut(f);
-    }
-
-    fn validate_prefix(values: &mut dyn Iterator<Item = f32>) -> Result<(), Error> {
-        let mut normalizer = Normalizer::<S>::ZERO;
-        let mut bounds = ActionBounds::<A>::ZERO;
-        for dst in normalizer
-            .params_mut()
-            .into_iter()
-            .chain(bounds.params_mut())
-        {
-            dst.iter_mut().zip(&mut *values).for_each(|(d, v)| *d = v);
-        }
-        normalizer.validate()?;
-        bounds.validate()
     }
 }

@@ -35,9 +35,11 @@ fn good() -> Vec<u8> {
 fn with_header(edit: impl FnOnce(&mut Header)) -> Vec<u8> {
     let bytes = good();
     let (mut header, rest): (Header, &[u8]) = postcard::take_from_bytes(&bytes).expect("header");
+    let pad = (bytes.len() - rest.len()).next_multiple_of(4) - (bytes.len() - rest.len());
     edit(&mut header);
     let mut out = postcard::to_stdvec(&header).expect("postcard");
-    out.extend_from_slice(rest);
+    out.resize(out.len().next_multiple_of(4), 0);
+    out.extend_from_slice(&rest[pad..]);
     reseal(&mut out);
     out
 }
@@ -77,12 +79,12 @@ fn wrong_magic() {
 
 #[test]
 fn unsupported_version() {
-    let b = with_header(|h| h.version = 2);
+    let b = with_header(|h| h.version = 3);
     assert_eq!(
         load_error(&b),
         Error::UnsupportedVersion {
-            supported: 1,
-            found: 2
+            supported: 2,
+            found: 3
         }
     );
 }
@@ -116,12 +118,14 @@ fn shape_mismatch_names_both_shapes() {
         actions: 2,
         width: 48,
         depth: 4,
+        choices: 0,
     };
     let expected = Shape {
         observations: 2,
         actions: 2,
         width: 32,
         depth: 2,
+        choices: 0,
     };
     assert_eq!(err, Error::ShapeMismatch { expected, found });
     assert_eq!(
@@ -134,9 +138,15 @@ fn shape_mismatch_names_both_shapes() {
 #[test]
 fn header_contradictions_are_malformed() {
     let zero_depth = with_header(|h| h.shape.depth = 0);
-    assert!(matches!(load_error(&zero_depth), Error::Malformed { .. }));
+    assert!(matches!(
+        load_error(&zero_depth),
+        Error::ShapeBeyondLimits { what: "depth", .. }
+    ));
     let zero_width = with_header(|h| h.shape.width = 0);
-    assert!(matches!(load_error(&zero_width), Error::Malformed { .. }));
+    assert!(matches!(
+        load_error(&zero_width),
+        Error::ShapeBeyondLimits { what: "width", .. }
+    ));
     let long = with_header(|h| h.payload_len += 4);
     assert!(matches!(load_error(&long), Error::Malformed { .. }));
     // A shape whose size overflows: 65535² × 254 parameters.
@@ -146,10 +156,11 @@ fn header_contradictions_are_malformed() {
             actions: 1,
             width: u16::MAX,
             depth: 255,
+            choices: 0,
         };
         h.payload_len = u32::MAX;
     });
-    assert!(matches!(load_error(&huge), Error::Malformed { .. }));
+    assert!(matches!(load_error(&huge), Error::ShapeBeyondLimits { .. }));
 }
 
 #[test]

@@ -1,8 +1,8 @@
 //! The blob format is exactly postcard, the spec's worked example is what the code writes, and
 //! the CRC is the standard CRC-32.
 
-use policy_core::blob::{self, Header, Model, MAGIC, MAX_HEADER_LEN, VERSION};
-use policy_core::{crc32, Activation, Critic, ModelKind, Policy, Shape};
+use policy_core::blob::{self, Compiled, Header, MAGIC, MAX_HEADER_LEN, VERSION};
+use policy_core::{crc32, Activation, Critic, Encoding, ModelKind, Policy, Shape};
 use serde::ser::{Serialize, SerializeTuple, Serializer};
 
 use crate::support::{blob_of, nav_critic, nav_policy, tiny_policy, TINY_LABEL};
@@ -21,30 +21,33 @@ impl Serialize for Floats {
     }
 }
 
-fn params_of<M: Model>(model: &M) -> Vec<f32> {
+fn params_of<M: Compiled>(model: &M) -> Vec<f32> {
     let mut all = Vec::new();
     model.params(&mut |s| all.extend_from_slice(s));
     all
 }
 
-/// What serde + postcard produce for the blob's logical content: `(header, floats)` followed
-/// by the CRC as a `[u8; 4]` (a tuple, so raw bytes rather than a varint).
-fn postcard_blob<M: Model>(model: &M, label: &str) -> Vec<u8> {
+/// What serde + postcard produce for the blob's logical content: the header, zero padding to a
+/// multiple of 4, the floats, then the CRC as a `[u8; 4]` (a tuple, so raw bytes rather than a
+/// varint).
+fn postcard_blob<M: Compiled>(model: &M, label: &str) -> Vec<u8> {
     let params = params_of(model);
     let header = Header {
         magic: MAGIC,
         version: VERSION,
         kind: M::KIND,
+        encoding: Encoding::F32,
         shape: M::SHAPE,
         activation: model.activation(),
         label: label.try_into().expect("short label"),
         payload_len: 4 * params.len() as u32,
     };
-    let body = postcard::to_stdvec(&(&header, Floats(params.clone()))).expect("postcard");
+    let mut body = postcard::to_stdvec(&header).expect("postcard");
+    body.resize(body.len().next_multiple_of(4), 0);
+    body.extend(postcard::to_stdvec(&Floats(params)).expect("postcard"));
     let crc = crc32(&body).to_le_bytes();
-    let whole = postcard::to_stdvec(&(&header, Floats(params), crc)).expect("postcard");
-    assert_eq!(&whole[..body.len()], &body[..]);
-    whole
+    body.extend(postcard::to_stdvec(&crc).expect("postcard"));
+    body
 }
 
 #[test]
@@ -75,11 +78,14 @@ fn postcard_decodes_what_the_writer_wrote() {
             observations: 2,
             actions: 2,
             width: 32,
-            depth: 2
+            depth: 2,
+            choices: 0,
         }
     );
     assert_eq!(header.label.as_str(), "decode me");
-    let floats: Vec<f32> = rest[..header.payload_len as usize]
+    let pad = (4 - (bytes.len() - rest.len()) % 4) % 4;
+    assert!(rest[..pad].iter().all(|&b| b == 0));
+    let floats: Vec<f32> = rest[pad..pad + header.payload_len as usize]
         .chunks_exact(4)
         .map(|c| postcard::from_bytes::<f32>(c).expect("f32"))
         .collect();
@@ -88,7 +94,7 @@ fn postcard_decodes_what_the_writer_wrote() {
 
 #[test]
 fn param_count_agrees_with_the_types() {
-    fn check<M: Model>(m: &M) {
+    fn check<M: Compiled>(m: &M) {
         assert_eq!(
             Some(params_of(m).len()),
             M::SHAPE.param_count(M::KIND),
@@ -110,12 +116,14 @@ fn max_header_len_is_the_widest_header() {
     let widest = Header {
         magic: MAGIC,
         version: u16::MAX,
-        kind: ModelKind::Critic,
+        kind: ModelKind::Discrete,
+        encoding: Encoding::F32,
         shape: Shape {
             observations: u16::MAX,
             actions: u16::MAX,
             width: u16::MAX,
             depth: 255,
+            choices: u16::MAX,
         },
         activation: Activation::Relu,
         label: "x"
@@ -126,7 +134,10 @@ fn max_header_len_is_the_widest_header() {
         payload_len: u32::MAX,
     };
     assert_eq!(
-        postcard::to_stdvec(&widest).expect("postcard").len(),
+        postcard::to_stdvec(&widest)
+            .expect("postcard")
+            .len()
+            .next_multiple_of(4),
         MAX_HEADER_LEN
     );
 }

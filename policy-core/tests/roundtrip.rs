@@ -1,6 +1,6 @@
 //! Any valid model written then loaded is identical, bit for bit (proptest).
 
-use policy_core::blob::{self, Model};
+use policy_core::blob::{self, Compiled};
 use policy_core::{Critic, Policy};
 use proptest::prelude::*;
 
@@ -8,7 +8,7 @@ use crate::support::{arbitrary_critic, arbitrary_policy, blob_of};
 
 /// Write, verify the header, load into a fresh slot, compare values and re-written bytes (the
 /// bytes catch what `==` on f32 misses: -0.0 versus 0.0).
-fn round_trip<M: Model + Clone + PartialEq + core::fmt::Debug>(model: &M, label: &str, zero: M) {
+fn round_trip<M: Compiled + Clone + PartialEq + core::fmt::Debug>(model: &M, label: &str, zero: M) {
     let bytes = blob_of(model, label);
     let v = blob::verify(&bytes).expect("verify");
     assert_eq!(v.header.label.as_str(), label);

@@ -2,7 +2,7 @@
 
 use core::convert::Infallible;
 
-use policy_core::blob::{self, Model};
+use policy_core::blob::{self, Compiled};
 use policy_core::{ActionBounds, Activation, Critic, Dense, Policy};
 use rand_core::TryRng;
 
@@ -139,7 +139,7 @@ pub fn nav_critic<const S: usize, const A: usize, const H: usize, const L: usize
 /// Overwrites every parameter with an arbitrary finite bit pattern, then repairs the
 /// normaliser and bounds so the model is valid (the loader's rules: inv_std >= 0, clip > 0,
 /// low <= high with a representable width).
-pub fn scramble<M: Model>(model: &mut M, rng: &mut SplitMix64) {
+pub fn scramble<M: Compiled>(model: &mut M, rng: &mut SplitMix64) {
     model.params_mut(&mut |s| s.iter_mut().for_each(|v| *v = rng.finite_bits()));
 }
 
@@ -180,7 +180,7 @@ pub fn activation_from(seed: u64) -> Activation {
 }
 
 /// A blob in a new vector, without needing the `std` feature.
-pub fn blob_of<M: Model>(model: &M, label: &str) -> Vec<u8> {
+pub fn blob_of<M: Compiled>(model: &M, label: &str) -> Vec<u8> {
     let mut out = vec![0u8; blob::blob_len(model, label).expect("blob length")];
     let n = blob::write_into(model, label, &mut out).expect("write blob");
     assert_eq!(n, out.len());

@@ -1,0 +1,471 @@
+//! The runtime: a model of any shape, run straight from a verified blob's bytes.
+//!
+//! [`Model::from_blob`] checks a blob once (magic, version, header, limits, length, padding,
+//! CRC, then every parameter: finite, normaliser and bounds rules, action table inside the
+//! bounds) and keeps a view of its payload. [`Model::act`] then reads the weights from those
+//! bytes, wherever they are (a flash region, an `include_bytes!`, a `Vec`): nothing is copied to
+//! RAM but the activations, which live in a caller-provided [`Scratch`] whose width is a const
+//! bound. No table of compiled shapes is needed anywhere; any shape within the limits in
+//! [`crate::blob`] runs.
+//!
+//! The arithmetic is [`crate::mlp::accumulate`]'s, operation for operation (bias first, then input
+//! columns in increasing order, separate multiplies and adds), so a blob gives the same bits here
+//! as in the compiled [`Policy`](crate::Policy) and in the trainer.
+//!
+//! ```
+//! use policy_core::model::{Model, Scratch};
+//! static BLOB: &[u8] = include_bytes!("../tests/golden/actor_4x48.postcard");
+//! let model = Model::from_blob(BLOB).unwrap(); // verified once, at boot
+//! model.expect_sizes(2, 2).unwrap(); // the firmware's observation and action sizes
+//! let mut scratch = Scratch::<64>::new(); // activations: 2 x 64 floats
+//! let mut action = [0.0f32; 2];
+//! model.act(&[4.0, -2.5], &mut scratch, &mut action).unwrap();
+//! assert!(action.iter().all(|a| a.is_finite() && a.abs() <= 0.25));
+//! // The compiled type gives the same bits.
+//! let compiled = policy_core::Policy::<2, 48, 3, 2>::from_blob(BLOB).unwrap();
+//! assert_eq!(action, compiled.act(&[4.0, -2.5]));
+//! ```
+
+use crate::blob::{self, Header, ModelKind, Verified};
+use crate::clamp::clamp;
+use crate::{Activation, Error};
+
+/// Activation buffers for [`Model`]: two vectors of `W` floats, used in turn as a layer's input
+/// and output. `W` must be at least the blob's [`Shape::scratch_width`](crate::Shape::scratch_width)
+/// (its widest layer, observation or action vector); a narrower scratch is
+/// [`Error::ScratchTooSmall`], never a panic.
+#[derive(Clone, Debug)]
+pub struct Scratch<const W: usize> {
+    a: [f32; W],
+    b: [f32; W],
+}
+
+impl<const W: usize> Scratch<W> {
+    /// Zeroed buffers; usable in `static` initialisers.
+    pub const fn new() -> Self {
+        Scratch {
+            a: [0.0; W],
+            b: [0.0; W],
+        }
+    }
+}
+
+impl<const W: usize> Default for Scratch<W> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// A verified blob, ready to run. Cheap to copy around: a header and a slice.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Model<'a> {
+    header: Header,
+    payload: &'a [u8],
+    layout: Layout,
+}
+
+/// Where each part of the payload starts, in parameters (4-byte values) from its start.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Layout {
+    observations: usize,
+    actions: usize,
+    width: usize,
+    hidden_layers: usize,
+    inputs: usize,
+    outputs: usize,
+    /// Offset of the action bounds (actor, discrete): low then high.
+    bounds: usize,
+    /// Offset of the action table (discrete): `outputs` rows of `actions` values.
+    table: usize,
+    /// Offset of the first layer's weights.
+    layers: usize,
+}
+
+impl Layout {
+    fn of(header: &Header) -> Layout {
+        let s = &header.shape;
+        let (observations, actions) = (s.observations as usize, s.actions as usize);
+        let outputs = s.outputs(header.kind);
+        let bounds = 2 * observations + 1;
+        let (table, layers) = match header.kind {
+            ModelKind::Actor => (bounds + 2 * actions, bounds + 2 * actions),
+            ModelKind::Critic => (bounds, bounds),
+            ModelKind::Discrete => {
+                let table = bounds + 2 * actions;
+                (table, table + outputs * actions)
+            }
+        };
+        Layout {
+            observations,
+            actions,
+            width: s.width as usize,
+            hidden_layers: (s.depth as usize).saturating_sub(1),
+            inputs: s.inputs(header.kind),
+            outputs,
+            bounds,
+            table,
+            layers,
+        }
+    }
+}
+
+impl<'a> Model<'a> {
+    /// Verifies `bytes` completely and returns the model; nothing runs unless every check passed.
+    ///
+    /// ```
+    /// use policy_core::{model::Model, Error};
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+    /// assert!(Model::from_blob(BLOB).is_ok());
+    /// let mut flipped = BLOB.to_vec();
+    /// flipped[100] ^= 4;
+    /// assert!(matches!(Model::from_blob(&flipped), Err(Error::ChecksumMismatch { .. })));
+    /// ```
+    pub fn from_blob(bytes: &'a [u8]) -> Result<Model<'a>, Error> {
+        let Verified { header, payload } = blob::verify(bytes)?;
+        let model = Model {
+            layout: Layout::of(&header),
+            header,
+            payload,
+        };
+        model.check_parameters()?;
+        Ok(model)
+    }
+
+    /// The blob's header: kind, encoding, shape, activation, label.
+    pub fn header(&self) -> &Header {
+        &self.header
+    }
+
+    /// Checks that the blob fits a firmware with `observations` inputs and `actions` outputs.
+    ///
+    /// ```
+    /// use policy_core::{model::Model, Error};
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+    /// let model = Model::from_blob(BLOB).unwrap();
+    /// assert_eq!(model.expect_sizes(2, 2), Ok(()));
+    /// assert!(matches!(model.expect_sizes(3, 2), Err(Error::SizeMismatch { .. })));
+    /// ```
+    pub fn expect_sizes(&self, observations: usize, actions: usize) -> Result<(), Error> {
+        let l = &self.layout;
+        for (what, expected, found) in [
+            ("observation size", observations, l.observations),
+            ("action size", actions, l.actions),
+        ] {
+            if expected != found {
+                return Err(Error::SizeMismatch {
+                    what,
+                    expected,
+                    found,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Every parameter, in blob order.
+    pub fn values(&self) -> impl Iterator<Item = f32> + 'a {
+        blob::payload_values(self.payload)
+    }
+
+    /// The action for an observation (actor and discrete policy): finite and inside the bounds
+    /// for every input, NaN and infinities included. A discrete policy returns the action-table
+    /// row of the largest Q value (ties: the lowest index).
+    pub fn act<const W: usize>(
+        &self,
+        obs: &[f32],
+        scratch: &mut Scratch<W>,
+        action: &mut [f32],
+    ) -> Result<(), Error> {
+        match self.header.kind {
+            ModelKind::Actor => {
+                self.act_unit(obs, scratch, action)?;
+                self.scale(action);
+                Ok(())
+            }
+            ModelKind::Discrete => {
+                let row = self.choose(obs, scratch)?;
+                self.table_row(row, action)
+            }
+            ModelKind::Critic => Err(self.wrong_kind(ModelKind::Actor)),
+        }
+    }
+
+    /// An actor's output in the unit box `[-1, 1]^A`, before scaling; always finite.
+    pub fn act_unit<const W: usize>(
+        &self,
+        obs: &[f32],
+        scratch: &mut Scratch<W>,
+        unit: &mut [f32],
+    ) -> Result<(), Error> {
+        if self.header.kind != ModelKind::Actor {
+            return Err(self.wrong_kind(ModelKind::Actor));
+        }
+        self.check_io(obs.len(), unit.len(), W)?;
+        let (x, y) = (&mut scratch.a[..], &mut scratch.b[..]);
+        self.normalize(obs, x);
+        let out = self.forward(x, y);
+        for (u, &v) in unit.iter_mut().zip(out) {
+            let t = libm::tanhf(v);
+            *u = if t.is_finite() { t } else { 0.0 };
+        }
+        Ok(())
+    }
+
+    /// A critic's Q(s, a) for an observation and a unit-box action (clamped into the box; a
+    /// non-finite component reads as 0).
+    pub fn q<const W: usize>(
+        &self,
+        obs: &[f32],
+        unit_action: &[f32],
+        scratch: &mut Scratch<W>,
+    ) -> Result<f32, Error> {
+        if self.header.kind != ModelKind::Critic {
+            return Err(self.wrong_kind(ModelKind::Critic));
+        }
+        self.check_io(obs.len(), unit_action.len(), W)?;
+        let (x, y) = (&mut scratch.a[..], &mut scratch.b[..]);
+        self.normalize(obs, x);
+        let tail = x.get_mut(obs.len()..).unwrap_or_default();
+        for (d, &u) in tail.iter_mut().zip(unit_action) {
+            *d = if u.is_finite() {
+                u.clamp(-1.0, 1.0)
+            } else {
+                0.0
+            };
+        }
+        Ok(self.forward(x, y).first().copied().unwrap_or(0.0))
+    }
+
+    /// A discrete policy's choice: the index of the largest Q value (ties and NaN: the lowest
+    /// index among the largest; all NaN: 0).
+    pub fn choose<const W: usize>(
+        &self,
+        obs: &[f32],
+        scratch: &mut Scratch<W>,
+    ) -> Result<usize, Error> {
+        if self.header.kind != ModelKind::Discrete {
+            return Err(self.wrong_kind(ModelKind::Discrete));
+        }
+        self.check_io(obs.len(), self.layout.actions, W)?;
+        let (x, y) = (&mut scratch.a[..], &mut scratch.b[..]);
+        self.normalize(obs, x);
+        let q = self.forward(x, y);
+        // The first strictly larger value wins, so ties go to the lowest index; NaN never wins.
+        let mut best: Option<(usize, f32)> = None;
+        for (k, &v) in q.iter().enumerate() {
+            match best {
+                _ if v.is_nan() => {}
+                Some((_, b)) if v <= b => {}
+                _ => best = Some((k, v)),
+            }
+        }
+        Ok(best.map_or(0, |(k, _)| k))
+    }
+
+    fn wrong_kind(&self, expected: ModelKind) -> Error {
+        Error::WrongKind {
+            expected,
+            found: self.header.kind,
+        }
+    }
+
+    fn check_io(&self, observations: usize, actions: usize, width: usize) -> Result<(), Error> {
+        self.expect_sizes(observations, actions)?;
+        let needed = self.header.shape.scratch_width(self.header.kind);
+        if width < needed {
+            return Err(Error::ScratchTooSmall {
+                needed,
+                found: width,
+            });
+        }
+        Ok(())
+    }
+
+    /// The parameter at `index` (0.0 past the end, which verified layouts never reach).
+    fn value(&self, index: usize) -> f32 {
+        self.slice(index, 1).first().unwrap_or(0.0)
+    }
+
+    /// `len` parameters from `index`, as bytes.
+    fn bytes(&self, index: usize, len: usize) -> &'a [u8] {
+        self.payload
+            .get(4 * index..4 * (index + len))
+            .unwrap_or_default()
+    }
+
+    /// `len` parameters from `index`, decoded into a small array view (used for the short
+    /// vectors: normaliser and bounds rows).
+    fn slice(&self, index: usize, len: usize) -> Floats<'a> {
+        Floats(self.bytes(index, len))
+    }
+
+    /// `z = clip((x - mean) * inv_std)` into `z[..S]`; non-finite inputs read as the mean.
+    fn normalize(&self, obs: &[f32], z: &mut [f32]) {
+        let s = self.layout.observations;
+        let clip = self.value(2 * s);
+        let (mean, inv_std) = (self.slice(0, s), self.slice(s, s));
+        for (((zi, &x), m), k) in z.iter_mut().zip(obs).zip(mean.iter()).zip(inv_std.iter()) {
+            let v = (x - m) * k;
+            *zi = if !x.is_finite() || v.is_nan() {
+                0.0
+            } else {
+                clamp(v, -clip, clip)
+            };
+        }
+    }
+
+    /// Maps a unit-box action into the bounds, as [`ActionBounds::scale`](crate::ActionBounds::scale).
+    fn scale(&self, action: &mut [f32]) {
+        let a = self.layout.actions;
+        let (low, high) = (
+            self.slice(self.layout.bounds, a),
+            self.slice(self.layout.bounds + a, a),
+        );
+        for ((o, lo), hi) in action.iter_mut().zip(low.iter()).zip(high.iter()) {
+            let u = if o.is_finite() {
+                o.clamp(-1.0, 1.0)
+            } else {
+                0.0
+            };
+            *o = clamp(lo + (u + 1.0) * 0.5 * (hi - lo), lo, hi);
+        }
+    }
+
+    fn table_row(&self, row: usize, action: &mut [f32]) -> Result<(), Error> {
+        let a = self.layout.actions;
+        let values = self.slice(self.layout.table + row * a, a);
+        for (o, v) in action.iter_mut().zip(values.iter()) {
+            *o = v;
+        }
+        Ok(())
+    }
+
+    /// Runs every layer from the input in `x[..inputs]`; returns the linear output, which lies
+    /// in `x` or `y` depending on the depth.
+    fn forward<'s>(&self, mut x: &'s mut [f32], mut y: &'s mut [f32]) -> &'s [f32] {
+        let l = self.layout;
+        let activation = self.header.activation;
+        let mut offset = l.layers;
+        let mut inputs = l.inputs;
+        for _ in 0..=l.hidden_layers {
+            offset = self.dense(offset, inputs, l.width, x, y);
+            activate(activation, y.get_mut(..l.width).unwrap_or_default());
+            core::mem::swap(&mut x, &mut y);
+            inputs = l.width;
+        }
+        self.dense(offset, inputs, l.outputs, x, y);
+        y.get(..l.outputs).unwrap_or_default()
+    }
+
+    /// `y[..outputs] = b + W x[..inputs]` for the layer at `offset`; returns the next offset.
+    fn dense(
+        &self,
+        offset: usize,
+        inputs: usize,
+        outputs: usize,
+        x: &[f32],
+        y: &mut [f32],
+    ) -> usize {
+        let weights = self.bytes(offset, inputs * outputs);
+        let bias = self.bytes(offset + inputs * outputs, outputs);
+        let (x, y) = (
+            x.get(..inputs).unwrap_or_default(),
+            y.get_mut(..outputs).unwrap_or_default(),
+        );
+        crate::mlp::accumulate_bytes(weights, bias, x, y);
+        offset + inputs * outputs + outputs
+    }
+
+    /// The parameter rules, checked once at load: finite values, a valid normaliser, valid
+    /// bounds, an action table inside the bounds.
+    fn check_parameters(&self) -> Result<(), Error> {
+        if let Some(index) = self.values().position(|v| !v.is_finite()) {
+            return Err(Error::NonFiniteParameter { index });
+        }
+        let l = self.layout;
+        let inv_std = self.slice(l.observations, l.observations);
+        if let Some(index) = inv_std.iter().position(|k| k < 0.0) {
+            return Err(Error::InvalidParameter {
+                what: "negative inverse standard deviation",
+                index,
+            });
+        }
+        if self.value(2 * l.observations) <= 0.0 {
+            return Err(Error::InvalidParameter {
+                what: "normaliser clip must be > 0",
+                index: 0,
+            });
+        }
+        if self.header.kind == ModelKind::Critic {
+            return Ok(());
+        }
+        self.check_bounds()?;
+        if self.header.kind == ModelKind::Discrete {
+            self.check_table()?;
+        }
+        Ok(())
+    }
+
+    fn check_bounds(&self) -> Result<(), Error> {
+        let l = self.layout;
+        let low = self.slice(l.bounds, l.actions);
+        let high = self.slice(l.bounds + l.actions, l.actions);
+        for (index, (lo, hi)) in low.iter().zip(high.iter()).enumerate() {
+            let rule = if lo > hi {
+                Some("action bound low > high")
+            } else if !(hi - lo).is_finite() || !(hi + lo).is_finite() {
+                Some("action bounds too wide for f32")
+            } else {
+                None
+            };
+            if let Some(what) = rule {
+                return Err(Error::InvalidParameter { what, index });
+            }
+        }
+        Ok(())
+    }
+
+    fn check_table(&self) -> Result<(), Error> {
+        let l = self.layout;
+        let low = self.slice(l.bounds, l.actions);
+        let high = self.slice(l.bounds + l.actions, l.actions);
+        for row in 0..l.outputs {
+            let values = self.slice(l.table + row * l.actions, l.actions);
+            let inside = values
+                .iter()
+                .zip(low.iter().zip(high.iter()))
+                .all(|(v, (lo, hi))| lo <= v && v <= hi);
+            if !inside {
+                return Err(Error::InvalidParameter {
+                    what: "action-table row outside the action bounds",
+                    index: row,
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A run of little-endian `f32`s in the payload.
+#[derive(Clone, Copy, Debug)]
+struct Floats<'a>(&'a [u8]);
+
+impl<'a> Floats<'a> {
+    fn iter(self) -> impl Iterator<Item = f32> + 'a {
+        blob::payload_values(self.0)
+    }
+
+    fn first(self) -> Option<f32> {
+        self.iter().next()
+    }
+}
+
+/// The hidden activation of a whole layer, as the compiled trunk applies it.
+fn activate(activation: Activation, values: &mut [f32]) {
+    match activation {
+        Activation::Tanh => crate::tanh::tanh_in_place(values),
+        Activation::Relu => values
+            .iter_mut()
+            .for_each(|v| *v = Activation::Relu.apply(*v)),
+    }
+}
