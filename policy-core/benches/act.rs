@@ -1,6 +1,8 @@
 //! `act` for the paper's actor sizes, and the two costs it is made of.
 //!
-//! - `act/tanh/*`: the real thing, `Policy::act` with tanh hidden layers.
+//! - `act/tanh/*`: the real thing, the compiled `Policy::act` with tanh hidden layers.
+//! - `model/{tanh,relu}/*`: the same blob run by the runtime `Model::act` straight from its bytes
+//!   (no compiled shape, weights decoded with `f32::from_le_bytes`), in the same run.
 //! - `act/relu/*`: the same network with ReLU, whose activation costs next to nothing, so it
 //!   measures the normaliser, the multiply-adds and the output scaling alone.
 //! - `tanhf/libm/*`: `libm::tanhf` on as many values as one `act` call evaluates (every hidden
@@ -15,6 +17,7 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use policy_core::model::{Model, Scratch};
 use policy_core::{blob, ActionBounds, Activation, Dense, Policy};
 
 /// SplitMix64 in `[-1, 1)`: the benchmark's weights only need to be non-trivial and fixed.
@@ -75,6 +78,23 @@ fn bench_shape<const H: usize, const L: usize>(c: &mut Criterion, name: &str) {
             b.iter(|| {
                 i = (i + 1) % observations.len();
                 black_box(&*p).act(black_box(&observations[i]))
+            })
+        });
+        group.finish();
+        // The same network from its blob bytes, through the runtime.
+        let mut bytes = vec![0u8; blob::blob_len(&*p, "bench").expect("length")];
+        blob::write_into(&*p, "bench", &mut bytes).expect("blob");
+        let model = Model::from_blob(&bytes).expect("model");
+        let mut scratch = Scratch::<64>::new();
+        let mut group = c.benchmark_group(format!("model/{activation}"));
+        group.throughput(Throughput::Elements(macs));
+        let mut i = 0;
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                i = (i + 1) % observations.len();
+                let mut a = [0.0f32; 2];
+                let _ = black_box(&model).act(black_box(&observations[i]), &mut scratch, &mut a);
+                a
             })
         });
         group.finish();

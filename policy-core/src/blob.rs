@@ -579,6 +579,10 @@ fn check_param_count<M: Compiled>(model: &M) -> Result<(), Error> {
     Ok(())
 }
 
+/// The parameters of a blob being written: called once with a sink, it passes every parameter
+/// in blob order to the sink, in slices of any length.
+pub type Params<'p> = dyn FnMut(&mut dyn FnMut(&[f32])) + 'p;
+
 /// What a blob to be written is: everything in the header except the lengths.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Spec<'a> {
@@ -655,11 +659,7 @@ pub fn encoded_len(spec: &Spec<'_>) -> Result<usize, Error> {
 /// let model = Model::from_blob(&out[..n]).unwrap();
 /// assert_eq!(model.header().shape, shape);
 /// ```
-pub fn write(
-    spec: &Spec<'_>,
-    params: &mut dyn FnMut(&mut dyn FnMut(&[f32])),
-    out: &mut [u8],
-) -> Result<usize, Error> {
+pub fn write(spec: &Spec<'_>, params: &mut Params<'_>, out: &mut [u8]) -> Result<usize, Error> {
     let needed = encoded_len(spec)?;
     let header = spec.header()?;
     let too_small = Error::BufferTooSmall {
@@ -701,10 +701,7 @@ pub fn write(
 
 /// [`write`] into a new vector (host side).
 #[cfg(feature = "std")]
-pub fn to_vec_with(
-    spec: &Spec<'_>,
-    params: &mut dyn FnMut(&mut dyn FnMut(&[f32])),
-) -> Result<std::vec::Vec<u8>, Error> {
+pub fn to_vec_with(spec: &Spec<'_>, params: &mut Params<'_>) -> Result<std::vec::Vec<u8>, Error> {
     let mut out = std::vec![0u8; encoded_len(spec)?];
     let n = write(spec, params, &mut out)?;
     out.truncate(n);

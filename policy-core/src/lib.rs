@@ -4,46 +4,34 @@
 //! by Deep Comparative Policy (DCP), loaded from a checked weight blob in flash, turning an
 //! observation into a bounded action with no allocator and no panic.
 //!
-//! - [`Policy`]: normaliser + actor + action bounds; [`Policy::act`] is always finite and in
-//!   bounds, whatever the observation (NaN and infinities included).
-//! - [`Critic`]: Q(s, a) in the same format; [`compare::refine`] is DCP's compare step on the
-//!   device.
-//! - [`blob`]: the one definition of the weight-blob format (postcard header, `f32` payload,
-//!   CRC-32), read on the chip and written on the host. See `docs/blob-format.md`.
+//! - [`model::Model`]: the runtime. A blob of any shape (actor, critic or discrete policy, up to
+//!   the format's documented limits) is verified once and then run straight from its bytes in
+//!   flash, with a caller-provided [`model::Scratch`] for the activations: no weight is copied
+//!   to RAM and no crate needs a table of compiled shapes.
+//! - [`Policy`] / [`Critic`]: the same models with their sizes as const generics (weights in a
+//!   RAM struct), for code that wants sizes in its types; they compute the same bits.
+//!   [`compare::refine`] is DCP's compare step on the device.
+//! - [`blob`]: the one definition of the weight-blob format (postcard header, aligned `f32`
+//!   payload, CRC-32), read on the chip and written on the host. See `docs/blob-format.md`.
 //!
 //! Guarantees, each backed by tests in `tests/`: loading never panics and rejects every
-//! truncation and every 1- and 2-bit corruption of a blob with a typed [`Error`], leaving the
-//! slot untouched; `act` never panics and returns a finite, in-bounds action for any
+//! truncation and every 1- and 2-bit corruption of a blob with a typed [`Error`] (a compiled
+//! slot is left untouched); `act` never panics and returns a finite, in-bounds action for any
 //! observation; the forward pass's arithmetic (summation order, `libm::tanhf`, no fused
 //! multiply-add) is fixed, so the committed golden vectors (`tests/golden/vectors.txt`) hold
 //! bit for bit, and a trainer that follows [`mlp::accumulate`]'s order reproduces them.
 //!
-//! Sizes are const generics: `Policy<S, H, L, A>` has `S` observations, `L + 1` hidden layers of
-//! width `H`, and `A` actions; the paper's 4×48 actor for the navigation task is
-//! `Policy<2, 48, 3, 2>`.
-//!
 //! ```
-//! use policy_core::{Error, Policy};
+//! use policy_core::model::{Model, Scratch};
 //!
 //! /// The blob exported by the trainer, linked into flash (or a slice of flash).
 //! static BLOB: &[u8] = include_bytes!("../tests/golden/actor_4x48.postcard");
 //!
-//! /// The paper's 4×48 navigation actor: 2 observations (x, y), 2 actions (a step in ±0.25).
-//! type NavPolicy = Policy<2, 48, 3, 2>;
-//!
-//! fn boot(slot: &mut NavPolicy) -> Result<(), Error> {
-//!     // Checks magic, version, kind, shape, length, CRC-32, finiteness and bounds; on any
-//!     // error the slot keeps its contents (`Policy::ZERO`: every action 0, the safe state).
-//!     slot.load_into(BLOB)
-//! }
-//!
-//! fn control_step(slot: &NavPolicy, position: [f32; 2]) -> [f32; 2] {
-//!     slot.act(&position) // finite and inside the bounds, even for NaN or infinite inputs
-//! }
-//!
-//! let mut slot = NavPolicy::ZERO; // on a chip: a `static` slot, loaded once at boot
-//! boot(&mut slot).unwrap();
-//! let step = control_step(&slot, [4.0, -2.5]);
+//! let model = Model::from_blob(BLOB).unwrap(); // once, at boot; on error: the safe state
+//! model.expect_sizes(2, 2).unwrap(); // the firmware's observation and action sizes
+//! let mut scratch = Scratch::<64>::new(); // activations only
+//! let mut step = [0.0f32; 2];
+//! model.act(&[4.0, -2.5], &mut scratch, &mut step).unwrap();
 //! assert!(step.iter().all(|s| s.is_finite() && s.abs() <= 0.25));
 //! ```
 #![cfg_attr(not(any(test, feature = "std")), no_std)]

@@ -56,7 +56,7 @@ impl<const S: usize, const H: usize, const L: usize, const A: usize> Policy<S, H
     /// let policy = Policy::<2, 32, 1, 2>::from_blob(BLOB).unwrap();
     /// assert_eq!(policy.bounds.high[0], 0.25);
     /// let truncated = Policy::<2, 32, 1, 2>::from_blob(&BLOB[..100]);
-    /// assert!(matches!(truncated, Err(Error::Truncated { needed: 4948, found: 100 })));
+    /// assert!(matches!(truncated, Err(Error::Truncated { needed: 4952, found: 100 })));
     /// ```
     pub fn from_blob(bytes: &[u8]) -> Result<Self, Error> {
         let mut policy = Self::ZERO;

@@ -3,9 +3,12 @@
 //! DESIGN.md §5: "no input makes policy-core panic (fuzzed); every 1- and 2-bit corruption of a
 //! blob is rejected". A panic fails these tests by itself; the asserts check rejection.
 
+use policy_core::model::Model;
 use policy_core::{blob, Activation, Critic, Policy};
 
-use crate::support::{blob_of, nav_critic, nav_policy, tiny_policy, SplitMix64, TINY_LABEL};
+use crate::support::{
+    blob_of, discrete_blob, nav_critic, nav_policy, tiny_policy, SplitMix64, TINY_LABEL,
+};
 
 type Actor = Policy<2, 32, 1, 2>;
 type Tiny = Policy<1, 2, 0, 1>;
@@ -22,6 +25,7 @@ fn actor_blob() -> Vec<u8> {
 /// leave their (zero) slots untouched.
 fn try_all(bytes: &[u8], actor: &mut Actor, tiny: &mut Tiny, critic: &mut Q) -> bool {
     let verified = blob::verify(bytes).is_ok();
+    let runtime = Model::from_blob(bytes).is_ok();
     let a = actor.load_into(bytes).is_ok();
     let t = tiny.load_into(bytes).is_ok();
     let c = critic.load_into(bytes).is_ok();
@@ -34,7 +38,7 @@ fn try_all(bytes: &[u8], actor: &mut Actor, tiny: &mut Tiny, critic: &mut Q) -> 
     if !c {
         assert_eq!(*critic, Q::ZERO);
     }
-    verified || a || t || c
+    verified || runtime || a || t || c
 }
 
 /// 100,000 inputs in four families: pure noise, noise after the magic, noise after a real
@@ -134,7 +138,7 @@ fn every_truncation_is_rejected() {
     }
 }
 
-/// Every pair of bits of the spec's 69-byte example (152,076 pairs).
+/// Every pair of bits of the spec's 72-byte example (165,600 pairs).
 #[test]
 fn every_double_bit_flip_of_the_tiny_blob_is_rejected() {
     let blob = blob_of(&tiny_policy(), TINY_LABEL);
@@ -176,4 +180,34 @@ fn sampled_double_bit_flips_of_a_real_blob_are_rejected() {
         bytes.copy_from_slice(&blob);
     }
     assert_eq!(slot, Actor::ZERO);
+}
+
+/// Every single-bit flip and every truncation of version-2 blobs of every kind (actor, critic,
+/// discrete policy) is rejected by the runtime loader.
+#[test]
+fn every_flip_and_truncation_of_every_kind_is_rejected_by_the_runtime() {
+    let blobs = [
+        ("actor", actor_blob()),
+        (
+            "critic",
+            blob_of(&nav_critic::<2, 2, 32, 1>(13, Activation::Tanh), "critic"),
+        ),
+        ("discrete", discrete_blob(14)),
+    ];
+    for (kind, bytes) in &blobs {
+        assert_eq!(blob::verify(bytes).expect("v2").header.version, 2);
+        Model::from_blob(bytes).expect("unflipped blob loads");
+        for_each_flip(bytes, |bit, flipped| {
+            assert!(
+                Model::from_blob(flipped).is_err(),
+                "{kind}: flip of bit {bit} loaded"
+            );
+        });
+        for n in 0..bytes.len() {
+            assert!(
+                Model::from_blob(&bytes[..n]).is_err(),
+                "{kind}: truncation to {n} loaded"
+            );
+        }
+    }
 }

@@ -3,7 +3,7 @@
 use core::convert::Infallible;
 
 use policy_core::blob::{self, Compiled};
-use policy_core::{ActionBounds, Activation, Critic, Dense, Policy};
+use policy_core::{ActionBounds, Activation, Critic, Dense, ModelKind, Policy, Shape};
 use rand_core::TryRng;
 
 /// SplitMix64: tiny, fast and fully specified, so golden fixtures never depend on a crate's
@@ -213,3 +213,63 @@ pub fn tiny_policy() -> Policy<1, 2, 0, 1> {
 }
 
 pub const TINY_LABEL: &str = "tiny";
+
+/// A runtime-shape model's parameters in blob order, drawn from `rng`: a valid normaliser and
+/// bounds (and, for a discrete policy, a table inside the bounds), weights in ±1 scaled by
+/// 1/√inputs like a trained network.
+pub fn runtime_params(kind: ModelKind, shape: Shape, rng: &mut SplitMix64) -> Vec<f32> {
+    let (s, a) = (shape.observations as usize, shape.actions as usize);
+    let mut p = Vec::new();
+    p.extend((0..s).map(|_| rng.symmetric() * 3.0));
+    p.extend((0..s).map(|_| 0.2 + rng.symmetric().abs()));
+    p.push(5.0);
+    if kind != ModelKind::Critic {
+        p.extend((0..a).map(|i| -0.25 - 0.1 * i as f32));
+        p.extend((0..a).map(|i| 0.25 + 0.1 * i as f32));
+    }
+    if kind == ModelKind::Discrete {
+        for k in 0..shape.choices as usize {
+            let angle = k as f32 * core::f32::consts::FRAC_PI_4;
+            p.extend((0..a).map(|i| 0.25 * if i % 2 == 0 { angle.cos() } else { angle.sin() }));
+        }
+    }
+    let total = shape.param_count(kind).expect("shape fits");
+    let scale = 1.0 / (shape.inputs(kind).max(shape.width as usize) as f32).sqrt();
+    while p.len() < total {
+        p.push(rng.symmetric() * scale);
+    }
+    p
+}
+
+/// The blob of a runtime-shape model (see [`runtime_params`]).
+pub fn runtime_blob(kind: ModelKind, shape: Shape, activation: Activation, seed: u64) -> Vec<u8> {
+    let params = runtime_params(kind, shape, &mut SplitMix64(seed));
+    let spec = blob::Spec {
+        kind,
+        shape,
+        activation,
+        label: "runtime",
+    };
+    write_vec(&spec, &params).expect("blob")
+}
+
+/// [`blob::write`] into a new vector (policy-core's own `to_vec_with` needs `std`, and these
+/// tests also run without it).
+pub fn write_vec(spec: &blob::Spec<'_>, params: &[f32]) -> Result<Vec<u8>, policy_core::Error> {
+    let mut out = vec![0u8; blob::encoded_len(spec)?];
+    let n = blob::write(spec, &mut |sink| sink(params), &mut out)?;
+    out.truncate(n);
+    Ok(out)
+}
+
+/// The navigation task's discrete policy: 8 moves of 0.25 at n·45°, a 2x16 Q network.
+pub fn discrete_blob(seed: u64) -> Vec<u8> {
+    let shape = Shape {
+        observations: 2,
+        actions: 2,
+        width: 16,
+        depth: 2,
+        choices: 8,
+    };
+    runtime_blob(ModelKind::Discrete, shape, Activation::Relu, seed)
+}

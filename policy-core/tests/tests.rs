@@ -9,6 +9,8 @@ mod golden;
 mod format;
 // Every load check returns its typed error and leaves the slot untouched.
 mod errors;
+// The runtime Model: any shape from the bytes, same bits as the compiled types, discrete kind.
+mod model;
 // Any valid model written then loaded is identical (proptest).
 mod roundtrip;
 // Random bytes, bit flips and truncations are rejected with an error, never a panic.
