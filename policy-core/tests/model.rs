@@ -3,7 +3,7 @@
 
 use policy_core::blob::{self, Spec};
 use policy_core::model::{Model, Scratch};
-use policy_core::{Activation, Critic, Error, ModelKind, Policy, Shape};
+use policy_core::{Activation, Error, ModelKind, Policy, Shape};
 use proptest::prelude::*;
 
 use crate::support::{
