@@ -2,6 +2,12 @@
 
 // Train a tiny DCP policy, export it, boot the bytes in firmware-sim and run the closed loop.
 mod end_to_end;
-// The blob, scenario and fault parsers on structured, mutated inputs (proptest), checked with
-// the same properties as the fuzz targets in `fuzz/`.
-mod parser_properties;
+// Valid blobs mutated field by field (header, lengths, payload values, label, CRC) through the
+// blob loader and the boot path, checked by `tests::blob_checks` as the `blob` fuzz target is.
+mod blob_mutations;
+// Scenario TOML assembled from valid fragments with values, types and keys mutated, checked by
+// `tests::scenario_checks` as the `scenario` fuzz target is.
+mod scenario_mutations;
+// Fault strings assembled from the `--faults` grammar with numbers and separators mutated,
+// checked by `tests::fault_checks` as the `faults` fuzz target is.
+mod fault_mutations;
