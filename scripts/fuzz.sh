@@ -16,7 +16,8 @@
 # golden blobs (policy-core/tests/golden) or the built-in scenarios (firmware-sim/scenarios).
 # Crashes land in fuzz/artifacts/<target>/; minimise one with
 #   cargo fuzz tmin -s none <target> <crash file>
-# and keep the reproducer in fuzz/regressions/<target>/ (replayed by `scripts/fuzz.sh replay`).
+# and keep the reproducer in fuzz/regressions/<target>/: `cargo test` replays every file there
+# (tests/tests/fuzz_regressions.rs).
 set -euo pipefail
 
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -26,7 +27,7 @@ sanitizer="${FUZZ_SANITIZER:-none}"
 targets=(blob scenario faults)
 
 usage() {
-    echo "usage: scripts/fuzz.sh {blob|scenario|faults|all} [SECONDS] [LIBFUZZER_ARGS...] | replay" >&2
+    echo "usage: scripts/fuzz.sh {blob|scenario|faults|all} [SECONDS] [LIBFUZZER_ARGS...]" >&2
     exit 2
 }
 
@@ -76,16 +77,10 @@ summary() {
         echo "== $target: FOUND A CRASH, see $log and $fuzz/artifacts/$target/" >&2
         return 1
     fi
-}
-
-# Re-runs every saved reproducer (fuzz/regressions/<target>/*) once, without fuzzing.
-replay() {
-    local target files
-    for target in "${targets[@]}"; do
-        files=("$fuzz/regressions/$target"/*)
-        [ -e "${files[0]}" ] || continue
-        cargo_fuzz run -O -s "$sanitizer" "$target" "${files[@]}" -- -runs=1
-    done
+    if ! grep -qE '^#[0-9]+[[:space:]]+DONE' "$log"; then
+        echo "== $target: the fuzzer did not finish its run, see $log" >&2
+        return 1
+    fi
 }
 
 [ $# -ge 1 ] || usage
@@ -98,6 +93,5 @@ case "$1" in
         exit "$status"
         ;;
     blob | scenario | faults) run "$1" "${2:-60}" "${@:3}" ;;
-    replay) replay ;;
     *) usage ;;
 esac

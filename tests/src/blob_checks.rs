@@ -51,15 +51,25 @@ pub fn check(bytes: &[u8]) {
 fn check_verified(bytes: &[u8], v: &Verified<'_>) {
     let h = &v.header;
     assert_eq!(h.magic, blob::MAGIC, "verified blob has the wrong magic");
-    assert_eq!(h.version, blob::VERSION, "verified blob has the wrong version");
+    assert_eq!(
+        h.version,
+        blob::VERSION,
+        "verified blob has the wrong version"
+    );
     assert_eq!(
         Some(v.payload.len()),
         h.shape.payload_len(h.kind),
         "verified payload length differs from the shape's"
     );
     assert_eq!(v.payload.len(), h.payload_len as usize, "payload_len field");
-    assert!(v.payload.len() <= blob::MAX_PAYLOAD_LEN, "payload above the cap");
-    assert!(h.label.len() <= blob::LABEL_CAPACITY, "label above its capacity");
+    assert!(
+        v.payload.len() <= blob::MAX_PAYLOAD_LEN,
+        "payload above the cap"
+    );
+    assert!(
+        h.label.len() <= blob::LABEL_CAPACITY,
+        "label above its capacity"
+    );
     assert!(bytes.ends_with(&policy_core::crc32(&bytes[..bytes.len() - 4]).to_le_bytes()));
 }
 
@@ -84,7 +94,11 @@ fn fill_sentinel<M: Model>(slot: &mut M) {
 
 /// Loads `bytes` into a sentinel-filled `slot` and checks the outcome against `verified`.
 /// Returns whether the load succeeded.
-fn check_load<M: Model>(slot: &mut M, bytes: &[u8], verified: &Result<blob::Header, Error>) -> bool {
+fn check_load<M: Model>(
+    slot: &mut M,
+    bytes: &[u8],
+    verified: &Result<blob::Header, Error>,
+) -> bool {
     fill_sentinel(slot);
     let before = bits(slot);
     let result = blob::load_into(slot, bytes);
@@ -95,7 +109,11 @@ fn check_load<M: Model>(slot: &mut M, bytes: &[u8], verified: &Result<blob::Head
         (Err(e), Ok(h)) => check_refused::<M>(e, h),
     }
     if result.is_err() {
-        assert_eq!(bits(slot), before, "a failed load changed the slot ({result:?})");
+        assert_eq!(
+            bits(slot),
+            before,
+            "a failed load changed the slot ({result:?})"
+        );
     }
     result.is_ok()
 }
@@ -103,12 +121,21 @@ fn check_load<M: Model>(slot: &mut M, bytes: &[u8], verified: &Result<blob::Head
 /// A verified blob that did not load: the error is the typed one its header calls for.
 fn check_refused<M: Model>(e: &Error, h: &blob::Header) {
     if h.kind != M::KIND {
-        assert!(matches!(e, Error::WrongKind { .. }), "expected WrongKind, got {e}");
+        assert!(
+            matches!(e, Error::WrongKind { .. }),
+            "expected WrongKind, got {e}"
+        );
     } else if h.shape != M::SHAPE {
-        assert!(matches!(e, Error::ShapeMismatch { .. }), "expected ShapeMismatch, got {e}");
+        assert!(
+            matches!(e, Error::ShapeMismatch { .. }),
+            "expected ShapeMismatch, got {e}"
+        );
     } else {
         assert!(
-            matches!(e, Error::NonFiniteParameter { .. } | Error::InvalidParameter { .. }),
+            matches!(
+                e,
+                Error::NonFiniteParameter { .. } | Error::InvalidParameter { .. }
+            ),
             "a verified blob of the right kind and shape failed with {e}"
         );
     }
@@ -117,12 +144,27 @@ fn check_refused<M: Model>(e: &Error, h: &blob::Header) {
 /// A successful load: every parameter came from the payload, and writing the model back gives
 /// a blob that verifies and loads to the same parameters.
 fn check_loaded<M: Model>(model: &M, bytes: &[u8], h: &blob::Header) {
-    assert_eq!((h.kind, h.shape), (M::KIND, M::SHAPE), "loaded a blob of another shape");
-    assert_eq!(model.activation(), h.activation, "activation not taken from the header");
+    assert_eq!(
+        (h.kind, h.shape),
+        (M::KIND, M::SHAPE),
+        "loaded a blob of another shape"
+    );
+    assert_eq!(
+        model.activation(),
+        h.activation,
+        "activation not taken from the header"
+    );
     let payload = blob::verify(bytes).expect("verified above").payload;
     let expected: Vec<u32> = blob::payload_values(payload).map(f32::to_bits).collect();
-    assert_eq!(bits(model), expected, "loaded parameters differ from the payload");
-    assert!(expected.iter().all(|&b| f32::from_bits(b).is_finite()), "loaded a non-finite value");
+    assert_eq!(
+        bits(model),
+        expected,
+        "loaded parameters differ from the payload"
+    );
+    assert!(
+        expected.iter().all(|&b| f32::from_bits(b).is_finite()),
+        "loaded a non-finite value"
+    );
     let rewritten = blob::to_vec(model, h.label.as_str()).expect("a loaded model writes back");
     let again = blob::verify(&rewritten).expect("a written blob verifies");
     assert_eq!(&again.header, h, "header changed in a write-back");
@@ -178,21 +220,35 @@ fn check_boot(bytes: &[u8], verified: &Result<blob::Header, Error>) {
     let Ok(mut policy) = booted else {
         if compiled {
             // Only the payload can be at fault: the same bytes must fail a direct load.
-            assert!(direct_policy(bytes, h).is_none(), "boot refused a blob policy-core loads");
+            assert!(
+                direct_policy(bytes, h).is_none(),
+                "boot refused a blob policy-core loads"
+            );
         }
         return;
     };
-    assert!(compiled, "boot accepted a blob of a shape it does not compile: {}", h.shape);
+    assert!(
+        compiled,
+        "boot accepted a blob of a shape it does not compile: {}",
+        h.shape
+    );
     assert_eq!(policy.header(), h, "boot reports another header");
     let direct = direct_policy(bytes, h);
     for x in PROBES {
         for y in PROBES {
             let mut action = [f32::NAN; 2];
             policy.act(&[x, y], &mut action);
-            assert!(action.iter().all(|a| a.is_finite()), "boot act({x}, {y}) = {action:?}");
+            assert!(
+                action.iter().all(|a| a.is_finite()),
+                "boot act({x}, {y}) = {action:?}"
+            );
             if let Some(direct) = &direct {
                 let expected = direct(&[x, y]);
-                assert_eq!(action.map(f32::to_bits), expected.map(f32::to_bits), "boot and policy-core differ");
+                assert_eq!(
+                    action.map(f32::to_bits),
+                    expected.map(f32::to_bits),
+                    "boot and policy-core differ"
+                );
             }
         }
     }

@@ -69,18 +69,28 @@ fn check_against(faults: &Faults, scenario: &Scenario) {
         faults: faults.clone(),
         ..EvalConfig::default()
     };
-    assert_eq!(config.validate(scenario).is_ok(), valid.is_ok(), "EvalConfig disagrees");
+    assert_eq!(
+        config.validate(scenario).is_ok(),
+        valid.is_ok(),
+        "EvalConfig disagrees"
+    );
     if let Err(e) = valid {
         return crate::assert_one_line(&e.to_string());
     }
     if let Some(d) = faults.dropout {
-        assert!((0.0..=1.0).contains(&d.probability), "dropout {}", d.probability);
+        assert!(
+            (0.0..=1.0).contains(&d.probability),
+            "dropout {}",
+            d.probability
+        );
     }
     if let Some(s) = faults.stuck {
         assert!(s.dim < 2, "stuck dimension {}", s.dim);
     }
     if faults.wall.is_some() {
-        let walls = faults.changed_walls(scenario).expect("a valid wall change applies");
+        let walls = faults
+            .changed_walls(scenario)
+            .expect("a valid wall change applies");
         let changed = Scenario {
             walls,
             ..scenario.clone()

@@ -16,6 +16,9 @@ pub mod scenario_checks;
 
 /// Errors reach users as one line (STYLE: a CLI error is one line on stderr).
 fn assert_one_line(message: &str) {
-    assert!(!message.contains('\n'), "error message spans lines: {message:?}");
+    assert!(
+        !message.contains('\n'),
+        "error message spans lines: {message:?}"
+    );
     assert!(!message.is_empty(), "empty error message");
 }

@@ -39,7 +39,10 @@ fn check_plant(s: &Scenario) {
     let m = s.max_step;
     for seed in 0..2 {
         let obs = env.reset(seed);
-        assert!(obs.iter().all(|o| o.is_finite()), "reset({seed}) observed {obs:?}");
+        assert!(
+            obs.iter().all(|o| o.is_finite()),
+            "reset({seed}) observed {obs:?}"
+        );
         for action in [[m, m], [-m, m], [f32::NAN, f32::INFINITY], [m, -m]] {
             let step = env.step(&action);
             assert!(

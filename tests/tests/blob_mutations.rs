@@ -121,7 +121,9 @@ fn mutate(mut parts: Parts, mutations: &[Mutation], fix_crc: bool) -> Vec<u8> {
     for m in mutations {
         match m {
             Mutation::Version(v) => h.version = *v,
-            Mutation::Kind(actor) => h.kind = [ModelKind::Critic, ModelKind::Actor][*actor as usize],
+            Mutation::Kind(actor) => {
+                h.kind = [ModelKind::Critic, ModelKind::Actor][*actor as usize]
+            }
             Mutation::Observations(n) => h.shape.observations = *n,
             Mutation::Actions(n) => h.shape.actions = *n,
             Mutation::Width(n) => h.shape.width = *n,
@@ -161,7 +163,9 @@ fn mutate(mut parts: Parts, mutations: &[Mutation], fix_crc: bool) -> Vec<u8> {
 /// The longest prefix of `s` that fits the label's 32 bytes.
 fn label(s: &str) -> heapless::String<{ blob::LABEL_CAPACITY }> {
     let mut out = heapless::String::new();
-    s.chars().take_while(|c| out.push(*c).is_ok()).for_each(drop);
+    s.chars()
+        .take_while(|c| out.push(*c).is_ok())
+        .for_each(drop);
     out
 }
 

@@ -33,7 +33,11 @@ fn separator(right: &'static str) -> impl Strategy<Value = String> {
 
 fn item() -> impl Strategy<Value = String> {
     prop_oneof![
-        (prop::sample::select(vec!["dropout-nan", "dropout-stale", "dropout", "Stuck"]), separator(":"), number())
+        (
+            prop::sample::select(vec!["dropout-nan", "dropout-stale", "dropout", "Stuck"]),
+            separator(":"),
+            number()
+        )
             .prop_map(|(k, s, p)| format!("{k}{s}{p}")),
         (separator(":"), number(), separator("@"), number())
             .prop_map(|(s1, d, s2, t)| format!("stuck{s1}{d}{s2}{t}")),

@@ -11,3 +11,5 @@ mod scenario_mutations;
 // Fault strings assembled from the `--faults` grammar with numbers and separators mutated,
 // checked by `tests::fault_checks` as the `faults` fuzz target is.
 mod fault_mutations;
+// Every reproducer the fuzzer found (`fuzz/regressions/`) is replayed through the same checks.
+mod fuzz_regressions;
