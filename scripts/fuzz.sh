@@ -61,7 +61,7 @@ run() {
     mkdir -p "$fuzz/artifacts/$target"
     cargo_fuzz run -O -s "$sanitizer" "$target" "corpus/$target" -- \
         -max_total_time="$seconds" -dict="dict/$target.dict" -print_final_stats=1 \
-        -artifact_prefix="artifacts/$target/" "$@" 2>&1 | tee "$log" |
+        "$@" 2>&1 | tee "$log" |
         grep -v -e '^#[0-9].*\(NEW\|REDUCE\|pulse\)' -e '^stat::' -e '# Uses: ' -e 'NEW_FUNC' || true
     summary "$target" "$log"
 }
