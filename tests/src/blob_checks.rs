@@ -1,7 +1,7 @@
 //! What must hold for any byte string given to the blob loader and the firmware boot path.
 //!
 //! Shared by the coverage-guided fuzz target `fuzz/fuzz_targets/blob.rs` and the proptest in
-//! `tests/tests/parser_properties.rs`, so both harnesses check the same things. Every check
+//! `tests/tests/blob_mutations.rs`, so both harnesses check the same things. Every check
 //! panics with a message that names the broken property.
 
 use firmware_sim::controller::{Controller, SUPPORTED};

@@ -1,7 +1,7 @@
 //! What must hold for any text given to the fault-string parser (`--faults`).
 //!
 //! Shared by the fuzz target `fuzz/fuzz_targets/faults.rs` and the proptest in
-//! `tests/tests/parser_properties.rs`.
+//! `tests/tests/fault_mutations.rs`.
 
 use std::sync::OnceLock;
 

@@ -6,7 +6,7 @@
 //!
 //! The three parsers that read outside input (blob bytes, scenario TOML, `--faults` strings)
 //! each have a `check` function here that panics when a property breaks. The coverage-guided
-//! targets in `fuzz/` and the structured proptests in `tests/parser_properties.rs` call the same
+//! targets in `fuzz/` and the structured proptests in `tests/*_mutations.rs` call the same
 //! functions, so the two harnesses cannot drift apart.
 #![deny(missing_docs)]
 

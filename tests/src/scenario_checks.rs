@@ -1,7 +1,7 @@
 //! What must hold for any text given to the scenario parser.
 //!
 //! Shared by the fuzz target `fuzz/fuzz_targets/scenario.rs` and the proptest in
-//! `tests/tests/parser_properties.rs`.
+//! `tests/tests/scenario_mutations.rs`.
 
 use firmware_sim::env::Env;
 use firmware_sim::faults::Faults;
