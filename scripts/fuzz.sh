@@ -10,7 +10,8 @@
 # Works on the stable toolchain: with `--sanitizer none` cargo-fuzz passes only stable codegen
 # flags (-Cpasses=sancov-module ...). Rust code is memory-safe here (`unsafe_code = "forbid"`),
 # so AddressSanitizer, which needs nightly, adds little; set FUZZ_TOOLCHAIN=nightly and
-# FUZZ_SANITIZER=address to use it anyway.
+# FUZZ_SANITIZER=address to use it anyway. Builds are optimised with debug assertions and
+# overflow checks on (cargo-fuzz's default without -O): an integer overflow is a finding.
 #
 # The run corpus (fuzz/corpus/<target>, not committed) starts from fuzz/seeds/<target> plus the
 # golden blobs (policy-core/tests/golden) or the built-in scenarios (firmware-sim/scenarios).
@@ -59,7 +60,7 @@ run() {
     seed_corpus "$target"
     local log="$fuzz/artifacts/$target.log"
     mkdir -p "$fuzz/artifacts/$target"
-    cargo_fuzz run -O -s "$sanitizer" "$target" "corpus/$target" -- \
+    cargo_fuzz run -s "$sanitizer" "$target" "corpus/$target" -- \
         -max_total_time="$seconds" -dict="dict/$target.dict" -print_final_stats=1 \
         "$@" 2>&1 | tee "$log" |
         grep -v -e '^#[0-9].*\(NEW\|REDUCE\|pulse\)' -e '^stat::' -e '# Uses: ' -e 'NEW_FUNC' || true
