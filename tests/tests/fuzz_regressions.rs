@@ -1,23 +1,10 @@
-//! Every reproducer the fuzzer found (`fuzz/regressions/<target>/`) holds the properties now.
-//!
-//! A file listed in [`OPEN`] reproduces a bug not fixed yet; it is replayed only by the ignored
-//! test, which passes once the bug is fixed (then the file leaves the list).
+//! Every reproducer the fuzzer harness found (`fuzz/regressions/<target>/`) holds the properties
+//! now. Both scenario findings (an `arena_half_size` above `f32::MAX` that validated, a name with
+//! a newline that split an error over two lines) are fixed in firmware-sim.
 
 use std::path::{Path, PathBuf};
 
 use tests::{blob_checks, fault_checks, scenario_checks};
-
-/// Reproducers of open bugs, with the bug.
-const OPEN: &[(&str, &str)] = &[
-    (
-        "scenario/arena-beyond-f32.toml",
-        "firmware-sim: arena_half_size above f32::MAX validates, and the plant observes [inf, inf]",
-    ),
-    (
-        "scenario/newline-in-name.toml",
-        "firmware-sim: a name with a newline makes a validation error span two lines",
-    ),
-];
 
 /// Every reproducer, as (target, path).
 fn reproducers() -> Vec<(String, PathBuf)> {
@@ -31,12 +18,6 @@ fn reproducers() -> Vec<(String, PathBuf)> {
     }
     out.sort();
     out
-}
-
-fn is_open(target: &str, path: &Path) -> bool {
-    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
-    OPEN.iter()
-        .any(|(file, _)| *file == format!("{target}/{name}"))
 }
 
 /// Runs `target`'s checks on the file's bytes, as the fuzz target does.
@@ -53,21 +34,12 @@ fn replay(target: &str, path: &Path) {
 
 #[test]
 fn fixed_findings_stay_fixed() {
-    for (target, path) in reproducers() {
-        if !is_open(&target, &path) {
-            replay(&target, &path);
-        }
+    let all = reproducers();
+    assert!(
+        !all.is_empty(),
+        "no reproducers found: the test would prove nothing"
+    );
+    for (target, path) in all {
+        replay(&target, &path);
     }
-}
-
-#[test]
-#[ignore = "open firmware-sim bug, see OPEN"]
-fn open_findings_are_fixed() {
-    let still_open: Vec<String> = reproducers()
-        .into_iter()
-        .filter(|(target, path)| is_open(target, path))
-        .filter(|(target, path)| std::panic::catch_unwind(|| replay(target, path)).is_err())
-        .map(|(_, path)| path.display().to_string())
-        .collect();
-    assert!(still_open.is_empty(), "still failing: {still_open:?}");
 }

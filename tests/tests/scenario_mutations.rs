@@ -239,20 +239,10 @@ fn unedited_fragments_are_a_valid_scenario() {
 #[test]
 fn each_value_in_each_field_keeps_the_parser_properties() {
     for field in 0..FRAGMENTS.len() {
-        for (v, value) in VALUES.iter().enumerate() {
-            if open_finding(FRAGMENTS[field].1, value) {
-                continue;
-            }
+        for v in 0..VALUES.len() {
             let mut edits = vec![Edit::Keep; FRAGMENTS.len()];
             edits[field] = Edit::Value(v);
             scenario_checks::check(&render(&edits, &None, &[], &[]));
         }
     }
-}
-
-/// Open firmware-sim bug, reproducer `fuzz/regressions/scenario/arena-beyond-f32.toml`: an
-/// `arena_half_size` above `f32::MAX` validates, but the plant's `f32` observations are then
-/// infinite. Skipped here until firmware-sim refuses it; `fuzz_regressions` tracks it.
-fn open_finding(key: &str, value: &str) -> bool {
-    key == "arena_half_size" && value.parse::<f64>().is_ok_and(|h| h > f64::from(f32::MAX))
 }
