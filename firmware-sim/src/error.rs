@@ -70,7 +70,9 @@ impl fmt::Display for Error {
             Error::Io { path, message } => write!(f, "cannot read {path}: {message}"),
             Error::Parse { location, message } => write!(f, "{location}: {message}"),
             Error::Invalid { scenario, field, message } => {
-                write!(f, "scenario {scenario}: {field}: {message}")
+                // Escaped: a name with a line break must not split the one-line error (a fuzz
+                // finding).
+                write!(f, "scenario {}: {field}: {message}", scenario.escape_debug())
             }
             Error::UnknownScenario { name } => write!(
                 f,

@@ -29,6 +29,10 @@ pub const DEFAULT_SCENARIO: &str = "nav-walls";
 
 /// The longest episode a scenario may ask for, in ticks (100,000: 500 times the shipped
 /// scenarios' 200). A test runs the full time limit, so a typo such as `time_limit =
+/// The largest arena half-size: a million units, far beyond any plant here, and small enough that
+/// every position in the arena is a finite `f32` with room to spare.
+pub const MAX_ARENA_HALF_SIZE: f64 = 1e6;
+
 /// 4294967295` would otherwise run for hours.
 pub const MAX_TIME_LIMIT: u32 = 100_000;
 
@@ -382,10 +386,12 @@ impl Scenario {
     /// ```
     pub fn validate(&self) -> Result<(), Error> {
         let h = self.arena_half_size;
+        // The plant observes positions as f32: an arena beyond MAX_ARENA_HALF_SIZE would be
+        // observed as infinities (a fuzz finding: 1e39 validated, and `reset` saw [inf, inf]).
         self.check(
-            h.is_finite() && h > 0.0,
+            h.is_finite() && h > 0.0 && h <= MAX_ARENA_HALF_SIZE,
             "arena_half_size",
-            format!("must be > 0, found {h}"),
+            format!("must be in (0, {MAX_ARENA_HALF_SIZE}], found {h}"),
         )?;
         let step = self.max_step;
         self.check(
@@ -662,6 +668,34 @@ mod tests {
 
     /// Regression (issue 9, item 5): `time_limit = 4294967295` validated, then the test grew
     /// memory for 28 s and aborted. The limit is now refused, in one line, before any work.
+    /// Regression (fuzz finding, `fuzz/regressions/scenario/arena-beyond-f32.toml`): an
+    /// `arena_half_size` above `f32::MAX` validated, and the plant then observed infinities.
+    #[test]
+    fn an_arena_beyond_the_maximum_is_refused() {
+        let huge = NAV_OPEN.replace("arena_half_size = 6.0", "arena_half_size = 1e39");
+        let e = Scenario::from_toml_str(&huge)
+            .expect_err("must be refused")
+            .to_string();
+        assert!(
+            e.contains("arena_half_size: must be in (0, 1000000]"),
+            "{e}"
+        );
+    }
+
+    /// Regression (fuzz finding, `fuzz/regressions/scenario/newline-in-name.toml`): a name with
+    /// a line break split the validation error over two lines.
+    #[test]
+    fn a_name_with_a_line_break_keeps_the_error_on_one_line() {
+        let text = NAV_OPEN
+            .replace("name = \"nav-open\"", "name = \"a\\nb\"")
+            .replace("time_limit = 200", "time_limit = 0");
+        let e = Scenario::from_toml_str(&text)
+            .expect_err("must be refused")
+            .to_string();
+        assert_eq!(e.lines().count(), 1, "{e}");
+        assert!(e.starts_with("scenario a\\nb: time_limit"), "{e}");
+    }
+
     #[test]
     fn a_time_limit_beyond_the_maximum_is_refused() {
         let at_max = NAV_OPEN.replace("time_limit = 200", "time_limit = 100000");

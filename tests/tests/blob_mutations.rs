@@ -1,0 +1,212 @@
+//! Valid blobs, mutated one field at a time, through every loader (proptest).
+//!
+//! Each case starts from a real blob (the golden 2x32 actor and critic, or a tiny actor), decodes
+//! it into header fields and payload values, changes some of them, re-encodes it (with the CRC
+//! fixed or left stale) and runs [`tests::blob_checks::check`], the same properties the `blob`
+//! fuzz target checks.
+
+use policy_core::blob::{self, Header};
+use policy_core::{ActionBounds, Activation, ModelKind, Normalizer, Policy};
+use proptest::prelude::*;
+use tests::blob_checks::{self, TinyActor};
+
+static ACTOR_2X32: &[u8] = include_bytes!("../../policy-core/tests/golden/actor_2x32.postcard");
+static CRITIC_2X32: &[u8] = include_bytes!("../../policy-core/tests/golden/critic_2x32.postcard");
+
+/// A valid 66-byte actor.
+fn tiny_actor() -> Vec<u8> {
+    let mut p = TinyActor::ZERO;
+    p.normalizer = Normalizer::identity(5.0);
+    p.bounds = ActionBounds::symmetric(0.25);
+    p.input.w[(0, 0)] = 0.5;
+    p.trunk.output.b[0] = 0.1;
+    p.to_blob("tiny").expect("a tiny actor writes")
+}
+
+/// A blob taken apart: the fields a mutation can change.
+#[derive(Clone, Debug)]
+struct Parts {
+    header: Header,
+    values: Vec<f32>,
+}
+
+impl Parts {
+    fn of(bytes: &[u8]) -> Parts {
+        let v = blob::verify(bytes).expect("base blobs are valid");
+        Parts {
+            header: v.header.clone(),
+            values: blob::payload_values(v.payload).collect(),
+        }
+    }
+
+    /// Header, payload and (correct) CRC.
+    fn encode(&self) -> Vec<u8> {
+        let mut out = postcard::to_allocvec(&self.header).expect("a header encodes");
+        self.values.iter().for_each(|v| out.extend(v.to_le_bytes()));
+        let crc = policy_core::crc32(&out);
+        out.extend(crc.to_le_bytes());
+        out
+    }
+}
+
+/// One change to a blob.
+#[derive(Clone, Debug)]
+enum Mutation {
+    Version(u16),
+    Kind(bool),
+    Observations(u16),
+    Actions(u16),
+    Width(u16),
+    Depth(u8),
+    Activation(bool),
+    Label(String),
+    PayloadLen(u32),
+    /// Sets payload value `index % len` to `value`.
+    Value(usize, f32),
+    /// Sets byte `index % len` of the encoded blob (the CRC is then fixed or not).
+    Byte(usize, u8),
+    Truncate(usize),
+    Append(Vec<u8>),
+}
+
+/// Values that break a loader if any will: non-finite, huge, tiny, signed zeros.
+fn special_f32() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        Just(f32::NAN),
+        Just(f32::INFINITY),
+        Just(f32::NEG_INFINITY),
+        Just(f32::MAX),
+        Just(f32::MIN),
+        Just(-0.0),
+        Just(f32::MIN_POSITIVE / 2.0),
+        Just(1.0e30),
+        -10.0f32..10.0,
+        any::<u32>().prop_map(f32::from_bits),
+    ]
+}
+
+/// Sizes near the real ones, at the edges of their types, and anything.
+fn size_u16() -> impl Strategy<Value = u16> {
+    prop_oneof![0u16..4, 30u16..66, Just(u16::MAX), any::<u16>()]
+}
+
+fn mutation() -> impl Strategy<Value = Mutation> {
+    let header = prop_oneof![
+        prop_oneof![Just(0u16), Just(2), Just(u16::MAX), any::<u16>()].prop_map(Mutation::Version),
+        any::<bool>().prop_map(Mutation::Kind),
+        size_u16().prop_map(Mutation::Observations),
+        size_u16().prop_map(Mutation::Actions),
+        size_u16().prop_map(Mutation::Width),
+        prop_oneof![0u8..8, Just(u8::MAX)].prop_map(Mutation::Depth),
+        any::<bool>().prop_map(Mutation::Activation),
+        "\\PC{0,10}".prop_map(Mutation::Label),
+        prop_oneof![0u32..70_000, Just(u32::MAX), any::<u32>()].prop_map(Mutation::PayloadLen),
+    ];
+    let bytes = prop_oneof![
+        (any::<usize>(), any::<u8>()).prop_map(|(i, b)| Mutation::Byte(i, b)),
+        any::<usize>().prop_map(Mutation::Truncate),
+        prop::collection::vec(any::<u8>(), 1..8).prop_map(Mutation::Append),
+    ];
+    prop_oneof![
+        3 => header,
+        3 => (any::<usize>(), special_f32()).prop_map(|(i, v)| Mutation::Value(i, v)),
+        2 => bytes,
+    ]
+}
+
+/// Applies the field mutations to `parts`, encodes, then applies the byte-level ones; the CRC is
+/// recomputed over the result when `fix_crc` (so that the checks after the CRC are reached).
+fn mutate(mut parts: Parts, mutations: &[Mutation], fix_crc: bool) -> Vec<u8> {
+    let h = &mut parts.header;
+    for m in mutations {
+        match m {
+            Mutation::Version(v) => h.version = *v,
+            Mutation::Kind(actor) => {
+                h.kind = [ModelKind::Critic, ModelKind::Actor][*actor as usize]
+            }
+            Mutation::Observations(n) => h.shape.observations = *n,
+            Mutation::Actions(n) => h.shape.actions = *n,
+            Mutation::Width(n) => h.shape.width = *n,
+            Mutation::Depth(n) => h.shape.depth = *n,
+            Mutation::Activation(relu) => {
+                h.activation = [Activation::Tanh, Activation::Relu][*relu as usize]
+            }
+            Mutation::Label(s) => h.label = label(s),
+            Mutation::PayloadLen(n) => h.payload_len = *n,
+            Mutation::Value(i, v) if !parts.values.is_empty() => {
+                let n = parts.values.len();
+                parts.values[i % n] = *v;
+            }
+            _ => {}
+        }
+    }
+    let mut bytes = parts.encode();
+    for m in mutations {
+        match m {
+            Mutation::Byte(i, b) => {
+                let n = bytes.len();
+                bytes[i % n] = *b;
+            }
+            Mutation::Truncate(n) => bytes.truncate(n % (bytes.len() + 1)),
+            Mutation::Append(extra) => bytes.extend(extra),
+            _ => {}
+        }
+    }
+    if fix_crc && bytes.len() >= 4 {
+        let body = bytes.len() - 4;
+        let crc = policy_core::crc32(&bytes[..body]);
+        bytes[body..].copy_from_slice(&crc.to_le_bytes());
+    }
+    bytes
+}
+
+/// The longest prefix of `s` that fits the label's 32 bytes.
+fn label(s: &str) -> heapless::String<{ blob::LABEL_CAPACITY }> {
+    let mut out = heapless::String::new();
+    s.chars()
+        .take_while(|c| out.push(*c).is_ok())
+        .for_each(drop);
+    out
+}
+
+fn base() -> impl Strategy<Value = Vec<u8>> {
+    prop_oneof![
+        Just(ACTOR_2X32.to_vec()),
+        Just(CRITIC_2X32.to_vec()),
+        Just(tiny_actor()),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(384))]
+
+    #[test]
+    fn mutated_blobs_keep_the_loader_properties(
+        base in base(),
+        mutations in prop::collection::vec(mutation(), 0..4),
+        fix_crc in prop::bool::weighted(0.8),
+    ) {
+        blob_checks::check(&mutate(Parts::of(&base), &mutations, fix_crc));
+    }
+
+    /// Payload values only, CRC fixed: every case reaches the parameter checks, and a blob whose
+    /// values are all finite with a valid prefix must load (checked inside `check`, which also
+    /// asserts that loaded actions stay inside the loaded bounds).
+    #[test]
+    fn mutated_payload_values_load_or_give_a_typed_error(
+        base in base(),
+        values in prop::collection::vec((any::<usize>(), special_f32()), 1..6),
+    ) {
+        let mutations: Vec<_> = values.into_iter().map(|(i, v)| Mutation::Value(i, v)).collect();
+        blob_checks::check(&mutate(Parts::of(&base), &mutations, true));
+    }
+}
+
+/// The bases are what the properties are about: each loads into its compiled shape.
+#[test]
+fn unmutated_bases_load() {
+    assert!(Policy::<2, 32, 1, 2>::from_blob(ACTOR_2X32).is_ok());
+    assert!(TinyActor::from_blob(&tiny_actor()).is_ok());
+    assert_eq!(mutate(Parts::of(CRITIC_2X32), &[], false), CRITIC_2X32);
+    blob_checks::check(ACTOR_2X32);
+}

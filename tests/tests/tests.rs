@@ -1,0 +1,15 @@
+//! The workspace's integration tests: one binary, one module per concern (ripgrep's layout).
+
+// Train a tiny DCP policy, export it, boot the bytes in firmware-sim and run the closed loop.
+mod end_to_end;
+// Valid blobs mutated field by field (header, lengths, payload values, label, CRC) through the
+// blob loader and the boot path, checked by `tests::blob_checks` as the `blob` fuzz target is.
+mod blob_mutations;
+// Scenario TOML assembled from valid fragments with values, types and keys mutated, checked by
+// `tests::scenario_checks` as the `scenario` fuzz target is.
+mod scenario_mutations;
+// Fault strings assembled from the `--faults` grammar with numbers and separators mutated,
+// checked by `tests::fault_checks` as the `faults` fuzz target is.
+mod fault_mutations;
+// Every reproducer the fuzzer found (`fuzz/regressions/`) is replayed through the same checks.
+mod fuzz_regressions;
