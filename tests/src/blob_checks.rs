@@ -4,23 +4,24 @@
 //! `tests/tests/blob_mutations.rs`, so both harnesses check the same things. Every check
 //! panics with a message that names the broken property.
 
-use firmware_sim::controller::{Controller, SUPPORTED};
+use firmware_sim::controller::Controller;
 use firmware_sim::harness;
-use policy_core::blob::{self, Model, Verified};
+use policy_core::blob::{self, Compiled, Spec, Verified};
+use policy_core::model::{Model, Scratch};
 use policy_core::{Critic, Error, ModelKind, Policy};
 
-/// The golden 2x32 actor's shape, one of firmware-sim's compiled shapes.
+/// The golden 2x32 actor's shape.
 pub type Actor2x32 = Policy<2, 32, 1, 2>;
 /// The paper's 4x48 navigation actor.
 pub type Actor4x48 = Policy<2, 48, 3, 2>;
 /// The golden 2x32 critic.
 pub type Critic2x32 = Critic<2, 2, 32, 1>;
-/// A 66-byte actor: small enough that a fuzzer reaches its payload checks often.
+/// A tiny actor: small enough that a fuzzer reaches its payload checks often.
 pub type TinyActor = Policy<1, 2, 0, 1>;
 /// A tiny critic, for the same reason.
 pub type TinyCritic = Critic<1, 1, 2, 0>;
 
-/// Observations every loaded actor is asked about: ordinary, huge, infinite and NaN.
+/// Observation components every loaded model is asked about: ordinary, huge, infinite and NaN.
 pub const PROBES: [f32; 8] = [
     0.0,
     -5.9,
@@ -32,29 +33,47 @@ pub const PROBES: [f32; 8] = [
     f32::NAN,
 ];
 
+/// The widest scratch the checks use; wider blobs must be refused with `ScratchTooSmall`.
+const WIDTH: usize = 256;
+
 /// Runs every loader on `bytes` and checks all properties.
 pub fn check(bytes: &[u8]) {
     let verified = blob::verify(bytes);
     if let Ok(v) = &verified {
         check_verified(bytes, v);
     }
-    let verified = verified.map(|v| v.header);
-    check_actor::<2, 32, 1, 2>(bytes, &verified);
-    check_actor::<2, 48, 3, 2>(bytes, &verified);
-    check_actor::<1, 2, 0, 1>(bytes, &verified);
-    check_load(&mut *Box::new(Critic2x32::ZERO), bytes, &verified);
-    check_load(&mut *Box::new(TinyCritic::ZERO), bytes, &verified);
-    check_boot(bytes, &verified);
+    let runtime = Model::from_blob(bytes);
+    match (&runtime, &verified) {
+        (Ok(_), Err(e)) => panic!("Model accepted a blob verify rejects ({e})"),
+        (Err(e), Err(v)) => assert_eq!(e, v, "Model and verify disagree on a bad blob"),
+        (Err(e), Ok(_)) => assert!(
+            matches!(
+                e,
+                Error::NonFiniteParameter { .. } | Error::InvalidParameter { .. }
+            ),
+            "a verified blob failed its parameter checks with {e}"
+        ),
+        (Ok(model), Ok(v)) => check_model(model, v),
+    }
+    let header = verified.map(|v| v.header);
+    let runtime = runtime.ok();
+    check_actor::<2, 32, 1, 2>(bytes, &header, runtime.as_ref());
+    check_actor::<2, 48, 3, 2>(bytes, &header, runtime.as_ref());
+    check_actor::<1, 2, 0, 1>(bytes, &header, runtime.as_ref());
+    check_load(&mut *Box::new(Critic2x32::ZERO), bytes, &header, runtime.is_some());
+    check_load(&mut *Box::new(TinyCritic::ZERO), bytes, &header, runtime.is_some());
+    check_boot(bytes, runtime.as_ref());
 }
 
-/// `verify` Ok: the header is this format's, and its length fields agree with the bytes.
+/// `verify` Ok: the header is one this build reads, its length fields agree with the bytes, the
+/// payload of a version-2 blob is 4-byte aligned, and the CRC is right.
 fn check_verified(bytes: &[u8], v: &Verified<'_>) {
     let h = &v.header;
     assert_eq!(h.magic, blob::MAGIC, "verified blob has the wrong magic");
-    assert_eq!(
-        h.version,
-        blob::VERSION,
-        "verified blob has the wrong version"
+    assert!(
+        blob::VERSIONS_READ.contains(&h.version),
+        "verified blob has version {}",
+        h.version
     );
     assert_eq!(
         Some(v.payload.len()),
@@ -70,11 +89,90 @@ fn check_verified(bytes: &[u8], v: &Verified<'_>) {
         h.label.len() <= blob::LABEL_CAPACITY,
         "label above its capacity"
     );
+    assert!(h.shape.check(h.kind).is_ok(), "shape beyond the limits");
+    if h.version >= 2 {
+        let offset = bytes.len() - 4 - v.payload.len();
+        assert_eq!(offset % 4, 0, "version-2 payload at offset {offset}");
+    }
     assert!(bytes.ends_with(&policy_core::crc32(&bytes[..bytes.len() - 4]).to_le_bytes()));
 }
 
-/// A snapshot of a model's parameters as bits (NaN-safe equality).
-fn bits<M: Model>(model: &M) -> Vec<u32> {
+/// A model the runtime accepted: its values are the payload, it writes back to the same
+/// header (as version 2) and payload, and every kind's output obeys its contract.
+fn check_model(model: &Model<'_>, v: &Verified<'_>) {
+    let values: Vec<f32> = model.values().collect();
+    let expected: Vec<u32> = blob::payload_values(v.payload).map(f32::to_bits).collect();
+    assert_eq!(
+        values.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+        expected,
+        "model values differ from the payload"
+    );
+    assert!(values.iter().all(|x| x.is_finite()), "accepted a non-finite value");
+    let h = model.header();
+    let spec = Spec {
+        kind: h.kind,
+        shape: h.shape,
+        activation: h.activation,
+        label: h.label.as_str(),
+    };
+    let mut out = vec![0u8; blob::encoded_len(&spec).expect("an accepted shape encodes")];
+    let n = blob::write(&spec, &mut |sink| sink(&values), &mut out).expect("writes back");
+    let again = blob::verify(&out[..n]).expect("a written blob verifies");
+    assert_eq!(again.payload, v.payload, "payload changed in a write-back");
+    let mut header = h.clone();
+    header.version = blob::VERSION;
+    assert_eq!(again.header, header, "header changed in a write-back");
+    check_outputs(model);
+}
+
+/// Outputs on the probe observations: actions finite and in bounds (a discrete policy's: its
+/// table row), and a narrow scratch refused with a typed error.
+fn check_outputs(model: &Model<'_>) {
+    let h = model.header();
+    let (s, a) = (h.shape.observations as usize, h.shape.actions as usize);
+    let needed = h.shape.scratch_width(h.kind);
+    let mut scratch = Box::new(Scratch::<WIDTH>::new());
+    if needed > WIDTH {
+        let mut action = vec![0.0; a];
+        let err = model.act(&vec![0.0; s], &mut scratch, &mut action);
+        assert!(
+            err.is_err() || h.kind == ModelKind::Critic,
+            "a blob needing width {needed} ran in {WIDTH}"
+        );
+        return;
+    }
+    let values: Vec<f32> = model.values().collect();
+    let bounds = 2 * s + 1;
+    for obs in probe_observations(s) {
+        match h.kind {
+            ModelKind::Critic => {
+                // Any value, but never a panic; the action is clamped into the unit box.
+                let _ = model.q(&obs, &vec![f32::NAN; a], &mut scratch);
+            }
+            ModelKind::Actor | ModelKind::Discrete => {
+                let mut action = vec![f32::NAN; a];
+                model.act(&obs, &mut scratch, &mut action).expect("acts");
+                for (i, x) in action.iter().enumerate() {
+                    let (lo, hi) = (values[bounds + i], values[bounds + a + i]);
+                    assert!(
+                        x.is_finite() && lo <= *x && *x <= hi,
+                        "act({obs:?})[{i}] = {x} outside [{lo}, {hi}]"
+                    );
+                }
+                if h.kind == ModelKind::Discrete {
+                    let row = model.choose(&obs, &mut scratch).expect("chooses");
+                    let at = bounds + 2 * a + row * a;
+                    let expected: Vec<u32> = values[at..at + a].iter().map(|x| x.to_bits()).collect();
+                    let got: Vec<u32> = action.iter().map(|x| x.to_bits()).collect();
+                    assert_eq!(got, expected, "discrete act is not its chosen table row");
+                }
+            }
+        }
+    }
+}
+
+/// A snapshot of a compiled model's parameters as bits (NaN-safe equality).
+fn bits<M: Compiled>(model: &M) -> Vec<u32> {
     let mut out = Vec::new();
     model.params(&mut |p| out.extend(p.iter().map(|v| v.to_bits())));
     out
@@ -82,7 +180,7 @@ fn bits<M: Model>(model: &M) -> Vec<u32> {
 
 /// Makes `slot` not `ZERO`, so that "untouched" cannot pass by accident: parameter `i` holds
 /// `i + 0.5`.
-fn fill_sentinel<M: Model>(slot: &mut M) {
+fn fill_sentinel<M: Compiled>(slot: &mut M) {
     let mut i = 0.0f32;
     slot.params_mut(&mut |p| {
         for v in p {
@@ -92,181 +190,109 @@ fn fill_sentinel<M: Model>(slot: &mut M) {
     });
 }
 
-/// Loads `bytes` into a sentinel-filled `slot` and checks the outcome against `verified`.
-/// Returns whether the load succeeded.
-fn check_load<M: Model>(
+/// Loads `bytes` into a sentinel-filled compiled `slot`: it loads exactly when the runtime
+/// accepts the blob and its kind and shape are the slot's, a failed load leaves the slot as it
+/// was, and a loaded slot holds the payload. Returns whether the load succeeded.
+fn check_load<M: Compiled>(
     slot: &mut M,
     bytes: &[u8],
     verified: &Result<blob::Header, Error>,
+    runtime_ok: bool,
 ) -> bool {
     fill_sentinel(slot);
     let before = bits(slot);
     let result = blob::load_into(slot, bytes);
-    match (&result, verified) {
-        (Err(e), Err(v)) => assert_eq!(e, v, "load_into and verify disagree on a bad blob"),
-        (_, Err(v)) => panic!("load_into accepted a blob verify rejects ({v})"),
-        (Ok(()), Ok(h)) => check_loaded(slot, bytes, h),
-        (Err(e), Ok(h)) => check_refused::<M>(e, h),
-    }
-    if result.is_err() {
-        assert_eq!(
-            bits(slot),
-            before,
-            "a failed load changed the slot ({result:?})"
-        );
+    let fits = verified
+        .as_ref()
+        .is_ok_and(|h| h.kind == M::KIND && h.shape == M::SHAPE);
+    assert_eq!(
+        result.is_ok(),
+        runtime_ok && fits,
+        "compiled load disagrees with the runtime ({result:?})"
+    );
+    match &result {
+        Ok(()) => {
+            let payload = blob::verify(bytes).expect("verified above").payload;
+            let expected: Vec<u32> = blob::payload_values(payload).map(f32::to_bits).collect();
+            assert_eq!(bits(slot), expected, "loaded parameters differ from the payload");
+        }
+        Err(_) => assert_eq!(bits(slot), before, "a failed load changed the slot ({result:?})"),
     }
     result.is_ok()
 }
 
-/// A verified blob that did not load: the error is the typed one its header calls for.
-fn check_refused<M: Model>(e: &Error, h: &blob::Header) {
-    if h.kind != M::KIND {
-        assert!(
-            matches!(e, Error::WrongKind { .. }),
-            "expected WrongKind, got {e}"
-        );
-    } else if h.shape != M::SHAPE {
-        assert!(
-            matches!(e, Error::ShapeMismatch { .. }),
-            "expected ShapeMismatch, got {e}"
-        );
-    } else {
-        assert!(
-            matches!(
-                e,
-                Error::NonFiniteParameter { .. } | Error::InvalidParameter { .. }
-            ),
-            "a verified blob of the right kind and shape failed with {e}"
-        );
-    }
-}
-
-/// A successful load: every parameter came from the payload, and writing the model back gives
-/// a blob that verifies and loads to the same parameters.
-fn check_loaded<M: Model>(model: &M, bytes: &[u8], h: &blob::Header) {
-    assert_eq!(
-        (h.kind, h.shape),
-        (M::KIND, M::SHAPE),
-        "loaded a blob of another shape"
-    );
-    assert_eq!(
-        model.activation(),
-        h.activation,
-        "activation not taken from the header"
-    );
-    let payload = blob::verify(bytes).expect("verified above").payload;
-    let expected: Vec<u32> = blob::payload_values(payload).map(f32::to_bits).collect();
-    assert_eq!(
-        bits(model),
-        expected,
-        "loaded parameters differ from the payload"
-    );
-    assert!(
-        expected.iter().all(|&b| f32::from_bits(b).is_finite()),
-        "loaded a non-finite value"
-    );
-    let rewritten = blob::to_vec(model, h.label.as_str()).expect("a loaded model writes back");
-    let again = blob::verify(&rewritten).expect("a written blob verifies");
-    assert_eq!(&again.header, h, "header changed in a write-back");
-    assert_eq!(again.payload, payload, "payload changed in a write-back");
-}
-
-/// [`check_load`] for an actor, plus: every action is finite and inside the loaded bounds.
+/// [`check_load`] for an actor, plus: its actions equal the runtime's bit for bit.
 fn check_actor<const S: usize, const H: usize, const L: usize, const A: usize>(
     bytes: &[u8],
     verified: &Result<blob::Header, Error>,
+    runtime: Option<&Model<'_>>,
 ) {
     let mut slot = Box::new(Policy::<S, H, L, A>::ZERO);
-    if !check_load(&mut *slot, bytes, verified) {
+    if !check_load(&mut *slot, bytes, verified, runtime.is_some()) {
         return;
     }
-    for obs in probe_observations::<S>() {
-        let action = slot.act(&obs);
-        for (i, a) in action.iter().enumerate() {
-            let (lo, hi) = (slot.bounds.low[i], slot.bounds.high[i]);
-            assert!(
-                a.is_finite() && lo <= *a && *a <= hi,
-                "act({obs:?})[{i}] = {a} outside [{lo}, {hi}]"
-            );
-        }
+    let Some(model) = runtime else { return };
+    let mut scratch = Box::new(Scratch::<WIDTH>::new());
+    for obs in probe_observations(S) {
+        let Ok(obs) = <[f32; S]>::try_from(obs.as_slice()) else {
+            continue;
+        };
+        let mut action = [0.0f32; A];
+        model.act(&obs, &mut scratch, &mut action).expect("acts");
+        assert_eq!(
+            slot.act(&obs).map(f32::to_bits),
+            action.map(f32::to_bits),
+            "compiled and runtime actors differ"
+        );
     }
 }
 
-/// Every pair of probes (for `S <= 2`) or each probe in every component.
-fn probe_observations<const S: usize>() -> Vec<[f32; S]> {
+/// Every pair of probes in the last two components (the rest hold the first of the pair).
+fn probe_observations(s: usize) -> Vec<Vec<f32>> {
     let mut out = Vec::new();
     for (i, &p) in PROBES.iter().enumerate() {
         for &q in &PROBES[i..] {
-            let mut obs = [p; S];
+            let mut obs = vec![p; s];
             if let Some(last) = obs.last_mut() {
                 *last = q;
             }
+            out.push(obs.iter().map(|x| -x).collect());
             out.push(obs);
-            out.push(obs.map(|x| -x));
         }
     }
     out
 }
 
-/// The firmware-sim boot path: it accepts exactly the verified 2-observation, 2-action actor
-/// blobs of a compiled shape whose payload loads, and then acts like policy-core.
-fn check_boot(bytes: &[u8], verified: &Result<blob::Header, Error>) {
+/// The firmware-sim boot path on the navigation plant (2 observations, 2 actions): it boots
+/// exactly the blobs the runtime accepts as a policy (actor or discrete) of those sizes, and
+/// then acts like the runtime.
+fn check_boot(bytes: &[u8], runtime: Option<&Model<'_>>) {
     let booted = harness::boot(bytes);
-    let Ok(h) = verified else {
-        assert!(booted.is_err(), "boot accepted a blob verify rejects");
+    let runnable = runtime.filter(|m| {
+        m.header().kind != ModelKind::Critic && m.expect_sizes(2, 2).is_ok()
+    });
+    let (Ok(mut policy), Some(model)) = (booted, runnable) else {
+        assert_eq!(
+            harness::boot(bytes).is_ok(),
+            runnable.is_some(),
+            "boot and the runtime disagree on whether the blob runs"
+        );
         return;
     };
-    let compiled = h.kind == ModelKind::Actor && SUPPORTED.contains(&h.shape);
-    let Ok(mut policy) = booted else {
-        if compiled {
-            // Only the payload can be at fault: the same bytes must fail a direct load.
-            assert!(
-                direct_policy(bytes, h).is_none(),
-                "boot refused a blob policy-core loads"
-            );
-        }
-        return;
-    };
-    assert!(
-        compiled,
-        "boot accepted a blob of a shape it does not compile: {}",
-        h.shape
-    );
-    assert_eq!(policy.header(), h, "boot reports another header");
-    let direct = direct_policy(bytes, h);
+    let mut scratch = Box::new(Scratch::<WIDTH>::new());
     for x in PROBES {
         for y in PROBES {
             let mut action = [f32::NAN; 2];
             policy.act(&[x, y], &mut action);
-            assert!(
-                action.iter().all(|a| a.is_finite()),
-                "boot act({x}, {y}) = {action:?}"
-            );
-            if let Some(direct) = &direct {
-                let expected = direct(&[x, y]);
-                assert_eq!(
-                    action.map(f32::to_bits),
-                    expected.map(f32::to_bits),
-                    "boot and policy-core differ"
-                );
+            let mut expected = [f32::NAN; 2];
+            if model.act(&[x, y], &mut scratch, &mut expected).is_err() {
+                continue; // too wide for this scratch: boot's own width decides
             }
+            assert_eq!(
+                action.map(f32::to_bits),
+                expected.map(f32::to_bits),
+                "boot and policy-core differ"
+            );
         }
     }
-}
-
-/// policy-core's actor for the shapes compiled here, loaded directly from `bytes`.
-type DirectPolicy = Box<dyn Fn(&[f32; 2]) -> [f32; 2]>;
-
-/// [`DirectPolicy`] of a blob whose shape is compiled here.
-fn direct_policy(bytes: &[u8], h: &blob::Header) -> Option<DirectPolicy> {
-    if h.shape == <Actor2x32 as Model>::SHAPE {
-        let p = Actor2x32::from_blob(bytes).ok()?;
-        return Some(Box::new(move |obs| p.act(obs)));
-    }
-    if h.shape == <Actor4x48 as Model>::SHAPE {
-        let mut p = Box::new(Actor4x48::ZERO);
-        p.load_into(bytes).ok()?;
-        return Some(Box::new(move |obs| p.act(obs)));
-    }
-    None
 }
