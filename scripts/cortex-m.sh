@@ -1,16 +1,21 @@
 #!/usr/bin/env bash
 # cortex-m.sh -- build the example firmware (firmware/) for a Cortex-M4F and a Cortex-M3, run it
-# under QEMU, check its actions bit for bit against policy-core on the host, and write a resource
-# report (flash, static RAM, peak stack, instructions per `act`, blob decode cost).
+# under QEMU on several blobs, check its actions bit for bit against policy-core on the host, and
+# write a resource report (flash, static RAM, peak stack, instructions per `act`, boot cost).
+#
+# One firmware runs a blob of any shape straight from flash (policy_core::model::Model, a 512 B
+# activation scratch in RAM); a variant is a target and a blob, and each build only relinks the
+# firmware around another `include_bytes!`. The blobs: the given --blob ("trained"), and
+# deterministic ones from `host-check gen`: tanh 2x32, 4x48 and 6x64, and a ReLU 3x40.
 #
 # Usage: bash scripts/cortex-m.sh [--blob FILE] [--out FILE] [--install-only]
-#   --blob FILE     a trained actor blob (e.g. from host-trainer); used by the variants of its shape,
-#                   the other shapes get deterministic generated blobs.
+#   --blob FILE     a trained policy blob (e.g. from host-trainer; 2 observations, 2 actions, any
+#                   shape up to 64 wide), run by the *-trained variants (skipped without it).
 #   --out FILE      JSON report path (default: <target dir>/cortex-m-report.json).
 #   --install-only  install the toolchain and QEMU, then stop.
 # Environment: PREFIX (private compiler prefix, default /opt/rust-web), RUST_WEB_VERSION (pin a
 # Debian rustc-web version), VARIANTS (space-separated subset of the names below), EXTRA_FEATURES
-# (more firmware features), QEMU_TIMEOUT (seconds, default 60),
+# (firmware features, if any), QEMU_TIMEOUT (seconds, default 60),
 # CARGO_TARGET_DIR (everything this script builds goes under <it or target/>/cortex-m).
 #
 # Works as root (or with sudo) on a fresh Debian 12 x86_64 machine whose rustup toolchain has only
@@ -34,14 +39,18 @@ OUT=$BASE/cortex-m-report.json
 BLOB=
 INSTALL_ONLY=0
 QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
-# name:target:qemu machine:qemu cpu:shape
+# name:target:qemu machine:qemu cpu:blob (trained = --blob; DEPTHxWIDTH-ACTIVATION = host-check gen)
 ALL_VARIANTS=(
-  m4f-2x32:thumbv7em-none-eabihf:mps2-an386:cortex-m4:2x32
-  m4f-4x48:thumbv7em-none-eabihf:mps2-an386:cortex-m4:4x48
-  m4f-6x64:thumbv7em-none-eabihf:mps2-an386:cortex-m4:6x64
-  m3-2x32:thumbv7m-none-eabi:mps2-an385:cortex-m3:2x32
-  m3-4x48:thumbv7m-none-eabi:mps2-an385:cortex-m3:4x48
-  m3-6x64:thumbv7m-none-eabi:mps2-an385:cortex-m3:6x64
+  m4f-trained:thumbv7em-none-eabihf:mps2-an386:cortex-m4:trained
+  m4f-2x32:thumbv7em-none-eabihf:mps2-an386:cortex-m4:2x32-tanh
+  m4f-3x40:thumbv7em-none-eabihf:mps2-an386:cortex-m4:3x40-relu
+  m4f-4x48:thumbv7em-none-eabihf:mps2-an386:cortex-m4:4x48-tanh
+  m4f-6x64:thumbv7em-none-eabihf:mps2-an386:cortex-m4:6x64-tanh
+  m3-trained:thumbv7m-none-eabi:mps2-an385:cortex-m3:trained
+  m3-2x32:thumbv7m-none-eabi:mps2-an385:cortex-m3:2x32-tanh
+  m3-3x40:thumbv7m-none-eabi:mps2-an385:cortex-m3:3x40-relu
+  m3-4x48:thumbv7m-none-eabi:mps2-an385:cortex-m3:4x48-tanh
+  m3-6x64:thumbv7m-none-eabi:mps2-an385:cortex-m3:6x64-tanh
 )
 
 T_START=$SECONDS; T_LAST=$SECONDS; TIMINGS=()
@@ -57,7 +66,7 @@ while [ $# -gt 0 ]; do
     --blob) [ $# -ge 2 ] || die "--blob needs a file"; BLOB=$(realpath "$2"); shift 2 ;;
     --out) [ $# -ge 2 ] || die "--out needs a file"; OUT=$(realpath -m "$2"); shift 2 ;;
     --install-only) INSTALL_ONLY=1; shift ;;
-    -h|--help) sed -n '2,14p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,19p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) die "unknown argument $1 (see --help)" ;;
   esac
 done
@@ -165,34 +174,35 @@ if [ ! -f "$PLUGIN_SO" ] || [ "$PLUGIN_SRC" -nt "$PLUGIN_SO" ]; then
     || { rm -f "$PLUGIN_SO"; echo "plugin build failed: instruction counts fall back to SysTick + -icount"; }
 fi
 
-BLOB_SHAPE=
 if [ -n "$BLOB" ]; then
-  BLOB_SHAPE=$("$HC" info "$BLOB") || die "--blob $BLOB is not a blob the firmware can run"
-  echo "--blob $BLOB holds a $BLOB_SHAPE actor: used for the $BLOB_SHAPE variants"
+  BLOB_INFO=$("$HC" info "$BLOB") || die "--blob $BLOB is not a blob the firmware can run"
+  echo "--blob $BLOB holds a $BLOB_INFO: run by the *-trained variants"
 fi
 mkdir -p "$WORK/blobs"
-blob_for() { # shape -> blob path (the given one, or a generated one)
-  if [ "$1" = "$BLOB_SHAPE" ]; then echo "$BLOB"; return; fi
-  "$HC" gen "$1" "$WORK/blobs/actor_$1.postcard" >&2
+blob_for() { # trained | DEPTHxWIDTH-ACTIVATION -> blob path (the given one, or a generated one)
+  if [ "$1" = trained ]; then echo "$BLOB"; return; fi
+  "$HC" gen "${1%-*}" "$WORK/blobs/actor_$1.postcard" --activation "${1##*-}" >&2
   echo "$WORK/blobs/actor_$1.postcard"
 }
 
 #--------------------------------------------------------------------------------------------------
 # Variants: build (one shared target dir: `core`, nalgebra and policy-core are built once per
-# target), run under QEMU with a timeout, compare with the host, measure.
+# target; another blob only relinks the firmware), run under QEMU with a timeout, compare with the
+# host, measure.
 FW_ENV=(env -u RUSTFLAGS -u CARGO_ENCODED_RUSTFLAGS -u CARGO_BUILD_RUSTFLAGS RUSTC="$RUSTC_X" RUSTC_BOOTSTRAP=1 CARGO_TARGET_DIR="$WORK/fw")
 QEMU_BASE=(qemu-system-arm -nographic -semihosting-config enable=on,target=native -icount shift=0)
 SELECTED=(${VARIANTS:-$(printf '%s\n' "${ALL_VARIANTS[@]}" | cut -d: -f1)})
 FAILED=(); JSONS=()
 for spec in "${ALL_VARIANTS[@]}"; do
-  IFS=: read -r name target machine cpu shape <<<"$spec"
+  IFS=: read -r name target machine cpu which <<<"$spec"
   printf '%s\n' "${SELECTED[@]}" | grep -qx "$name" || continue
+  [ "$which" != trained ] || [ -n "$BLOB" ] || { echo "=== $name: skipped (no --blob)"; continue; }
   dir=$WORK/variants/$name; mkdir -p "$dir"; rm -f "$dir"/*.log "$dir/resources.json"
-  blob=$(blob_for "$shape")
+  blob=$(blob_for "$which")
 
-  step "$name: build ($target, shape-$shape, blob $(basename "$blob"))"
+  step "$name: build ($target, blob $(basename "$blob"))"
   if ! (cd "$ROOT/firmware" && POLICY_BLOB="$blob" "${FW_ENV[@]}" cargo build --release --locked -Zbuild-std=core \
-        --target "$target" --no-default-features --features "shape-$shape${EXTRA_FEATURES:+,$EXTRA_FEATURES}" 2>&1 \
+        --target "$target" ${EXTRA_FEATURES:+--features "$EXTRA_FEATURES"} 2>&1 \
         | { grep -vE '^ +(Compiling|Downloaded|Downloading|Locking|Adding|Updating|Finished)' || true; } ); then
     FAILED+=("$name: build"); continue
   fi

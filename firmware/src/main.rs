@@ -1,34 +1,60 @@
-//! Example firmware: a DCP policy running on a Cortex-M.
+//! Example firmware: a DCP policy running on a Cortex-M, straight from flash.
 //!
-//! The part a user copies is short: the blob sits in flash (`include_bytes!`), is checked and
-//! copied once into a `static` slot with [`Policy::load_into`](policy_core::Policy::load_into),
-//! and [`act`](policy_core::Policy::act) turns each observation into a bounded action.
+//! The part a user copies is short ([`boot`] and [`control_step`]): the blob sits in flash
+//! (`include_bytes!`), is verified once at boot with [`Model::from_blob`] and checked against the
+//! firmware's sizes ([`Model::expect_sizes`]) and its scratch width [`W`]; then
+//! [`act`](Model::act) reads the weights from flash on every call. Nothing model-sized is copied
+//! to RAM: the only RAM the policy uses is a [`Scratch<W>`] (2 x `W` floats) for the activations.
+//! One build runs a blob of any shape up to `W` wide: there is no table of compiled shapes. On
+//! any error (a blob that fails verification, has other sizes, or is too wide) the firmware runs
+//! the safe state, the zero action.
+//!
+//! There is no compile-time fast path, because it was not faster: the const-generic
+//! `Policy<2, 48, 3, 2>` (weights copied into 29 KB of RAM) ran the trained 4x48 ReLU actor at
+//! 3.40 instructions per multiply-accumulate on the M4F and a tanh 4x48 at 4.74; `Model` straight
+//! from flash runs them at 3.03 and 4.79 (scripts/cortex-m.sh, QEMU instruction counts), in 1.8
+//! KB of RAM in all.
 //!
 //! Everything else measures what that costs, for scripts/cortex-m.sh: it prints the observations
 //! and actions as `f32` bits (the host recomputes them), calls [`fw_mark`] around each span whose
 //! instructions a QEMU plugin counts, times the same spans with SysTick (the fallback count),
 //! and paints the stack to find its peak. The run ends with QEMU's exit status: 0 only if the
-//! blob loaded and every action is finite and inside the bounds; panics and faults exit too.
+//! blob was accepted at boot and every action is finite and inside the bounds; panics and faults
+//! exit too.
 #![no_std]
 #![no_main]
 
 mod console;
 mod observations;
-mod shape;
 mod stack;
 
 use core::hint::black_box;
 
 use cortex_m::peripheral::{syst::SystClkSource, SYST};
 use cortex_m_rt::{entry, exception, ExceptionFrame};
-use policy_core::blob::Model;
+use policy_core::model::{Model, Scratch};
+use policy_core::{Error, ModelKind};
 
 use console::{exit_failure, exit_ok, fail, Line};
 use observations::OBSERVATIONS;
-use shape::Actor;
 
-/// The policy blob in flash; build.rs picks the file (`POLICY_BLOB`).
-static BLOB: &[u8] = include_bytes!(env!("POLICY_BLOB_PATH"));
+/// The policy blob in flash; build.rs picks the file (`POLICY_BLOB`). It is placed at a 4-byte
+/// boundary so that a version-2 payload (4-aligned within the blob) is 4-aligned in flash too,
+/// which lets policy-core read the weights as `f32` words.
+static BLOB: &[u8] = &ALIGNED.0;
+static ALIGNED: &Aligned<[u8]> = &Aligned(*include_bytes!(env!("POLICY_BLOB_PATH")));
+
+/// Gives its contents the alignment of a `u32`.
+#[repr(C, align(4))]
+struct Aligned<T: ?Sized>(T);
+
+/// Observations the firmware's sensors give (x, y: the navigation task).
+const OBS: usize = 2;
+/// Actions the firmware's actuators take (a step in x and y).
+const ACT: usize = 2;
+/// Width of the activation scratch: the widest layer a blob may have to run here. It costs
+/// 2 x `W` x 4 bytes of RAM (512 B for 64); a wider blob is refused at boot (safe state).
+const W: usize = 64;
 
 /// Arguments for the tanhf timing span: 64 points spread over [-3, 3], where hidden
 /// pre-activations of a trained actor mostly fall.
@@ -43,13 +69,47 @@ pub extern "C" fn fw_mark(id: u32) {
     black_box(id);
 }
 
+/// Verifies the blob and checks that this firmware can run it: a policy (actor or discrete)
+/// with [`OBS`] observations and [`ACT`] actions whose widest layer fits the scratch.
+pub fn boot(blob: &'static [u8]) -> Result<Model<'static>, Error> {
+    let model = Model::from_blob(blob)?;
+    model.expect_sizes(OBS, ACT)?;
+    let header = model.header();
+    if header.kind == ModelKind::Critic {
+        return Err(Error::WrongKind {
+            expected: ModelKind::Actor,
+            found: header.kind,
+        });
+    }
+    let needed = header.shape.scratch_width(header.kind);
+    if needed > W {
+        return Err(Error::ScratchTooSmall { needed, found: W });
+    }
+    Ok(model)
+}
+
+/// One control step: the policy's action, or the safe state (zero) without a model or on any
+/// error.
+pub fn control_step(
+    model: Option<&Model<'_>>,
+    obs: &[f32; OBS],
+    scratch: &mut Scratch<W>,
+) -> [f32; ACT] {
+    let mut action = [0.0; ACT];
+    if let Some(model) = model {
+        if model.act(obs, scratch, &mut action).is_err() {
+            action = [0.0; ACT];
+        }
+    }
+    action
+}
+
 #[entry]
 fn main() -> ! {
     // cortex-m-rt turns a `static mut` declared here into a `&'static mut`: `main` runs once and
-    // nothing else can name it, so this is the only reference and no `unsafe` is needed. The slot
-    // is all zeros, so it sits in .bss (RAM) and costs no flash; `load_into` copies the weights
-    // into it in place, so no model-sized value ever passes through the stack.
-    static mut POLICY: Actor = Actor::ZERO;
+    // nothing else can name it, so this is the only reference and no `unsafe` is needed. The
+    // scratch is all zeros, so it sits in .bss (RAM) and costs no flash.
+    static mut SCRATCH: Scratch<W> = Scratch::new();
 
     let sp = cortex_m::register::msp::read() as usize;
     stack::paint(sp);
@@ -64,21 +124,18 @@ fn main() -> ! {
 
     let t0 = ticks();
     fw_mark(2);
-    let loaded = POLICY.load_into(black_box(BLOB));
+    let booted = boot(black_box(BLOB));
     fw_mark(3);
-    let load_ticks = elapsed(t0);
-    let load_stack = stack::used_below(sp);
-    if let Err(e) = loaded {
-        fail_load(e)
-    }
-    let policy: &Actor = POLICY;
+    let boot_ticks = elapsed(t0);
+    let boot_stack = stack::used_below(sp);
+    let model = booted.as_ref().ok();
 
     stack::paint(sp);
-    let mut actions = [[0.0f32; 2]; OBSERVATIONS.len()];
+    let mut actions = [[0.0f32; ACT]; OBSERVATIONS.len()];
     let t0 = ticks();
     for (obs, action) in OBSERVATIONS.iter().zip(&mut actions) {
         fw_mark(4);
-        *action = policy.act(black_box(obs));
+        *action = control_step(model, black_box(obs), SCRATCH);
         fw_mark(5);
     }
     let act_ticks = elapsed(t0);
@@ -86,30 +143,35 @@ fn main() -> ! {
 
     let tanh_sum = time_tanhf();
 
-    report(&actions, sp, [load_stack, act_stack]);
+    report(model, &actions, sp, [boot_stack, act_stack]);
     Line::new("TICKS_CAL").dec(cal_insns).dec(cal_ticks).emit();
-    Line::new("TICKS load_into 1").dec(load_ticks).emit();
+    Line::new("TICKS boot 1").dec(boot_ticks).emit();
     Line::new("TICKS act")
         .dec(OBSERVATIONS.len() as u32)
         .dec(act_ticks)
         .emit();
     black_box(tanh_sum);
-    check_bounds(policy, &actions);
+    match &booted {
+        Ok(model) => check_bounds(model, &actions),
+        Err(e) => fail_boot(e),
+    }
     Line::new("DONE").emit();
     exit_ok()
 }
 
 /// Prints what the host needs to check and measure, in the order the spans were marked.
-fn report(actions: &[[f32; 2]], sp: usize, phases: [usize; 2]) {
-    let shape = Actor::SHAPE;
-    Line::new("SHAPE")
-        .dec(shape.depth.into())
-        .dec(shape.width.into())
-        .dec(shape.observations.into())
-        .dec(shape.actions.into())
-        .emit();
-    Line::new("SLOT_BYTES")
-        .dec(core::mem::size_of::<Actor>() as u32)
+fn report(model: Option<&Model<'_>>, actions: &[[f32; ACT]], sp: usize, phases: [usize; 2]) {
+    if let Some(model) = model {
+        let shape = model.header().shape;
+        Line::new("SHAPE")
+            .dec(shape.depth.into())
+            .dec(shape.width.into())
+            .dec(shape.observations.into())
+            .dec(shape.actions.into())
+            .emit();
+    }
+    Line::new("SCRATCH_BYTES")
+        .dec(core::mem::size_of::<Scratch<W>>() as u32)
         .emit();
     Line::new("BLOB_BYTES").dec(BLOB.len() as u32).emit();
     for (k, (obs, act)) in OBSERVATIONS.iter().zip(actions).enumerate() {
@@ -125,7 +187,7 @@ fn report(actions: &[[f32; 2]], sp: usize, phases: [usize; 2]) {
             .emit();
     }
     Line::new("SPAN overhead 1").emit();
-    Line::new("SPAN load_into 1").emit();
+    Line::new("SPAN boot 1").emit();
     for k in 0..OBSERVATIONS.len() {
         Line::new("SPAN act").dec(k as u32).emit();
     }
@@ -133,22 +195,20 @@ fn report(actions: &[[f32; 2]], sp: usize, phases: [usize; 2]) {
     Line::new("STACK_MAIN")
         .dec((stack::top() - sp) as u32)
         .emit();
-    Line::new("STACK_PHASE load_into")
-        .dec(phases[0] as u32)
-        .emit();
+    Line::new("STACK_PHASE boot").dec(phases[0] as u32).emit();
     Line::new("STACK_PHASE act").dec(phases[1] as u32).emit();
 }
 
 /// `act` promises finite actions inside the blob's bounds for every observation; a firmware that
-/// sees otherwise must not report success.
-fn check_bounds(policy: &Actor, actions: &[[f32; 2]]) {
+/// sees otherwise must not report success. The bounds follow the normaliser in the payload
+/// (mean, inverse std, clip; then low and high: docs/blob-format.md).
+fn check_bounds(model: &Model<'_>, actions: &[[f32; ACT]]) {
+    let mut values = model.values().skip(2 * OBS + 1);
+    let low: [f32; ACT] = core::array::from_fn(|_| values.next().unwrap_or(f32::NAN));
+    let high: [f32; ACT] = core::array::from_fn(|_| values.next().unwrap_or(f32::NAN));
     for action in actions {
-        for ((&a, &lo), &hi) in action
-            .iter()
-            .zip(&policy.bounds.low)
-            .zip(&policy.bounds.high)
-        {
-            if !a.is_finite() || a < lo || a > hi {
+        for ((&a, &lo), &hi) in action.iter().zip(&low).zip(&high) {
+            if !a.is_finite() || !(lo..=hi).contains(&a) {
                 fail("an action is non-finite or outside the bounds");
             }
         }
@@ -197,10 +257,11 @@ fn calibrate() -> (u32, u32) {
     (2 * TURNS, elapsed(t0))
 }
 
-/// Reports a blob the slot rejected, with policy-core's one-line reason (expected vs found).
-fn fail_load(e: policy_core::Error) -> ! {
+/// Reports a blob the firmware refused at boot, with policy-core's one-line reason (expected vs
+/// found). The actions printed before it are the safe state's.
+fn fail_boot(e: &Error) -> ! {
     use core::fmt::Write;
-    let mut line = Line::new("FAIL load_into: ");
+    let mut line = Line::new("FAIL boot: ");
     let _ = write!(line, "{e}");
     line.emit();
     exit_failure()

@@ -137,6 +137,13 @@ fn accumulate_block<const I: usize, const O: usize, const B: usize>(
 /// the runtime [`Model`](crate::model::Model) runs every layer through it. Lengths that do not
 /// fit leave the missing terms out rather than panic (a verified blob always fits).
 ///
+/// Bytes at a 4-byte boundary (a version-2 payload in an aligned buffer) are read as `f32` words
+/// on a little-endian target; any other slice is decoded 4 bytes at a time. Both give the same
+/// values, but on a Cortex-M4F the word path loads each weight straight into an FPU register,
+/// where decoding takes an integer load and a move (measured with scripts/cortex-m.sh for the
+/// trained 4×48 ReLU actor run from flash: 4.92 → 3.03 instructions per multiply-accumulate,
+/// same bits).
+///
 /// ```
 /// use policy_core::mlp::accumulate_bytes;
 /// let f = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
@@ -148,63 +155,86 @@ fn accumulate_block<const I: usize, const O: usize, const B: usize>(
 // Not inlined, for the reason given at `accumulate`.
 #[inline(never)]
 pub fn accumulate_bytes(weights: &[u8], bias: &[u8], x: &[f32], y: &mut [f32]) {
-    for (yo, b) in y.iter_mut().zip(bias.chunks_exact(4)) {
-        *yo = le_f32(b);
+    #[cfg(target_endian = "little")]
+    if let (Ok(w), Ok(b)) = (words(weights), words(bias)) {
+        return accumulate_values(w, b, x, y, |v: &f32| *v);
     }
-    let column = 4 * y.len();
+    accumulate_values(quads(weights), quads(bias), x, y, |q: &[u8; 4]| {
+        f32::from_le_bytes(*q)
+    });
+}
+
+/// The bytes as `f32` words, if they start at a 4-byte boundary (the length is cut to whole
+/// words).
+#[cfg(target_endian = "little")]
+fn words(bytes: &[u8]) -> Result<&[f32], bytemuck::PodCastError> {
+    bytemuck::try_cast_slice(bytes.get(..bytes.len() / 4 * 4).unwrap_or_default())
+}
+
+/// The bytes in groups of 4, at any alignment (the length is cut to whole groups).
+fn quads(bytes: &[u8]) -> &[[u8; 4]] {
+    bytemuck::try_cast_slice(bytes.get(..bytes.len() / 4 * 4).unwrap_or_default())
+        .unwrap_or_default()
+}
+
+/// [`accumulate_bytes`] over parameters stored as `T` and read with `value`.
+#[inline(always)]
+fn accumulate_values<T>(
+    weights: &[T],
+    bias: &[T],
+    x: &[f32],
+    y: &mut [f32],
+    value: impl Fn(&T) -> f32 + Copy,
+) {
+    for (yo, b) in y.iter_mut().zip(bias) {
+        *yo = value(b);
+    }
+    let column = y.len();
     if column == 0 {
         return;
     }
     let mut start = 0;
     while start + WIDE_BLOCK <= y.len() {
-        accumulate_bytes_block::<WIDE_BLOCK>(weights, column, x, y, start);
+        accumulate_values_block::<T, WIDE_BLOCK>(weights, column, x, y, start, value);
         start += WIDE_BLOCK;
     }
     if WIDE_BLOCK > 16 && start + 16 <= y.len() {
-        accumulate_bytes_block::<16>(weights, column, x, y, start);
+        accumulate_values_block::<T, 16>(weights, column, x, y, start, value);
         start += 16;
     }
     let rest = y.get_mut(start..).unwrap_or_default();
     for (col, &xj) in weights.chunks_exact(column).zip(x) {
-        let col = col.get(4 * start..).unwrap_or_default();
-        for (yo, w) in rest.iter_mut().zip(col.chunks_exact(4)) {
-            *yo += le_f32(w) * xj;
+        let col = col.get(start..).unwrap_or_default();
+        for (yo, w) in rest.iter_mut().zip(col) {
+            *yo += value(w) * xj;
         }
     }
 }
 
-/// [`accumulate_bytes`] for outputs `start..start + B`, their sums kept in registers for the
+/// [`accumulate_values`] for outputs `start..start + B`, their sums kept in registers for the
 /// whole pass (see [`accumulate_block`]).
 #[inline(always)]
-fn accumulate_bytes_block<const B: usize>(
-    weights: &[u8],
+fn accumulate_values_block<T, const B: usize>(
+    weights: &[T],
     column: usize,
     x: &[f32],
     y: &mut [f32],
     start: usize,
+    value: impl Fn(&T) -> f32,
 ) {
     let Some(Ok(out)) = y.get_mut(start..start + B).map(<&mut [f32; B]>::try_from) else {
         return;
     };
     let mut acc = *out;
     for (col, &xj) in weights.chunks_exact(column).zip(x) {
-        let Some(wb) = col.get(4 * start..4 * (start + B)) else {
+        let Some(Ok(wb)) = col.get(start..start + B).map(<&[T; B]>::try_from) else {
             return;
         };
-        for (a, w) in acc.iter_mut().zip(wb.chunks_exact(4)) {
-            *a += le_f32(w) * xj;
+        for (a, w) in acc.iter_mut().zip(wb) {
+            *a += value(w) * xj;
         }
     }
     *out = acc;
-}
-
-/// A little-endian `f32` from 4 bytes (0.0 from a shorter slice, which callers never pass).
-#[inline(always)]
-fn le_f32(bytes: &[u8]) -> f32 {
-    match <[u8; 4]>::try_from(bytes) {
-        Ok(b) => f32::from_le_bytes(b),
-        Err(_) => 0.0,
-    }
 }
 
 /// A dense layer `y = b + W x` with `I` inputs and `O` outputs.
@@ -344,5 +374,59 @@ impl<const H: usize, const L: usize, const O: usize> Trunk<H, L, O> {
             layer.params_mut().into_iter().for_each(&mut *f);
         }
         self.output.params_mut().into_iter().for_each(f);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Deterministic values with every sign and a wide range of magnitudes.
+    fn values(n: usize, seed: u32) -> Vec<f32> {
+        let mut s = seed;
+        (0..n)
+            .map(|_| {
+                s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                ((s >> 8) as f32 / 8_388_608.0 - 1.0) * (1 + (s & 7)) as f32
+            })
+            .collect()
+    }
+
+    /// `values` as little-endian bytes at a 4-byte boundary, and the same bytes one byte off.
+    fn aligned_and_not(v: &[f32]) -> (Vec<u32>, Vec<u8>) {
+        let words: Vec<u32> = v.iter().map(|x| u32::from_le(x.to_bits())).collect();
+        let mut shifted = vec![0u8];
+        shifted.extend(v.iter().flat_map(|x| x.to_le_bytes()));
+        (words, shifted)
+    }
+
+    // Guards the aligned fast path of `accumulate_bytes`: reading weights as words must give
+    // the bits of the byte-by-byte decoding and of the compiled `accumulate`.
+    #[test]
+    fn word_and_byte_paths_give_the_same_bits_as_the_compiled_layer() {
+        const I: usize = 5;
+        const O: usize = 41; // two 16-blocks on ARM, a 32-block on hosts, and a remainder
+        let (w, b, x) = (values(I * O, 1), values(O, 2), values(I, 3));
+        let (w_words, w_shifted) = aligned_and_not(&w);
+        let (b_words, b_shifted) = aligned_and_not(&b);
+        let (w_aligned, b_aligned): (&[u8], &[u8]) = (
+            bytemuck::cast_slice(&w_words),
+            bytemuck::cast_slice(&b_words),
+        );
+        let (w_odd, b_odd) = (&w_shifted[1..], &b_shifted[1..]);
+        assert!(words(w_aligned).is_ok() && words(w_odd).is_err());
+
+        let mut fast = [0.0f32; O];
+        let mut slow = [0.0f32; O];
+        accumulate_bytes(w_aligned, b_aligned, &x, &mut fast);
+        accumulate_bytes(w_odd, b_odd, &x, &mut slow);
+        let mut dense = Dense::<I, O>::ZERO;
+        dense.w.as_mut_slice().copy_from_slice(&w);
+        dense.b.as_mut_slice().copy_from_slice(&b);
+        let compiled = dense.affine(&[x[0], x[1], x[2], x[3], x[4]]);
+        for k in 0..O {
+            assert_eq!(fast[k].to_bits(), slow[k].to_bits(), "output {k}");
+            assert_eq!(fast[k].to_bits(), compiled[k].to_bits(), "output {k}");
+        }
     }
 }

@@ -5,9 +5,9 @@
 
 use anyhow::{bail, Result};
 
+use crate::blobs;
 use crate::log::FirmwareLog;
 use crate::observations::OBSERVATIONS;
-use crate::shapes;
 
 /// Outcome of a successful comparison.
 #[derive(Debug)]
@@ -22,7 +22,7 @@ pub struct Comparison {
 /// observation that is not the shared list's, or on a missing case. With `print`, one line per case.
 pub fn compare(blob: &[u8], log: &FirmwareLog, print: bool) -> Result<Comparison> {
     log.require_success()?;
-    let host = shapes::actions(blob, &OBSERVATIONS)?;
+    let host = blobs::actions(blob, &OBSERVATIONS)?;
     if log.observations.len() != OBSERVATIONS.len() || log.actions.len() != OBSERVATIONS.len() {
         bail!(
             "expected {} observations and actions from the firmware, found {} and {}",
@@ -69,10 +69,10 @@ pub fn compare(blob: &[u8], log: &FirmwareLog, print: bool) -> Result<Comparison
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shapes::{generate, ShapeName};
+    use crate::blobs::{generate, parse_shape};
 
     fn firmware_output(blob: &[u8], flip: Option<usize>) -> String {
-        let acts = shapes::actions(blob, &OBSERVATIONS).unwrap();
+        let acts = blobs::actions(blob, &OBSERVATIONS).unwrap();
         let mut out = String::new();
         for (k, (o, a)) in OBSERVATIONS.iter().zip(&acts).enumerate() {
             let a0 = a[0].to_bits() ^ u32::from(flip == Some(k));
@@ -89,7 +89,7 @@ mod tests {
     #[test]
     fn identical_bits_pass() {
         let blob = generate(
-            ShapeName::parse("2x32").unwrap(),
+            parse_shape("2x32").unwrap(),
             1,
             policy_core::Activation::Tanh,
         )
@@ -101,7 +101,7 @@ mod tests {
     #[test]
     fn one_flipped_bit_fails() {
         let blob = generate(
-            ShapeName::parse("2x32").unwrap(),
+            parse_shape("2x32").unwrap(),
             1,
             policy_core::Activation::Tanh,
         )

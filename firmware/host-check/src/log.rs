@@ -12,8 +12,8 @@ use anyhow::{anyhow, bail, Context, Result};
 pub struct FirmwareLog {
     /// `SHAPE depth width observations actions`.
     pub shape: Option<[u32; 4]>,
-    /// Bytes of the `static` policy slot.
-    pub slot_bytes: Option<u64>,
+    /// Bytes of the activation scratch (the only RAM the policy uses).
+    pub scratch_bytes: Option<u64>,
     /// Bytes of the embedded blob.
     pub blob_bytes: Option<u64>,
     /// Observation `k` as bits.
@@ -62,7 +62,7 @@ impl FirmwareLog {
                     }
                     log.shape = Some(s);
                 }
-                Some("SLOT_BYTES") => log.slot_bytes = Some(num(f.next(), line)?),
+                Some("SCRATCH_BYTES") => log.scratch_bytes = Some(num(f.next(), line)?),
                 Some("BLOB_BYTES") => log.blob_bytes = Some(num(f.next(), line)?),
                 Some(tag @ ("OBS" | "ACT")) => {
                     let k = num(f.next(), line)? as usize;
@@ -164,7 +164,7 @@ pub fn plugin_spans(plugin_log: &str, spans: &[(String, u64)]) -> Result<BTreeMa
 mod tests {
     use super::*;
 
-    const LOG: &str = "SHAPE 4 48 2 2\nSLOT_BYTES 28884\nOBS 0 00000000 3f800000\n\
+    const LOG: &str = "SHAPE 4 48 2 2\nSCRATCH_BYTES 512\nOBS 0 00000000 3f800000\n\
                        ACT 0 3e800000 be800000\nSPAN overhead 1\nSPAN act 0\nSPAN tanhf 64\n\
                        STACK_MAIN 96\nSTACK_PHASE act 120\nDONE\n";
 

@@ -1,9 +1,9 @@
 //! host-check: the host half of scripts/cortex-m.sh.
 //!
 //! ```text
-//! host-check gen SHAPE OUT [--seed N] [--activation tanh|relu]
-//!                                          write a deterministic actor blob (2x32, 4x48, 6x64)
-//! host-check info BLOB                     print the blob's shape ("4x48"), for the script
+//! host-check gen DEPTHxWIDTH OUT [--seed N] [--activation tanh|relu]
+//!                                          write a deterministic actor blob of any shape
+//! host-check info BLOB                     print what the blob holds ("4x48 actor relu v1")
 //! host-check check BLOB FW_LOG             recompute the firmware's actions; bit-exact or exit 1
 //! host-check measure --variant NAME --target T --machine M --cpu C --blob BLOB
 //!                    --sizes SIZE_A_TXT --fw-log LOG [--plugin-log LOG] --out JSON
@@ -11,13 +11,13 @@
 //! ```
 //! Errors are one line on stderr and exit status 1.
 
+mod blobs;
 mod check;
 mod log;
 mod measure;
 #[path = "../../src/observations.rs"]
 mod observations;
 mod report;
-mod shapes;
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -25,8 +25,8 @@ use std::process::ExitCode;
 
 use anyhow::{anyhow, bail, Context, Result};
 
+use blobs::BlobInfo;
 use log::FirmwareLog;
-use shapes::ShapeName;
 
 /// The default seed of `gen` (the firmware check needs any fixed one).
 const DEFAULT_SEED: u64 = 4;
@@ -50,7 +50,14 @@ fn run(args: &[String]) -> Result<()> {
     match (cmd.as_str(), positional.as_slice()) {
         ("gen", [shape, out]) => gen(shape, Path::new(out), &flags),
         ("info", [blob]) => {
-            println!("{}", shapes::shape_of(&read(blob)?)?);
+            let info = BlobInfo::of(&read(blob)?)?;
+            println!(
+                "{} {} {} v{}",
+                info.name(),
+                info.kind,
+                info.activation,
+                info.version
+            );
             Ok(())
         }
         ("check", [blob, fw_log]) => {
@@ -119,7 +126,7 @@ fn gen(shape: &str, out: &Path, flags: &BTreeMap<String, String>) -> Result<()> 
             .with_context(|| format!("--seed {s:?} is not an integer"))?,
         None => DEFAULT_SEED,
     };
-    let bytes = shapes::generate(ShapeName::parse(shape)?, seed, activation)?;
+    let bytes = blobs::generate(blobs::parse_shape(shape)?, seed, activation)?;
     if std::fs::read(out).ok().as_deref() != Some(bytes.as_slice()) {
         write_atomic(out, &bytes)?;
     }
@@ -134,7 +141,7 @@ fn gen(shape: &str, out: &Path, flags: &BTreeMap<String, String>) -> Result<()> 
 fn measure(flags: &BTreeMap<String, String>) -> Result<()> {
     let blob_path = flag(flags, "blob")?;
     let blob = read(blob_path)?;
-    let shape = shapes::shape_of(&blob)?;
+    let info = BlobInfo::of(&blob)?;
     let log = FirmwareLog::parse(&read_text(flag(flags, "fw-log")?)?)?;
     let cmp = check::compare(&blob, &log, false)?;
     let plugin = flags.get("plugin-log").map(|p| read_text(p)).transpose()?;
@@ -148,7 +155,7 @@ fn measure(flags: &BTreeMap<String, String>) -> Result<()> {
     };
     let value = measure::measure(
         &variant,
-        shape,
+        &info,
         blob.len() as u64,
         &sizes,
         &log,
@@ -193,7 +200,8 @@ fn report(
         let met = if aim["met"] == true { "met" } else { "MISSED" };
         let num = |k: &str| aim[k].as_f64().unwrap_or(f64::NAN);
         println!(
-            "aim (m4f-4x48): {} -> {:.3} ({met}, over by {:.3})",
+            "aim ({} 4x48): {} -> {:.3} ({met}, over by {:.3})",
+            doc["aims_m4f_4x48"]["variant"].as_str().unwrap_or("?"),
             aim["aim"].as_str().unwrap_or("?"),
             num("value"),
             num("over_by")

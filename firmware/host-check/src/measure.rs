@@ -5,14 +5,14 @@ use std::collections::BTreeMap;
 use anyhow::{anyhow, bail, Context, Result};
 use serde_json::{json, Value};
 
+use crate::blobs::BlobInfo;
 use crate::check::Comparison;
 use crate::log::{plugin_spans, FirmwareLog};
-use crate::shapes::ShapeName;
 
 /// What the script knows about a variant besides the logs.
 #[derive(Debug)]
 pub struct Variant {
-    /// Name, e.g. `m4f-4x48`.
+    /// Name, e.g. `m4f-trained` or `m4f-4x48`.
     pub name: String,
     /// Rust target triple.
     pub target: String,
@@ -66,7 +66,7 @@ fn instruction_spans(
 /// Builds the variant's JSON object.
 pub fn measure(
     v: &Variant,
-    shape: ShapeName,
+    info: &BlobInfo,
     blob_len: u64,
     sizes: &BTreeMap<String, u64>,
     log: &FirmwareLog,
@@ -76,16 +76,16 @@ pub fn measure(
     let sec = |n: &str| sizes.get(n).copied().unwrap_or(0);
     let flash = sec(".vector_table") + sec(".text") + sec(".rodata") + sec(".data");
     let static_ram = sec(".data") + sec(".bss") + sec(".uninit");
-    let slot = log
-        .slot_bytes
-        .ok_or_else(|| anyhow!("no SLOT_BYTES line"))?;
+    let scratch = log
+        .scratch_bytes
+        .ok_or_else(|| anyhow!("no SCRATCH_BYTES line"))?;
     let main_frame = log
         .stack_main
         .ok_or_else(|| anyhow!("no STACK_MAIN line"))?;
     let below = log.stack_phases.values().copied().max().unwrap_or(0);
     let peak_stack = main_frame + below;
-    if flash == 0 || static_ram < slot {
-        bail!("section sizes do not describe this firmware (flash {flash}, static RAM {static_ram}, slot {slot})");
+    if flash < blob_len || static_ram < scratch {
+        bail!("section sizes do not describe this firmware (flash {flash}, static RAM {static_ram}, blob {blob_len}, scratch {scratch})");
     }
 
     let (spans, source) = instruction_spans(log, plugin_log)?;
@@ -100,18 +100,16 @@ pub fn measure(
     let act_mean = acts.iter().sum::<f64>() / acts.len().max(1) as f64;
     let act_max = acts.iter().copied().fold(0.0, f64::max);
     let act_min = acts.iter().copied().fold(f64::INFINITY, f64::min);
-    let load = spans
-        .get("load_into")
-        .copied()
-        .context("missing load_into span")?;
+    let boot = spans.get("boot").copied().context("missing boot span")?;
     let tanhf = spans.get("tanhf").copied();
-    let macs = shape.macs() as f64;
-    let excl_tanh = tanhf.map(|t| (act_mean - shape.tanh_calls() as f64 * t) / macs);
+    let macs = info.macs() as f64;
+    let excl_tanh = tanhf.map(|t| (act_mean - info.tanh_calls() as f64 * t) / macs);
 
     Ok(json!({
         "variant": v.name, "target": v.target, "qemu_machine": v.machine, "qemu_cpu": v.cpu,
-        "shape": shape.to_string(), "macs_per_act": shape.macs(), "tanhf_per_act": shape.tanh_calls(),
-        "blob": { "path": v.blob_path, "bytes": blob_len },
+        "shape": info.name(), "macs_per_act": info.macs(), "tanhf_per_act": info.tanh_calls(),
+        "blob": { "path": v.blob_path, "bytes": blob_len, "kind": info.kind.to_string(),
+                  "activation": info.activation.to_string(), "version": info.version },
         "flash": {
             "total": flash, "vector_table": sec(".vector_table"), "text": sec(".text"),
             "rodata": sec(".rodata"), "data": sec(".data"), "blob": blob_len,
@@ -119,9 +117,9 @@ pub fn measure(
         },
         "ram": {
             "data": sec(".data"), "bss": sec(".bss"), "uninit": sec(".uninit"), "static_total": static_ram,
-            "policy_slot": slot, "static_beyond_slot": static_ram - slot,
+            "scratch": scratch, "static_beyond_scratch": static_ram - scratch,
             "stack_main_frame": main_frame, "stack_phases": log.stack_phases, "stack_peak": peak_stack,
-            "beyond_weights": static_ram - slot + peak_stack,
+            "total": static_ram + peak_stack,
         },
         "instructions": {
             "source": source,
@@ -130,7 +128,7 @@ pub fn measure(
             "per_mac": round(act_mean / macs, 3), "per_mac_worst": round(act_max / macs, 3),
             "tanhf_each": tanhf.map(|t| round(t, 1)),
             "per_mac_excluding_tanhf": excl_tanh.map(|e| round(e, 3)),
-            "load_into": round(load, 0), "load_into_per_blob_byte": round(load / blob_len as f64, 2),
+            "boot": round(boot, 0), "boot_per_blob_byte": round(boot / blob_len as f64, 2),
             "mark_overhead": spans.get("overhead").map(|o| round(*o, 0)),
         },
         "check": { "cases": cmp.cases, "bit_exact": cmp.max_abs_diff == 0.0, "max_abs_diff": cmp.max_abs_diff },

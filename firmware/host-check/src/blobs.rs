@@ -1,0 +1,213 @@
+//! The blobs the firmware runs, seen from the host: what a blob holds, deterministic blobs of any
+//! shape, and the actions policy-core's runtime [`Model`] computes for them.
+//!
+//! There is no list of shapes here: the firmware runs any policy with 2 observations and 2
+//! actions whose widest layer fits its scratch, and so does this side.
+
+use anyhow::{bail, Context, Result};
+use policy_core::blob::{self, Spec, MAX_WIDTH};
+use policy_core::model::{Model, Scratch};
+use policy_core::{Activation, ModelKind, Shape};
+use rand_chacha::ChaCha8Rng;
+use rand_core::{Rng, SeedableRng};
+
+/// Observations of every blob the firmware runs (the navigation task).
+pub const S: usize = 2;
+/// Actions, see [`S`].
+pub const A: usize = 2;
+
+/// What the measurements need to know about a blob.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BlobInfo {
+    /// Actor or discrete policy.
+    pub kind: ModelKind,
+    /// Network sizes.
+    pub shape: Shape,
+    /// Hidden activation.
+    pub activation: Activation,
+    /// Blob format version.
+    pub version: u16,
+}
+
+impl BlobInfo {
+    /// Verifies `bytes` as policy-core does at boot and checks the firmware's sizes.
+    pub fn of(bytes: &[u8]) -> Result<Self> {
+        let model = Model::from_blob(bytes)?;
+        model.expect_sizes(S, A)?;
+        let h = model.header();
+        if h.kind == ModelKind::Critic {
+            bail!("the firmware runs policies (actor or discrete), not a critic");
+        }
+        Ok(BlobInfo {
+            kind: h.kind,
+            shape: h.shape,
+            activation: h.activation,
+            version: h.version,
+        })
+    }
+
+    /// `DEPTHxWIDTH`, e.g. `4x48`.
+    pub fn name(&self) -> String {
+        format!("{}x{}", self.shape.depth, self.shape.width)
+    }
+
+    /// Multiply-accumulates in one `act`: every weight is used once.
+    pub fn macs(&self) -> u64 {
+        let s = self.shape;
+        let (h, l) = (u64::from(s.width), u64::from(s.depth) - 1);
+        let (i, o) = (s.inputs(self.kind) as u64, s.outputs(self.kind) as u64);
+        i * h + l * h * h + h * o
+    }
+
+    /// `tanhf` calls in one `act`: every hidden unit of a tanh network, and an actor's output
+    /// squashing.
+    pub fn tanh_calls(&self) -> u64 {
+        let hidden = match self.activation {
+            Activation::Tanh => u64::from(self.shape.width) * u64::from(self.shape.depth),
+            Activation::Relu => 0,
+        };
+        let squash = match self.kind {
+            ModelKind::Actor => A as u64,
+            ModelKind::Critic | ModelKind::Discrete => 0,
+        };
+        hidden + squash
+    }
+}
+
+/// Parses `DEPTHxWIDTH` (any sizes within the blob format's limits).
+pub fn parse_shape(text: &str) -> Result<Shape> {
+    let parsed = text
+        .split_once('x')
+        .and_then(|(d, w)| Some((d.parse().ok()?, w.parse().ok()?)));
+    let Some((depth, width)) = parsed else {
+        bail!("shape {text:?}: expected DEPTHxWIDTH, e.g. 4x48");
+    };
+    let shape = Shape {
+        observations: S as u16,
+        actions: A as u16,
+        width,
+        depth,
+        choices: 0,
+    };
+    shape
+        .check(ModelKind::Actor)
+        .with_context(|| format!("shape {text:?}"))?;
+    Ok(shape)
+}
+
+/// The actions policy-core's runtime model computes on the host for `bytes` and each
+/// observation (the widest scratch the format allows, so any blob runs).
+pub fn actions(bytes: &[u8], observations: &[[f32; S]]) -> Result<Vec<[f32; A]>> {
+    let model = Model::from_blob(bytes)?;
+    let mut scratch = Box::new(Scratch::<MAX_WIDTH>::new());
+    observations
+        .iter()
+        .map(|obs| {
+            let mut action = [0.0; A];
+            model.act(obs, &mut scratch, &mut action)?;
+            Ok(action)
+        })
+        .collect()
+}
+
+/// An actor blob of `shape` with the given hidden activation and deterministic random weights:
+/// one ChaCha8 stream per shape, derived from `seed`, so the same seed gives the same bytes on
+/// every machine. Written with policy-core's runtime writer: no compiled type is involved.
+///
+/// The normaliser and bounds are those of a realistic navigation actor (positions in metres, mean
+/// off zero, clip 5; actions within ±0.25), so the observations exercise clipping both ways.
+pub fn generate(shape: Shape, seed: u64, activation: Activation) -> Result<Vec<u8>> {
+    let mut rng =
+        ChaCha8Rng::seed_from_u64(seed ^ (u64::from(shape.depth) << 32 | u64::from(shape.width)));
+    let (w, depth) = (shape.width as usize, shape.depth as usize);
+    // Layers in blob order: input (S -> w), depth - 1 hidden (w -> w), output (w -> A).
+    let mut layers = vec![xavier(S, w, &mut rng)];
+    for _ in 1..depth {
+        layers.push(xavier(w, w, &mut rng));
+    }
+    layers.push(xavier(w, A, &mut rng));
+    let label = format!("host-check {}x{} {activation} seed {seed}", depth, w);
+    let spec = Spec {
+        kind: ModelKind::Actor,
+        shape,
+        activation,
+        label: &label,
+    };
+    let normalizer = [1.5, -0.7, 1.0 / 2.3, 1.0 / 1.7, 5.0]; // mean, inverse std, clip
+    let bounds = [-0.25, -0.25, 0.25, 0.25]; // low, high
+    Ok(blob::to_vec_with(&spec, &mut |sink| {
+        sink(&normalizer);
+        sink(&bounds);
+        for (weights, biases) in &layers {
+            sink(weights);
+            sink(biases);
+        }
+    })?)
+}
+
+/// Glorot-uniform weights (limit `sqrt(6 / (in + out))`, column-major: `inputs` columns of
+/// `outputs` values) and small biases in `[-0.1, 0.1)`, drawn in that order.
+fn xavier(inputs: usize, outputs: usize, rng: &mut ChaCha8Rng) -> (Vec<f32>, Vec<f32>) {
+    let limit = (6.0 / (inputs + outputs) as f32).sqrt();
+    let weights = (0..inputs * outputs)
+        .map(|_| uniform(rng) * limit)
+        .collect();
+    let biases = (0..outputs).map(|_| uniform(rng) * 0.1).collect();
+    (weights, biases)
+}
+
+/// Uniform in `[-1, 1)` from the top 24 bits of one draw (exact in f32).
+fn uniform(rng: &mut ChaCha8Rng) -> f32 {
+    (rng.next_u32() >> 8) as f32 * (2.0 / 16_777_216.0) - 1.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use policy_core::Policy;
+
+    #[test]
+    fn same_seed_same_bytes_and_the_shape_round_trips() {
+        let shape = parse_shape("3x40").unwrap();
+        let a = generate(shape, 7, Activation::Relu).unwrap();
+        assert_eq!(a, generate(shape, 7, Activation::Relu).unwrap());
+        assert_ne!(a, generate(shape, 8, Activation::Relu).unwrap());
+        let info = BlobInfo::of(&a).unwrap();
+        assert_eq!((info.name(), info.kind), ("3x40".into(), ModelKind::Actor));
+        assert!(parse_shape("4x").is_err() && parse_shape("0x48").is_err());
+    }
+
+    #[test]
+    fn macs_count_every_weight_once() {
+        let info =
+            BlobInfo::of(&generate(parse_shape("4x48").unwrap(), 4, Activation::Tanh).unwrap())
+                .unwrap();
+        // 2*48 + 3*48*48 + 48*2 = 7104 (the payload minus normaliser, bounds and biases).
+        assert_eq!(info.macs(), 7104);
+        assert_eq!(info.tanh_calls(), 194);
+        let relu = BlobInfo {
+            activation: Activation::Relu,
+            ..info
+        };
+        assert_eq!(relu.tanh_calls(), 2);
+    }
+
+    // The runtime model and the compiled type must agree on a generated blob, bit for bit.
+    #[test]
+    fn generated_actions_are_in_bounds_and_match_the_compiled_policy() {
+        let blob = generate(parse_shape("4x48").unwrap(), 4, Activation::Tanh).unwrap();
+        let acts = actions(&blob, &crate::observations::OBSERVATIONS).unwrap();
+        assert!(acts
+            .iter()
+            .flatten()
+            .all(|a| a.is_finite() && a.abs() <= 0.25));
+        assert!(
+            acts.windows(2).any(|w| w[0] != w[1]),
+            "random weights must move the actions"
+        );
+        let compiled = Policy::<2, 48, 3, 2>::from_blob(&blob).unwrap();
+        for (obs, act) in crate::observations::OBSERVATIONS.iter().zip(&acts) {
+            assert_eq!(compiled.act(obs).map(f32::to_bits), act.map(f32::to_bits));
+        }
+    }
+}
