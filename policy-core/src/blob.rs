@@ -655,6 +655,9 @@ pub fn encoded_len(spec: &Spec<'_>) -> Result<usize, Error> {
 /// let model = Model::from_blob(&out[..n]).unwrap();
 /// assert_eq!(model.header().shape, shape);
 /// ```
+// The callback type is the writer's whole interface (a sink per parameter slice); an alias
+// would only hide it.
+#[allow(clippy::type_complexity)]
 pub fn write(
     spec: &Spec<'_>,
     params: &mut dyn FnMut(&mut dyn FnMut(&[f32])),
@@ -701,6 +704,7 @@ pub fn write(
 
 /// [`write`] into a new vector (host side).
 #[cfg(feature = "std")]
+#[allow(clippy::type_complexity)] // as `write`
 pub fn to_vec_with(
     spec: &Spec<'_>,
     params: &mut dyn FnMut(&mut dyn FnMut(&[f32])),
