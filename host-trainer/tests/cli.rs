@@ -184,9 +184,13 @@ fn actor_blobs() -> (Vec<u8>, Vec<u8>) {
 #[test]
 fn eval_of_a_blob_that_does_not_boot_fails() {
     let base = scratch("eval-boot");
-    let critic = Critic::<2, 2, 32, 1>::ZERO
-        .to_blob("critic")
-        .expect("critic blob");
+    // A valid critic (policy-core checks every parameter before the kind).
+    let critic = Critic::<2, 2, 32, 1> {
+        normalizer: Normalizer::identity(5.0),
+        ..Critic::ZERO
+    }
+    .to_blob("critic")
+    .expect("critic blob");
     let (good, nan) = actor_blobs();
     for (name, bytes, needle) in [
         ("critic.postcard", &critic, "kind"),
