@@ -702,7 +702,7 @@ pub fn write(
     Ok(needed)
 }
 
-/// [`write`] into a new vector (host side).
+/// [`write()`] into a new vector (host side).
 #[cfg(feature = "std")]
 #[allow(clippy::type_complexity)] // as `write`
 pub fn to_vec_with(
