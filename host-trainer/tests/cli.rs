@@ -39,6 +39,8 @@ fn malformed_values_are_rejected_before_any_file_is_written() {
         ("--hidden", "100x100000", "unsupported network shape"),
         ("--hidden", "4x65536", "unsupported network shape"),
         ("--hidden", "4x1025", "width must be in 1..=1024"),
+        // Within every size limit, but 67 million parameters: beyond the 16 MiB payload.
+        ("--hidden", "64x1024", "16 MiB"),
         // Regression (issue 9, item 7): a NaN or infinite reward scale was not validated.
         ("--reward-scale", "nan", "agent.reward_scale"),
         ("--reward-scale", "inf", "agent.reward_scale"),
