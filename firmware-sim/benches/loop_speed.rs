@@ -2,7 +2,7 @@
 //!
 //! - `plant/nav-walls`, `plant/nav-open`: `NavEnv::step` alone (13 walls vs none), with a fixed
 //!   cycle of actions that slides along walls and resets when an episode ends.
-//! - `act/4x48`: the booted blob's `act` alone (through the shape dispatch).
+//! - `act/4x48`: the booted blob's `act` alone (policy-core's runtime model over the blob bytes).
 //! - `loop/4x48/nav-walls`: whole test episodes of the firmware loop (sensor, timed `act`,
 //!   actuator, plant, metrics), 200 ticks each.
 //! - `loop/straight/nav-walls`: the same loop with a controller that costs nothing, i.e. the
@@ -77,7 +77,8 @@ fn plant(c: &mut Criterion) {
 }
 
 fn act(c: &mut Criterion) {
-    let mut policy = BlobPolicy::boot(&blob_4x48()).expect("boot");
+    let blob = blob_4x48();
+    let mut policy = BlobPolicy::boot(&blob).expect("boot");
     let mut group = c.benchmark_group("act");
     group.throughput(Throughput::Elements(1));
     let mut out = [0.0f32; 2];

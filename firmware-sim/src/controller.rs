@@ -1,8 +1,10 @@
-//! What drives the actuator: a policy booted from a blob, the safe state, or a reference
-//! controller (`straight`, `oracle`) used to check the harness and its metrics.
+//! What drives the actuator: a policy booted from a blob (policy-core's runtime model, any
+//! shape), the safe state, or a reference controller (`straight`, `oracle`) used to check the
+//! harness and its metrics.
 
 use policy_core::blob::{self, Header};
-use policy_core::{ModelKind, Policy, Shape};
+use policy_core::model::{Model, Scratch};
+use policy_core::ModelKind;
 
 use crate::oracle::Oracle;
 use crate::scenario::Scenario;
@@ -121,111 +123,44 @@ pub fn reference(name: &str, scenario: &Scenario) -> Result<Box<dyn Controller>,
     }
 }
 
-/// A policy of one compiled shape, behind a uniform interface.
-trait DynPolicy {
-    fn act(&self, obs: &[f32], action: &mut [f32]);
-}
-
-impl<const S: usize, const H: usize, const L: usize, const A: usize> DynPolicy
-    for Policy<S, H, L, A>
-{
-    #[inline]
-    fn act(&self, obs: &[f32], action: &mut [f32]) {
-        let mut o = [0.0f32; S];
-        o.iter_mut().zip(obs).for_each(|(d, s)| *d = *s);
-        let a = Policy::act(self, &o);
-        action.iter_mut().zip(&a).for_each(|(d, s)| *d = *s);
-    }
-}
-
-fn boot<const S: usize, const H: usize, const L: usize, const A: usize>(
-    bytes: &[u8],
-) -> Result<Box<dyn DynPolicy>, Error> {
-    // Loaded in place into a heap slot, as the chip loads into a `static`: a 6x64 policy is
-    // ~80 KB and is never returned by value.
-    let mut slot = Box::new(Policy::<S, H, L, A>::ZERO);
-    slot.load_into(bytes)?;
-    Ok(slot)
-}
-
-/// Expands the list of compiled shapes into the dispatch `match` and the [`SUPPORTED`] table.
-macro_rules! compiled_shapes {
-    ($( ($s:literal, $a:literal, $h:literal, $d:literal) ),* $(,)?) => {
-        /// Every shape this build can run: (observations, actions, width, depth).
-        pub const SUPPORTED: &[Shape] = &[
-            $( Shape { observations: $s, actions: $a, width: $h, depth: $d }, )*
-        ];
-
-        fn dispatch(shape: Shape, bytes: &[u8]) -> Option<Result<Box<dyn DynPolicy>, Error>> {
-            match (shape.observations, shape.actions, shape.width, shape.depth) {
-                $( ($s, $a, $h, $d) => Some(boot::<$s, $h, { $d - 1 }, $a>(bytes)), )*
-                _ => None,
-            }
-        }
-    };
-}
-
-// The navigation plant (2 observations, 2 actions) at every network size of the paper:
-// widths 32, 48, 64 and 2 to 6 hidden layers.
-compiled_shapes!(
-    (2, 2, 32, 2),
-    (2, 2, 32, 3),
-    (2, 2, 32, 4),
-    (2, 2, 32, 5),
-    (2, 2, 32, 6),
-    (2, 2, 48, 2),
-    (2, 2, 48, 3),
-    (2, 2, 48, 4),
-    (2, 2, 48, 5),
-    (2, 2, 48, 6),
-    (2, 2, 64, 2),
-    (2, 2, 64, 3),
-    (2, 2, 64, 4),
-    (2, 2, 64, 5),
-    (2, 2, 64, 6),
+/// Scratch width that fits every shape a blob may declare: the widest hidden layer,
+/// observation vector, action vector or action table the format allows.
+const SCRATCH_WIDTH: usize = max(
+    max(blob::MAX_WIDTH, blob::MAX_OBSERVATIONS),
+    max(blob::MAX_ACTIONS, blob::MAX_CHOICES),
 );
 
-/// The compiled shapes as one line.
-///
-/// ```
-/// let list = firmware_sim::controller::supported_list();
-/// assert!(list.starts_with("2 obs/2 act depth {2,3,4,5,6} x width 32;"), "{list}");
-/// ```
-pub fn supported_list() -> String {
-    let mut groups: Vec<(u16, u16, u16, Vec<u8>)> = Vec::new();
-    for s in SUPPORTED {
-        match groups.last_mut() {
-            Some(g) if (g.0, g.1, g.2) == (s.observations, s.actions, s.width) => g.3.push(s.depth),
-            _ => groups.push((s.observations, s.actions, s.width, vec![s.depth])),
-        }
+const fn max(a: usize, b: usize) -> usize {
+    if a > b {
+        a
+    } else {
+        b
     }
-    let parts: Vec<String> = groups
-        .iter()
-        .map(|(o, a, w, ds)| {
-            let ds: Vec<String> = ds.iter().map(u8::to_string).collect();
-            format!("{o} obs/{a} act depth {{{}}} x width {w}", ds.join(","))
-        })
-        .collect();
-    parts.join("; ")
 }
 
-/// A policy booted from blob bytes, of whichever compiled shape its header names.
-pub struct BlobPolicy {
-    policy: Box<dyn DynPolicy>,
-    header: Header,
+/// A policy booted from blob bytes: policy-core's runtime [`Model`] over the verified bytes,
+/// whatever the shape its header names (actor or discrete policy).
+///
+/// The model borrows the bytes, as the chip's model borrows its flash: they are verified once, at
+/// boot (CRC, header, every parameter), and every tick runs straight from them with no copy and
+/// no second check. The caller keeps the bytes alive for as long as the policy runs.
+pub struct BlobPolicy<'a> {
+    model: Model<'a>,
+    /// Activations (2 x 1024 floats, 8 KB): on the heap, as the chip keeps them in a `static`.
+    scratch: Box<Scratch<SCRATCH_WIDTH>>,
 }
 
-impl core::fmt::Debug for BlobPolicy {
+impl core::fmt::Debug for BlobPolicy<'_> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("BlobPolicy")
-            .field("header", &self.header)
+            .field("header", self.header())
             .finish_non_exhaustive()
     }
 }
 
-impl BlobPolicy {
-    /// Boots from blob bytes: checks the header with `policy_core::blob::verify`, picks the
-    /// compiled type for its shape, and loads into it.
+impl<'a> BlobPolicy<'a> {
+    /// Boots from blob bytes: policy-core's [`Model::from_blob`] verifies them once (an actor or
+    /// a discrete policy of any shape within the format's limits; a critic is refused).
     ///
     /// ```
     /// use firmware_sim::controller::{BlobPolicy, Controller};
@@ -241,47 +176,88 @@ impl BlobPolicy {
     /// assert_eq!(a, [0.25, 0.0]);
     /// assert!(BlobPolicy::boot(&blob[1..]).is_err());
     /// ```
-    pub fn boot(bytes: &[u8]) -> Result<BlobPolicy, Error> {
-        let header = blob::verify(bytes)?.header;
-        if header.kind != ModelKind::Actor {
+    pub fn boot(bytes: &'a [u8]) -> Result<BlobPolicy<'a>, Error> {
+        let model = Model::from_blob(bytes)?;
+        if model.header().kind == ModelKind::Critic {
             return Err(policy_core::Error::WrongKind {
                 expected: ModelKind::Actor,
-                found: header.kind,
+                found: ModelKind::Critic,
             }
             .into());
         }
-        let policy = dispatch(header.shape, bytes).ok_or_else(|| Error::UnsupportedShape {
-            found: header.shape,
-            supported: supported_list(),
-        })??;
-        Ok(BlobPolicy { policy, header })
+        Ok(BlobPolicy {
+            model,
+            scratch: Box::new(Scratch::new()),
+        })
     }
 
-    /// The blob's header (shape, activation, label).
+    /// Checks that the blob fits a plant with `observations` inputs and `actions` outputs (the
+    /// firmware's own sizes); a mismatch is [`Error::SizeMismatch`].
+    ///
+    /// ```
+    /// use firmware_sim::{controller::BlobPolicy, Error};
+    /// let mut p = policy_core::Policy::<2, 32, 1, 2>::ZERO;
+    /// p.normalizer = policy_core::Normalizer::identity(5.0);
+    /// let blob = p.to_blob("x").unwrap();
+    /// let policy = BlobPolicy::boot(&blob).unwrap();
+    /// assert!(policy.expect_sizes(2, 2).is_ok());
+    /// assert!(matches!(policy.expect_sizes(3, 2), Err(Error::SizeMismatch { expected: 3, found: 2, .. })));
+    /// ```
+    pub fn expect_sizes(&self, observations: usize, actions: usize) -> Result<(), Error> {
+        self.model
+            .expect_sizes(observations, actions)
+            .map_err(|e| match e {
+                policy_core::Error::SizeMismatch {
+                    what,
+                    expected,
+                    found,
+                } => Error::SizeMismatch {
+                    what,
+                    expected,
+                    found,
+                },
+                other => Error::Blob(other),
+            })
+    }
+
+    /// The blob's header (kind, shape, activation, label).
     pub fn header(&self) -> &Header {
-        &self.header
+        self.model.header()
+    }
+
+    /// The runtime model the policy runs.
+    pub fn model(&self) -> &Model<'a> {
+        &self.model
     }
 }
 
-impl Controller for BlobPolicy {
+impl Controller for BlobPolicy<'_> {
     fn name(&self) -> String {
-        let s = self.header.shape;
+        let h = self.header();
+        let kind = match h.kind {
+            ModelKind::Discrete => format!(" discrete x{}", h.shape.choices),
+            ModelKind::Actor | ModelKind::Critic => String::new(),
+        };
         format!(
-            "blob {:?} {}x{} {}",
-            self.header.label.as_str(),
-            s.depth,
-            s.width,
-            self.header.activation
+            "blob {:?} {}x{} {}{kind}",
+            h.label.as_str(),
+            h.shape.depth,
+            h.shape.width,
+            h.activation
         )
     }
     fn observations(&self) -> usize {
-        self.header.shape.observations as usize
+        self.header().shape.observations as usize
     }
     fn actions(&self) -> usize {
-        self.header.shape.actions as usize
+        self.header().shape.actions as usize
     }
     #[inline]
     fn act(&mut self, obs: &[f32], action: &mut [f32]) {
-        self.policy.act(obs, action);
+        // Sizes are checked at boot against the plant; a caller passing other sizes gets the
+        // safe action rather than a panic.
+        if self.model.act(obs, &mut self.scratch, action).is_err() {
+            action.fill(0.0);
+        }
     }
 }

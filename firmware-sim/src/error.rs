@@ -39,13 +39,6 @@ pub enum Error {
     },
     /// A blob was rejected by policy-core.
     Blob(policy_core::Error),
-    /// A blob's shape is valid but this build has no compiled type for it.
-    UnsupportedShape {
-        /// The shape the blob names.
-        found: policy_core::Shape,
-        /// The shapes this build supports.
-        supported: String,
-    },
     /// A controller or blob does not fit the plant's observation or action size.
     SizeMismatch {
         /// What does not fit.
@@ -69,10 +62,18 @@ impl fmt::Display for Error {
         match self {
             Error::Io { path, message } => write!(f, "cannot read {path}: {message}"),
             Error::Parse { location, message } => write!(f, "{location}: {message}"),
-            Error::Invalid { scenario, field, message } => {
+            Error::Invalid {
+                scenario,
+                field,
+                message,
+            } => {
                 // Escaped: a name with a line break must not split the one-line error (a fuzz
                 // finding).
-                write!(f, "scenario {}: {field}: {message}", scenario.escape_debug())
+                write!(
+                    f,
+                    "scenario {}: {field}: {message}",
+                    scenario.escape_debug()
+                )
             }
             Error::UnknownScenario { name } => write!(
                 f,
@@ -80,11 +81,11 @@ impl fmt::Display for Error {
                 crate::scenario::BUILTIN_NAMES.join(", ")
             ),
             Error::Blob(e) => write!(f, "blob rejected: {e}"),
-            Error::UnsupportedShape { found, supported } => write!(
-                f,
-                "no compiled policy type for the blob's shape ({found}); this build supports {supported}"
-            ),
-            Error::SizeMismatch { what, expected, found } => {
+            Error::SizeMismatch {
+                what,
+                expected,
+                found,
+            } => {
                 write!(f, "{what}: the plant needs {expected}, found {found}")
             }
             Error::Config { field, message } => write!(f, "{field}: {message}"),

@@ -1,8 +1,9 @@
 //! The firmware loop and its test protocol.
 //!
-//! [`evaluate`] boots from blob bytes the way the chip does (header check, compiled-shape
-//! dispatch, load into a slot); a blob that fails to load leaves the loop in the safe state
-//! (zero action) and the report says why. Then, for each of `episodes` test starts, every tick:
+//! [`evaluate`] boots from blob bytes the way the chip does (policy-core's runtime model
+//! verifies them once, then runs straight from them; any shape, any observation and action size
+//! the plant declares); a blob that fails to boot leaves the loop in the safe state (zero
+//! action) and the report says why. Then, for each of `episodes` test starts, every tick:
 //! the sensor reads the true position (noise, quantisation, delay, dropouts), the controller
 //! acts (timed), the actuator sanitises and saturates the command (rate limit, stuck fault),
 //! and the plant steps. Each test runs the full time limit (DESIGN.md's protocol: reaching the
@@ -290,7 +291,7 @@ impl Report {
 /// Boots a blob and runs the test protocol. `Err` only for an invalid scenario or config; a
 /// blob that fails to boot gives a report with `boot_error` set.
 pub fn evaluate(blob: &[u8], scenario: &Scenario, cfg: &EvalConfig) -> Result<Report, Error> {
-    let (mut controller, boot_error) = boot_or_safe_state(blob);
+    let (mut controller, boot_error) = boot_or_safe_state(blob, &PlantSizes::of(scenario)?);
     let mut report = evaluate_controller(controller.as_mut(), scenario, cfg)?;
     if let Some(e) = boot_error {
         report.mark_boot_failure(&e);
@@ -298,60 +299,100 @@ pub fn evaluate(blob: &[u8], scenario: &Scenario, cfg: &EvalConfig) -> Result<Re
     Ok(report)
 }
 
-/// Boots a blob as [`boot`] does; a blob that does not boot gives the safe state (zero action)
-/// and the reason, which the report then carries ([`Report::mark_boot_failure`]).
+/// The observation and action sizes a plant declares: what a booted blob must fit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PlantSizes {
+    /// Observation size.
+    pub observations: usize,
+    /// Action size.
+    pub actions: usize,
+}
+
+impl PlantSizes {
+    /// The sizes of any plant, read from its [`Env`] spaces.
+    pub fn of_env(env: &dyn Env) -> PlantSizes {
+        PlantSizes {
+            observations: env.observation_space().dim(),
+            actions: env.action_space().dim(),
+        }
+    }
+
+    /// The sizes of the plant a scenario builds.
+    ///
+    /// ```
+    /// use firmware_sim::harness::PlantSizes;
+    /// use firmware_sim::scenario::Scenario;
+    /// let s = PlantSizes::of(&Scenario::builtin("nav-walls").unwrap()).unwrap();
+    /// assert_eq!((s.observations, s.actions), (2, 2));
+    /// ```
+    pub fn of(scenario: &Scenario) -> Result<PlantSizes, Error> {
+        Ok(PlantSizes::of_env(&NavEnv::new(scenario)?))
+    }
+}
+
+/// Boots a blob as [`boot`] does; a blob that does not boot gives the safe state (zero action of
+/// the plant's size) and the reason, which the report then carries
+/// ([`Report::mark_boot_failure`]).
 ///
 /// ```
-/// use firmware_sim::harness::boot_or_safe_state;
-/// let (safe, error) = boot_or_safe_state(b"not a blob");
+/// use firmware_sim::harness::{boot_or_safe_state, PlantSizes};
+/// let plant = PlantSizes { observations: 2, actions: 2 };
+/// let (safe, error) = boot_or_safe_state(b"not a blob", &plant);
 /// assert_eq!(safe.name(), "safe-state");
 /// assert!(error.unwrap().to_string().contains("magic"));
 /// ```
-pub fn boot_or_safe_state(blob: &[u8]) -> (Box<dyn Controller>, Option<Error>) {
-    match boot(blob) {
+pub fn boot_or_safe_state<'a>(
+    blob: &'a [u8],
+    plant: &PlantSizes,
+) -> (Box<dyn Controller + 'a>, Option<Error>) {
+    match boot(blob, plant) {
         Ok(policy) => (Box::new(policy), None),
         Err(e) => {
             let safe = SafeState {
-                observations: 2,
-                actions: 2,
+                observations: plant.observations,
+                actions: plant.actions,
             };
             (Box::new(safe), Some(e))
         }
     }
 }
 
-/// Boots a blob as the firmware would, and checks it fits the navigation plant.
+/// Boots a blob as the firmware would, and checks it fits the plant's sizes.
 ///
 /// ```
-/// use firmware_sim::harness::boot;
+/// use firmware_sim::harness::{boot, PlantSizes};
 /// use policy_core::{ActionBounds, Normalizer, Policy};
 /// let mut p = Policy::<2, 32, 1, 2>::ZERO;
 /// p.normalizer = Normalizer::identity(5.0);
 /// p.bounds = ActionBounds::symmetric(0.25);
-/// assert!(boot(&p.to_blob("ok").unwrap()).is_ok());
-/// let err = boot(b"DCPB").unwrap_err().to_string();
+/// let blob = p.to_blob("ok").unwrap();
+/// let nav = PlantSizes { observations: 2, actions: 2 };
+/// assert!(boot(&blob, &nav).is_ok());
+/// let other = PlantSizes { observations: 6, actions: 2 };
+/// let err = boot(&blob, &other).unwrap_err().to_string();
+/// assert_eq!(err, "observation size: the plant needs 6, found 2");
+/// let err = boot(b"DCPB", &nav).unwrap_err().to_string();
 /// assert!(err.starts_with("blob rejected"), "{err}");
 /// ```
-pub fn boot(blob: &[u8]) -> Result<BlobPolicy, Error> {
+pub fn boot<'a>(blob: &'a [u8], plant: &PlantSizes) -> Result<BlobPolicy<'a>, Error> {
     let policy = BlobPolicy::boot(blob)?;
-    check_sizes(&policy)?;
+    policy.expect_sizes(plant.observations, plant.actions)?;
     Ok(policy)
 }
 
-fn check_sizes(c: &dyn Controller) -> Result<(), Error> {
-    if c.observations() != 2 {
-        return Err(Error::SizeMismatch {
-            what: "observation size",
-            expected: 2,
-            found: c.observations(),
-        });
-    }
-    if c.actions() != 2 {
-        return Err(Error::SizeMismatch {
-            what: "action size",
-            expected: 2,
-            found: c.actions(),
-        });
+/// Checks a controller against the plant's declared sizes.
+fn check_sizes(c: &dyn Controller, plant: &PlantSizes) -> Result<(), Error> {
+    for (what, expected, found) in [
+        ("observation size", plant.observations, c.observations()),
+        ("action size", plant.actions, c.actions()),
+    ] {
+        if expected != found {
+            return Err(Error::SizeMismatch {
+                what,
+                expected,
+                found,
+            });
+        }
     }
     Ok(())
 }
@@ -414,8 +455,8 @@ pub fn evaluate_streaming<E: From<Error>>(
     mut on_episode: impl FnMut(EpisodeRecord) -> Result<(), E>,
 ) -> Result<Report, E> {
     cfg.validate(scenario)?;
-    check_sizes(controller)?;
     let mut env = NavEnv::new(scenario)?;
+    check_sizes(controller, &PlantSizes::of_env(&env))?;
     env.set_goal_terminates(false);
     let mut clock = Clock::default();
     let mut totals = Totals::default();

@@ -8,7 +8,8 @@
 //! - [`nav`]: the navigation plant of experiment 1; [`scenario`]: its layouts as TOML data;
 //!   [`geometry`]: exact sliding motion among zero-thickness walls.
 //! - [`harness`]: the firmware loop (boot from a blob, sensor, actuator, faults) and its margin
-//!   metrics; [`controller`]: blob policies of every compiled shape and reference controllers.
+//!   metrics; [`controller`]: blob policies of any shape (policy-core's runtime model) and
+//!   reference controllers.
 //! - [`files`]: atomic output files, output paths checked before work, bounded blob reads;
 //!   [`json_report`] and [`svg`]: the CLI's report and plot, streamed episode by episode.
 #![deny(missing_docs)]

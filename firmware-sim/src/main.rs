@@ -17,7 +17,9 @@ use clap::{Args, CommandFactory, Parser, Subcommand};
 use firmware_sim::actuator::ActuatorModel;
 use firmware_sim::controller::{reference, Controller};
 use firmware_sim::files::{self, AtomicFile};
-use firmware_sim::harness::{boot_or_safe_state, evaluate_streaming, EvalConfig, Report};
+use firmware_sim::harness::{
+    boot_or_safe_state, evaluate_streaming, EvalConfig, PlantSizes, Report,
+};
 use firmware_sim::json_report::JsonReportWriter;
 use firmware_sim::metrics::EpisodeRecord;
 use firmware_sim::scenario::Scenario;
@@ -141,7 +143,9 @@ fn run(args: &RunArgs) -> Result<bool> {
     let scenario = Scenario::resolve(&args.scenario)?;
     let cfg = eval_config(args)?;
     cfg.validate(&scenario)?;
-    let (mut controller, boot_error) = controller(args, &scenario)?;
+    // The blob's bytes outlive the policy that runs from them, as flash outlives the firmware.
+    let bytes = read_blob(args)?;
+    let (mut controller, boot_error) = controller(args, bytes.as_deref(), &scenario)?;
     let mut outputs = Outputs::create(args, &scenario, &controller.name())?;
     let mut report = evaluate_streaming(controller.as_mut(), &scenario, &cfg, |e| {
         outputs.episode(&e)
@@ -186,17 +190,24 @@ fn eval_config(args: &RunArgs) -> Result<EvalConfig> {
     })
 }
 
+/// The bytes of `--blob`, if given.
+fn read_blob(args: &RunArgs) -> Result<Option<Vec<u8>>> {
+    args.blob
+        .as_ref()
+        .map(|path| {
+            files::read_blob(path).with_context(|| format!("cannot read blob {}", path.display()))
+        })
+        .transpose()
+}
+
 /// The booted blob (or the safe state and why the blob did not boot), or a reference controller.
-fn controller(
+fn controller<'a>(
     args: &RunArgs,
+    blob: Option<&'a [u8]>,
     scenario: &Scenario,
-) -> Result<(Box<dyn Controller>, Option<firmware_sim::Error>)> {
-    match (&args.blob, &args.controller) {
-        (Some(path), _) => {
-            let bytes = files::read_blob(path)
-                .with_context(|| format!("cannot read blob {}", path.display()))?;
-            Ok(boot_or_safe_state(&bytes))
-        }
+) -> Result<(Box<dyn Controller + 'a>, Option<firmware_sim::Error>)> {
+    match (blob, &args.controller) {
+        (Some(bytes), _) => Ok(boot_or_safe_state(bytes, &PlantSizes::of(scenario)?)),
         (None, Some(name)) => Ok((reference(name, scenario)?, None)),
         (None, None) => anyhow::bail!("give --blob FILE or --controller straight|oracle"),
     }

@@ -6,7 +6,9 @@ use firmware_sim::harness::{evaluate_controller, EvalConfig};
 use firmware_sim::scenario::Scenario;
 use firmware_sim::svg;
 
-use crate::util::random_blob;
+use policy_core::{Activation, ModelKind, Shape};
+
+use crate::util::{random_blob, runtime_blob};
 
 const BIN: &str = env!("CARGO_BIN_EXE_firmware-sim");
 
@@ -118,23 +120,50 @@ fn a_blob_runs_and_a_corrupt_blob_is_reported_in_the_safe_state() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("FAILED, safe state"));
 }
 
+/// Issue "policy-core v2": a shape no build compiled (2x16, 3x40) boots and runs; a blob that
+/// does not fit the plant's sizes is named in one line and the loop runs in the safe state.
 #[test]
-fn a_blob_of_a_shape_not_compiled_is_named() {
+fn any_shape_runs_and_a_wrong_size_is_named() {
     let dir = scratch("shape");
-    let path = dir.join("tiny.postcard");
+    for (name, shape) in [("tiny.postcard", (2, 16)), ("odd.postcard", (3, 40))] {
+        let path = dir.join(name);
+        let s = Shape {
+            observations: 2,
+            actions: 2,
+            width: shape.1,
+            depth: shape.0,
+            choices: 0,
+        };
+        std::fs::write(
+            &path,
+            runtime_blob(ModelKind::Actor, s, Activation::Tanh, 5, "t"),
+        )
+        .expect("write");
+        let o = run(&["--blob", path.to_str().expect("utf8"), "--episodes", "1"]);
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(out.contains(&format!("{}x{}", shape.0, shape.1)), "{out}");
+        assert!(!stderr(&o).contains("safe state"), "{}", stderr(&o));
+    }
+    let path = dir.join("six.postcard");
+    let s = Shape {
+        observations: 6,
+        actions: 2,
+        width: 8,
+        depth: 1,
+        choices: 0,
+    };
     std::fs::write(
         &path,
-        policy_core::Policy::<2, 16, 1, 2>::ZERO
-            .to_blob("t")
-            .expect("blob"),
+        runtime_blob(ModelKind::Actor, s, Activation::Relu, 5, "six"),
     )
     .expect("write");
     let o = run(&["--blob", path.to_str().expect("utf8"), "--episodes", "1"]);
     assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert_eq!(err.lines().count(), 1, "{err}");
     assert!(
-        stderr(&o).contains("no compiled policy type") && stderr(&o).contains("2x16"),
-        "{}",
-        stderr(&o)
+        err.contains("observation size: the plant needs 2, found 6") && err.contains("safe state"),
+        "{err}"
     );
 }
 

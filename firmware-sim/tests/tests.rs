@@ -3,7 +3,8 @@
 /// Builders shared by the modules: random-weight policy blobs.
 mod util;
 
-/// Booting blobs: compiled-shape dispatch, the safe state on corrupt bytes, wrong shapes.
+/// Booting blobs: any shape and plant size through the runtime model, discrete policies, the
+/// safe state on corrupt bytes or wrong sizes.
 mod boot;
 /// The CLI: summary, JSON, SVG, exit codes, one-line errors on bad input.
 mod cli;

@@ -1,4 +1,5 @@
-use policy_core::{ActionBounds, Activation, Normalizer, Policy};
+use policy_core::blob::{self, Spec};
+use policy_core::{ActionBounds, Activation, ModelKind, Normalizer, Policy, Shape};
 use rand_chacha::ChaCha8Rng;
 use rand_core::{Rng, SeedableRng};
 
@@ -27,4 +28,53 @@ fn fill(values: &mut [f32], fan_in: usize, rng: &mut ChaCha8Rng) {
         let u = (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32;
         *v = (2.0 * u - 1.0) * k;
     }
+}
+
+/// A blob of any runtime shape through policy-core's writer: identity normaliser (clip 5),
+/// bounds ±0.25 (actor, discrete), for a discrete policy a table whose row `k` is
+/// `(-0.25 + 0.5 k / (choices - 1), ...)`, and DDPG-style random weights.
+pub fn runtime_blob(
+    kind: ModelKind,
+    shape: Shape,
+    activation: Activation,
+    seed: u64,
+    label: &str,
+) -> Vec<u8> {
+    let (s, a, k) = (
+        shape.observations as usize,
+        shape.actions as usize,
+        shape.choices as usize,
+    );
+    let mut params = vec![0.0; s];
+    params.extend(std::iter::repeat_n(1.0, s));
+    params.push(5.0);
+    if kind != ModelKind::Critic {
+        params.extend(std::iter::repeat_n(-0.25, a));
+        params.extend(std::iter::repeat_n(0.25, a));
+    }
+    for row in 0..k {
+        let v = -0.25 + 0.5 * row as f32 / (k.max(2) - 1) as f32;
+        params.extend(std::iter::repeat_n(v, a));
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut inputs = shape.inputs(kind);
+    let width = shape.width as usize;
+    for layer in 0..=shape.depth as usize {
+        let outputs = if layer == shape.depth as usize {
+            shape.outputs(kind)
+        } else {
+            width
+        };
+        let start = params.len();
+        params.resize(start + inputs * outputs + outputs, 0.0);
+        fill(&mut params[start..], inputs, &mut rng);
+        inputs = width;
+    }
+    let spec = Spec {
+        kind,
+        shape,
+        activation,
+        label,
+    };
+    blob::to_vec_with(&spec, &mut |sink| sink(&params)).expect("blob")
 }

@@ -362,7 +362,8 @@ impl Agent {
         }
     }
 
-    /// The greedy action in plant units, bit-exact with the exported blob's `Policy::act`.
+    /// The greedy action in plant units from the trainer's own networks, bit-exact with
+    /// policy-core's `Model::act` on the exported blob.
     pub fn greedy(&self, obs: &[f32]) -> Vec<f32> {
         export::act(&self.parts(), obs)
     }

@@ -9,12 +9,13 @@ use std::path::PathBuf;
 pub enum Error {
     /// A blob could not be written or read by policy-core.
     Blob(policy_core::Error),
-    /// The network shape has no compiled policy-core type.
+    /// The network shape cannot be written as a blob (beyond the format's limits, or the wrong
+    /// output for its kind).
     UnsupportedShape {
-        /// The requested shape, e.g. "2 obs, 5x48 hidden, 2 actions".
+        /// The requested shape, e.g. "2 observations, 65x48 hidden, 2 actions".
         shape: String,
-        /// The shapes that are compiled in.
-        supported: &'static str,
+        /// Why, e.g. policy-core's limit that it breaks.
+        reason: String,
     },
     /// Sizes that do not fit together (network, normaliser, bounds, batch).
     ShapeMismatch {
@@ -84,11 +85,8 @@ impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Error::Blob(e) => write!(f, "blob: {e}"),
-            Error::UnsupportedShape { shape, supported } => {
-                write!(
-                    f,
-                    "unsupported network shape {shape} (compiled shapes: {supported})"
-                )
+            Error::UnsupportedShape { shape, reason } => {
+                write!(f, "unsupported network shape {shape}: {reason}")
             }
             Error::ShapeMismatch {
                 what,

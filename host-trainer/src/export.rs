@@ -1,59 +1,93 @@
-//! From trained networks to policy-core blobs, and the trainer's evaluation that the blob
-//! reproduces bit for bit.
+//! From trained networks to policy-core blobs, and the training loop's forward pass that the
+//! blob reproduces bit for bit.
 //!
-//! [`act`] / [`act_unit`] / [`q`] run the trainer's own networks with policy-core's arithmetic;
-//! [`actor_blob`] / [`critic_blob`] copy the same numbers into policy-core's `Policy` / `Critic`
-//! and serialise them with policy-core's writer. policy-core's types have compile-time sizes, so
-//! the network's runtime shape is dispatched to one of the [`SUPPORTED`] compiled shapes.
+//! [`actor_blob`] / [`critic_blob`] write the trainer's networks with policy-core's runtime
+//! writer ([`blob::Spec`] and [`blob::to_vec_with`]): any shape within the format's limits, no
+//! table of compiled shapes. Every blob is loaded back through policy-core's runtime
+//! [`Model`] before it is returned, so an exported blob always boots. The trainer's evaluations
+//! (`host-trainer eval`, the end-of-training evaluation) run the blob through that same
+//! [`Model`] in firmware-sim.
+//!
+//! [`act_unit`] / [`act`] / [`q`] are the training loop's own forward pass
+//! ([`Net::forward_one`], policy-core's arithmetic on the trainer's weights, no blob needed);
+//! the tests hold them bit-equal to [`Model`] on the exported blob.
 
-use policy_core::{Critic, Policy};
+use policy_core::blob::{self, Spec};
+use policy_core::model::Model;
+use policy_core::{Activation, ModelKind, Shape};
 
 use crate::agent::Hidden;
 use crate::error::Error;
 use crate::net::{Net, Output};
 use crate::normalize::RunningNorm;
 
-/// The shapes with a compiled policy-core type (anything else is [`Error::UnsupportedShape`]).
-pub const SUPPORTED: &str = "2 observations, 2 actions, width 32/48/64, depth 2..=6, tanh or relu";
-
-/// Calls `$f::<S, H, L, A>(args)` for the compiled shape matching `(obs, act, width, depth)`,
-/// or gives `None`. Each line is one compiled shape.
-macro_rules! dispatch {
-    ($f:ident $args:tt, $obs:expr, $act:expr, $width:expr, $depth:expr) => {
-        dispatch!(@arms $f $args, ($obs, $act, $width, $depth);
-            (2, 2, 32, 2, 1), (2, 2, 32, 3, 2), (2, 2, 32, 4, 3), (2, 2, 32, 5, 4), (2, 2, 32, 6, 5),
-            (2, 2, 48, 2, 1), (2, 2, 48, 3, 2), (2, 2, 48, 4, 3), (2, 2, 48, 5, 4), (2, 2, 48, 6, 5),
-            (2, 2, 64, 2, 1), (2, 2, 64, 3, 2), (2, 2, 64, 4, 3), (2, 2, 64, 5, 4), (2, 2, 64, 6, 5))
-    };
-    (@arms $f:ident $args:tt, $key:expr; $(($s:literal, $a:literal, $h:literal, $d:literal, $l:literal)),*) => {
-        match $key {
-            $( ($s, $a, $h, $d) => Some($f::<$s, $h, $l, $a> $args), )*
-            _ => None,
-        }
-    };
-}
-
-/// Checks that policy-core has a compiled type for a network of this shape, before any network
-/// is allocated: a shape like `100x100000` must be a one-line error, not a 40 GB allocation.
+/// The blob shape of a network with `observations` inputs, `actions` outputs and `hidden`
+/// layers, checked against policy-core's limits ([`Shape::check`]) and the format's payload
+/// maximum for both the actor and the critic. Nothing is allocated: the trainer calls this
+/// before it builds any network, so a shape like `100x100000` is a one-line error, not a 40 GB
+/// allocation.
 ///
 /// ```
 /// use host_trainer::{agent::Hidden, export::check_supported};
-/// assert!(check_supported(2, 2, Hidden { depth: 4, width: 48 }).is_ok());
+/// let shape = check_supported(2, 2, Hidden { depth: 3, width: 40 }).unwrap();
+/// assert_eq!((shape.depth, shape.width), (3, 40));
 /// let err = check_supported(2, 2, Hidden { depth: 100, width: 100_000 }).unwrap_err();
 /// assert!(err.to_string().contains("unsupported network shape"), "{err}");
+/// assert!(err.to_string().contains("width must be in 1..=1024"), "{err}");
 /// ```
-pub fn check_supported(observations: usize, actions: usize, hidden: Hidden) -> Result<(), Error> {
-    fn compiled<const S: usize, const H: usize, const L: usize, const A: usize>() {}
-    dispatch!(
-        compiled(),
-        observations,
-        actions,
-        hidden.width,
-        hidden.depth
-    )
-    .ok_or_else(|| Error::UnsupportedShape {
+pub fn check_supported(
+    observations: usize,
+    actions: usize,
+    hidden: Hidden,
+) -> Result<Shape, Error> {
+    let unsupported = |reason: policy_core::Error| Error::UnsupportedShape {
         shape: format!("{observations} observations, {hidden} hidden, {actions} actions"),
-        supported: SUPPORTED,
+        reason: reason.to_string(),
+    };
+    let shape = shape_of(observations, actions, hidden).map_err(unsupported)?;
+    for kind in [ModelKind::Actor, ModelKind::Critic] {
+        let spec = Spec {
+            kind,
+            shape,
+            activation: Activation::Tanh,
+            label: "",
+        };
+        blob::encoded_len(&spec).map_err(unsupported)?;
+    }
+    Ok(shape)
+}
+
+/// The header's [`Shape`] of these sizes; a size beyond its field's limit is
+/// [`policy_core::Error::ShapeBeyondLimits`] (never truncated into a smaller shape).
+fn shape_of(
+    observations: usize,
+    actions: usize,
+    hidden: Hidden,
+) -> Result<Shape, policy_core::Error> {
+    let sizes = [
+        ("observations", observations, blob::MAX_OBSERVATIONS),
+        ("actions", actions, blob::MAX_ACTIONS),
+        ("width", hidden.width, blob::MAX_WIDTH),
+        ("depth", hidden.depth, blob::MAX_DEPTH),
+    ];
+    for (what, found, max) in sizes {
+        if found < 1 || found > max {
+            return Err(policy_core::Error::ShapeBeyondLimits {
+                what,
+                min: 1,
+                max,
+                found,
+            });
+        }
+    }
+    // Every size is now within its limit, which fits its header field.
+    let field = |v: usize| u16::try_from(v).unwrap_or(u16::MAX);
+    Ok(Shape {
+        observations: field(observations),
+        actions: field(actions),
+        width: field(hidden.width),
+        depth: u8::try_from(hidden.depth).unwrap_or(u8::MAX),
+        choices: 0,
     })
 }
 
@@ -70,8 +104,8 @@ pub struct ActorParts<'a> {
     pub high: &'a [f32],
 }
 
-/// The unit-box action `[-1, 1]^A` for a raw observation, bit-exact with
-/// `policy_core::Policy::act_unit` of the exported blob.
+/// The unit-box action `[-1, 1]^A` for a raw observation (the training loop's exploration
+/// starts from it), bit-exact with [`Model::act_unit`] of the exported blob.
 ///
 /// # Panics
 /// If `obs` does not have the normaliser's and network's input size.
@@ -95,8 +129,8 @@ pub fn act_unit(parts: &ActorParts<'_>, obs: &[f32]) -> Vec<f32> {
     unit
 }
 
-/// The action for a raw observation, scaled into `[low, high]`: the trainer's evaluation,
-/// bit-exact with `policy_core::Policy::act` of the exported blob.
+/// The greedy action for a raw observation, scaled into `[low, high]`, from the trainer's own
+/// networks; bit-exact with [`Model::act`] of the exported blob.
 ///
 /// # Panics
 /// If `obs` does not have the input size, or the bounds do not have the network's output size.
@@ -148,7 +182,7 @@ fn scale(u: f32, lo: f32, hi: f32) -> f32 {
 }
 
 /// Q of a raw observation and a unit-box action with the critic `net` (inputs: observation
-/// then action), bit-exact with `policy_core::Critic::q` of the exported blob.
+/// then action), bit-exact with [`Model::q`] of the exported blob.
 ///
 /// # Panics
 /// If the sizes do not fit the network.
@@ -177,19 +211,24 @@ pub fn q(net: &Net, norm: &RunningNorm, obs: &[f32], unit_action: &[f32]) -> f32
     out[0]
 }
 
-/// The actor as blob bytes (policy-core's format), labelled `label` (at most 32 bytes).
+/// The actor as blob bytes (policy-core's format, any shape within its limits), labelled
+/// `label` (at most 32 bytes). Parameter order: normaliser (mean, inverse std, clip), bounds
+/// (low, high), then every layer's column-major weights and biases, first to output.
 ///
 /// ```
 /// # use host_trainer::{export::{act, actor_blob, ActorParts}, net::{Net, NetConfig, Output},
 /// #     normalize::RunningNorm};
-/// # let config = NetConfig { inputs: 2, width: 48, depth: 4, outputs: 2,
+/// use policy_core::model::{Model, Scratch};
+/// # let config = NetConfig { inputs: 2, width: 40, depth: 3, outputs: 2,
 /// #     activation: policy_core::Activation::Tanh, output: Output::Tanh, dropout: 0.0 };
 /// let net = Net::new(config, &mut host_trainer::seed::stream(1, "actor"));
 /// let norm = RunningNorm::new(2, 5.0);
 /// let parts = ActorParts { net: &net, norm: &norm, low: &[-0.25; 2], high: &[0.25; 2] };
 /// let blob = actor_blob(&parts, "doc").unwrap();
-/// let policy = policy_core::Policy::<2, 48, 3, 2>::from_blob(&blob).unwrap();
-/// assert_eq!(policy.act(&[1.0, 2.0]).to_vec(), act(&parts, &[1.0, 2.0]));
+/// let model = Model::from_blob(&blob).unwrap();
+/// let mut action = [0.0; 2];
+/// model.act(&[1.0, 2.0], &mut Scratch::<40>::new(), &mut action).unwrap();
+/// assert_eq!(action.to_vec(), act(&parts, &[1.0, 2.0]));
 /// ```
 pub fn actor_blob(parts: &ActorParts<'_>, label: &str) -> Result<Vec<u8>, Error> {
     let net = parts.net;
@@ -201,30 +240,34 @@ pub fn actor_blob(parts: &ActorParts<'_>, label: &str) -> Result<Vec<u8>, Error>
     )?;
     check_size("action bounds (low)", net.config.outputs, parts.low.len())?;
     check_size("action bounds (high)", net.config.outputs, parts.high.len())?;
-    let c = &net.config;
-    dispatch!(
-        actor_for(parts, label),
-        c.inputs,
-        c.outputs,
-        c.width,
-        c.depth
+    let bounds = [parts.low, parts.high];
+    write(
+        ModelKind::Actor,
+        net,
+        parts.norm,
+        net.config.outputs,
+        &bounds,
+        label,
     )
-    .unwrap_or_else(|| Err(unsupported(net, "actor")))
 }
 
 /// The critic as blob bytes. `net` takes `[observation, unit action]` (`act_dim` actions last)
-/// and has one linear output; `norm` is the actor's normaliser (the critic shares it).
+/// and has one linear output; `norm` is the actor's normaliser (the critic shares it). Parameter
+/// order: normaliser, then every layer's weights and biases (the first layer's columns are the
+/// observation's, then the action's).
 ///
 /// ```
 /// # use host_trainer::{export::{critic_blob, q}, net::{Net, NetConfig, Output},
 /// #     normalize::RunningNorm};
+/// use policy_core::model::{Model, Scratch};
 /// # let config = NetConfig { inputs: 4, width: 32, depth: 2, outputs: 1,
 /// #     activation: policy_core::Activation::Relu, output: Output::Linear, dropout: 0.0 };
 /// let net = Net::new(config, &mut host_trainer::seed::stream(1, "critic"));
 /// let norm = RunningNorm::new(2, 5.0);
 /// let blob = critic_blob(&net, &norm, 2, "doc").unwrap();
-/// let critic = policy_core::Critic::<2, 2, 32, 1>::from_blob(&blob).unwrap();
-/// assert_eq!(critic.q(&[1.0, 2.0], &[0.5, -0.5]), q(&net, &norm, &[1.0, 2.0], &[0.5, -0.5]));
+/// let model = Model::from_blob(&blob).unwrap();
+/// let value = model.q(&[1.0, 2.0], &[0.5, -0.5], &mut Scratch::<32>::new()).unwrap();
+/// assert_eq!(value, q(&net, &norm, &[1.0, 2.0], &[0.5, -0.5]));
 /// ```
 pub fn critic_blob(
     net: &Net,
@@ -239,15 +282,45 @@ pub fn critic_blob(
         norm.dim() + act_dim,
         net.config.inputs,
     )?;
+    write(ModelKind::Critic, net, norm, act_dim, &[], label)
+}
+
+/// Writes `net` as a blob of `kind` with policy-core's runtime writer, then loads it back
+/// through [`Model::from_blob`], which applies every rule the chip applies (finite parameters,
+/// low <= high, positive clip): an exported blob always boots.
+fn write(
+    kind: ModelKind,
+    net: &Net,
+    norm: &RunningNorm,
+    actions: usize,
+    bounds: &[&[f32]],
+    label: &str,
+) -> Result<Vec<u8>, Error> {
     let c = &net.config;
-    dispatch!(
-        critic_for(net, norm, label),
-        norm.dim(),
-        act_dim,
-        c.width,
-        c.depth
-    )
-    .unwrap_or_else(|| Err(unsupported(net, "critic")))
+    let hidden = Hidden {
+        depth: c.depth,
+        width: c.width,
+    };
+    let shape = check_supported(norm.dim(), actions, hidden)?;
+    let spec = Spec {
+        kind,
+        shape,
+        activation: c.activation,
+        label,
+    };
+    let (mean, inv_std) = (norm.mean_f32(), norm.inv_std_f32());
+    let bytes = blob::to_vec_with(&spec, &mut |sink| {
+        sink(&mean);
+        sink(&inv_std);
+        sink(&[norm.clip]);
+        bounds.iter().for_each(|b| sink(b));
+        for layer in &net.layers {
+            sink(&layer.w);
+            sink(&layer.b);
+        }
+    })?;
+    Model::from_blob(&bytes)?;
+    Ok(bytes)
 }
 
 fn check_net(net: &Net, output: Output, what: &'static str) -> Result<(), Error> {
@@ -261,7 +334,7 @@ fn check_net(net: &Net, output: Output, what: &'static str) -> Result<(), Error>
     if net.config.output != output {
         return Err(Error::UnsupportedShape {
             shape: format!("{what} with {:?} output", net.config.output),
-            supported: SUPPORTED,
+            reason: format!("a {what} blob needs a {output:?} output"),
         });
     }
     Ok(())
@@ -279,84 +352,12 @@ fn check_size(what: &'static str, expected: usize, found: usize) -> Result<(), E
     }
 }
 
-fn unsupported(net: &Net, what: &str) -> Error {
-    let c = &net.config;
-    Error::UnsupportedShape {
-        shape: format!(
-            "{what} with {} inputs, {}x{} hidden, {} outputs",
-            c.inputs, c.depth, c.width, c.outputs
-        ),
-        supported: SUPPORTED,
-    }
-}
-
-/// Fills a dense layer of policy-core from a trainer layer (same column-major layout).
-fn copy_dense<const I: usize, const O: usize>(
-    dst: &mut policy_core::Dense<I, O>,
-    w: &[f32],
-    b: &[f32],
-) {
-    dst.w.as_mut_slice().copy_from_slice(w);
-    dst.b.as_mut_slice().copy_from_slice(b);
-}
-
-/// Fills the trunk (hidden-to-hidden and output layers) from `layers[1..]`.
-fn copy_trunk<const H: usize, const L: usize, const O: usize>(
-    dst: &mut policy_core::Trunk<H, L, O>,
-    net: &Net,
-) {
-    dst.activation = net.config.activation;
-    for (d, s) in dst.hidden.iter_mut().zip(&net.layers[1..]) {
-        copy_dense(d, &s.w, &s.b);
-    }
-    let out = &net.layers[L + 1];
-    copy_dense(&mut dst.output, &out.w, &out.b);
-}
-
-fn actor_for<const S: usize, const H: usize, const L: usize, const A: usize>(
-    parts: &ActorParts<'_>,
-    label: &str,
-) -> Result<Vec<u8>, Error> {
-    // A 6x64 policy is ~85 KB: built on the heap, not returned by value.
-    let mut p = Box::new(Policy::<S, H, L, A>::ZERO);
-    p.normalizer = parts.norm.to_policy::<S>();
-    p.bounds.low.as_mut_slice().copy_from_slice(parts.low);
-    p.bounds.high.as_mut_slice().copy_from_slice(parts.high);
-    copy_dense(&mut p.input, &parts.net.layers[0].w, &parts.net.layers[0].b);
-    copy_trunk(&mut p.trunk, parts.net);
-    let bytes = p.to_blob(label)?;
-    // The writer does not validate; loading the bytes back applies every rule the chip applies
-    // (finite parameters, low <= high, positive clip), so an exported blob always loads.
-    let mut check = Box::new(Policy::<S, H, L, A>::ZERO);
-    check.load_into(&bytes)?;
-    Ok(bytes)
-}
-
-fn critic_for<const S: usize, const H: usize, const L: usize, const A: usize>(
-    net: &Net,
-    norm: &RunningNorm,
-    label: &str,
-) -> Result<Vec<u8>, Error> {
-    let mut c = Box::new(Critic::<S, A, H, L>::ZERO);
-    c.normalizer = norm.to_policy::<S>();
-    // The first layer on [obs, action]: observation columns first, then action columns.
-    let first = &net.layers[0];
-    let (obs_w, act_w) = first.w.split_at(S * H);
-    copy_dense(&mut c.input, obs_w, &first.b);
-    c.action_w.as_mut_slice().copy_from_slice(act_w);
-    copy_trunk(&mut c.trunk, net);
-    let bytes = c.to_blob(label)?;
-    let mut check = Box::new(Critic::<S, A, H, L>::ZERO);
-    check.load_into(&bytes)?;
-    Ok(bytes)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::net::NetConfig;
     use crate::seed::{stream, uniform_in};
-    use policy_core::Activation;
+    use policy_core::model::Scratch;
 
     /// A network whose every layer has weights of useful size (a fresh DDPG init has a ±3e-3
     /// output layer, which would test little beyond the biases).
@@ -433,8 +434,14 @@ mod tests {
         v.iter().map(|x| x.to_bits()).collect()
     }
 
-    fn check_actor<const H: usize, const L: usize>(activation: Activation) {
-        let net = trained_like(2, H, L + 1, 2, activation, Output::Tanh);
+    fn model(blob: &[u8]) -> Model<'_> {
+        Model::from_blob(blob).expect("the exported blob loads")
+    }
+
+    /// The training loop's forward pass ([`act_unit`], [`act`]) against policy-core's runtime
+    /// model on the exported blob: bit-equal on 1,000 observations, NaN and ±Inf included.
+    fn check_actor(depth: usize, width: usize, activation: Activation) {
+        let net = trained_like(2, width, depth, 2, activation, Output::Tanh);
         let norm = norm_with_stats();
         let (low, high) = ([-0.25, -1.0], [0.25, 0.5]);
         let parts = ActorParts {
@@ -444,31 +451,30 @@ mod tests {
             high: &high,
         };
         let blob = actor_blob(&parts, "test").expect("export");
-        let policy = Box::new(Policy::<2, H, L, 2>::from_blob(&blob).expect("load"));
+        let model = model(&blob);
+        let mut scratch = Box::new(Scratch::<64>::new());
         let mut saturated = 0;
         for obs in observations() {
             let unit = act_unit(&parts, &obs);
-            assert_eq!(
-                bits(&unit),
-                bits(&policy.act_unit(&obs)),
-                "act_unit at {obs:?}"
-            );
-            assert_eq!(
-                bits(&act(&parts, &obs)),
-                bits(&policy.act(&obs)),
-                "act at {obs:?}"
-            );
+            let mut expected = [0.0f32; 2];
+            model
+                .act_unit(&obs, &mut scratch, &mut expected)
+                .expect("act_unit");
+            assert_eq!(bits(&unit), bits(&expected), "act_unit at {obs:?}");
+            model.act(&obs, &mut scratch, &mut expected).expect("act");
+            assert_eq!(bits(&act(&parts, &obs)), bits(&expected), "act at {obs:?}");
             saturated += unit.iter().filter(|u| u.abs() > 0.999).count();
         }
         // The comparison covered real, unsaturated outputs.
         assert!(saturated < 1000, "{saturated} of 2000 outputs saturated");
     }
 
-    fn check_critic<const H: usize, const L: usize>(activation: Activation) {
-        let net = trained_like(4, H, L + 1, 1, activation, Output::Linear);
+    fn check_critic(depth: usize, width: usize, activation: Activation) {
+        let net = trained_like(4, width, depth, 1, activation, Output::Linear);
         let norm = norm_with_stats();
         let blob = critic_blob(&net, &norm, 2, "critic").expect("export");
-        let critic = Box::new(Critic::<2, 2, H, L>::from_blob(&blob).expect("load"));
+        let model = model(&blob);
+        let mut scratch = Box::new(Scratch::<64>::new());
         let mut rng = stream(7, "actions");
         for (i, obs) in observations().into_iter().enumerate() {
             let mut a = [
@@ -476,11 +482,12 @@ mod tests {
                 uniform_in(&mut rng, -1.0, 1.0),
             ];
             if i % 50 == 0 {
-                a[i / 50 % 2] = f32::NAN;
+                a[i / 50 % 2] = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY][i / 100 % 3];
             }
+            let expected = model.q(&obs, &a, &mut scratch).expect("q");
             assert_eq!(
                 q(&net, &norm, &obs, &a).to_bits(),
-                critic.q(&obs, &a).to_bits(),
+                expected.to_bits(),
                 "q at {obs:?}, {a:?}"
             );
         }
@@ -488,53 +495,139 @@ mod tests {
 
     #[test]
     fn actor_2x32_tanh_is_bit_exact() {
-        check_actor::<32, 1>(Activation::Tanh);
+        check_actor(2, 32, Activation::Tanh);
+    }
+
+    /// A shape no build ever compiled: the runtime writer and model need no table.
+    #[test]
+    fn actor_3x40_tanh_and_relu_are_bit_exact() {
+        check_actor(3, 40, Activation::Tanh);
+        check_actor(3, 40, Activation::Relu);
     }
 
     #[test]
-    fn actor_4x48_tanh_is_bit_exact() {
-        check_actor::<48, 3>(Activation::Tanh);
+    fn actor_4x48_tanh_and_relu_are_bit_exact() {
+        check_actor(4, 48, Activation::Tanh);
+        check_actor(4, 48, Activation::Relu);
     }
 
     #[test]
-    fn actor_3x64_relu_is_bit_exact() {
-        check_actor::<64, 2>(Activation::Relu);
+    fn actor_3x64_and_6x64_relu_are_bit_exact() {
+        check_actor(3, 64, Activation::Relu);
+        check_actor(6, 64, Activation::Relu);
     }
 
     #[test]
-    fn actor_6x64_relu_exports_in_debug() {
-        // The largest compiled shape (~85 KB) must not overflow a test thread's stack.
-        check_actor::<64, 5>(Activation::Relu);
+    fn actor_odd_shapes_are_bit_exact() {
+        check_actor(1, 7, Activation::Tanh);
+        check_actor(2, 17, Activation::Relu);
     }
 
     #[test]
     fn critic_2x32_tanh_is_bit_exact() {
-        check_critic::<32, 1>(Activation::Tanh);
+        check_critic(2, 32, Activation::Tanh);
     }
 
     #[test]
-    fn critic_4x48_tanh_is_bit_exact() {
-        check_critic::<48, 3>(Activation::Tanh);
+    fn critic_3x40_and_4x48_are_bit_exact() {
+        check_critic(3, 40, Activation::Relu);
+        check_critic(4, 48, Activation::Tanh);
     }
 
     #[test]
     fn critic_5x48_relu_is_bit_exact() {
-        check_critic::<48, 4>(Activation::Relu);
+        check_critic(5, 48, Activation::Relu);
+    }
+
+    /// The runtime writer puts the parameters exactly where the compiled types' writer did: for
+    /// shapes both can write, the bytes are identical.
+    #[test]
+    fn runtime_writer_matches_the_compiled_writer_byte_for_byte() {
+        let norm = norm_with_stats();
+        let net = trained_like(2, 32, 3, 2, Activation::Relu, Output::Tanh);
+        let (low, high) = ([-0.25, -1.0], [0.25, 0.5]);
+        let parts = ActorParts {
+            net: &net,
+            norm: &norm,
+            low: &low,
+            high: &high,
+        };
+        let mut p = Box::new(policy_core::Policy::<2, 32, 2, 2>::ZERO);
+        p.normalizer = norm.to_policy::<2>();
+        p.bounds.low.as_mut_slice().copy_from_slice(&low);
+        p.bounds.high.as_mut_slice().copy_from_slice(&high);
+        p.input.w.as_mut_slice().copy_from_slice(&net.layers[0].w);
+        p.input.b.as_mut_slice().copy_from_slice(&net.layers[0].b);
+        for (d, l) in p.trunk.hidden.iter_mut().zip(&net.layers[1..]) {
+            d.w.as_mut_slice().copy_from_slice(&l.w);
+            d.b.as_mut_slice().copy_from_slice(&l.b);
+        }
+        p.trunk
+            .output
+            .w
+            .as_mut_slice()
+            .copy_from_slice(&net.layers[3].w);
+        p.trunk
+            .output
+            .b
+            .as_mut_slice()
+            .copy_from_slice(&net.layers[3].b);
+        p.trunk.activation = Activation::Relu;
+        assert_eq!(
+            actor_blob(&parts, "same").expect("export"),
+            p.to_blob("same").expect("blob")
+        );
+
+        let critic = trained_like(4, 32, 2, 1, Activation::Tanh, Output::Linear);
+        let mut c = Box::new(policy_core::Critic::<2, 2, 32, 1>::ZERO);
+        c.normalizer = norm.to_policy::<2>();
+        let (obs_w, act_w) = critic.layers[0].w.split_at(2 * 32);
+        c.input.w.as_mut_slice().copy_from_slice(obs_w);
+        c.action_w.as_mut_slice().copy_from_slice(act_w);
+        c.input
+            .b
+            .as_mut_slice()
+            .copy_from_slice(&critic.layers[0].b);
+        c.trunk.hidden[0]
+            .w
+            .as_mut_slice()
+            .copy_from_slice(&critic.layers[1].w);
+        c.trunk.hidden[0]
+            .b
+            .as_mut_slice()
+            .copy_from_slice(&critic.layers[1].b);
+        c.trunk
+            .output
+            .w
+            .as_mut_slice()
+            .copy_from_slice(&critic.layers[2].w);
+        c.trunk
+            .output
+            .b
+            .as_mut_slice()
+            .copy_from_slice(&critic.layers[2].b);
+        c.trunk.activation = Activation::Tanh;
+        assert_eq!(
+            critic_blob(&critic, &norm, 2, "same").expect("export"),
+            c.to_blob("same").expect("blob")
+        );
     }
 
     proptest::proptest! {
         /// Any observation at all (every f32 bit pattern, NaN and infinities included) gives
-        /// a finite action inside the bounds, bit-identical to the exported policy's.
+        /// a finite action inside the bounds, bit-identical to the runtime model's on the blob.
         #[test]
         fn any_observation_acts_like_the_blob_and_in_bounds(a in proptest::prelude::any::<u32>(), b in proptest::prelude::any::<u32>()) {
             let net = trained_like(2, 32, 3, 2, Activation::Relu, Output::Tanh);
             let norm = norm_with_stats();
             let (low, high) = ([-0.25, 0.0], [0.25, 2.0]);
             let parts = ActorParts { net: &net, norm: &norm, low: &low, high: &high };
-            let policy = Box::new(Policy::<2, 32, 2, 2>::from_blob(&actor_blob(&parts, "p").expect("export")).expect("load"));
+            let blob = actor_blob(&parts, "p").expect("export");
             let obs = [f32::from_bits(a), f32::from_bits(b)];
             let action = act(&parts, &obs);
-            proptest::prop_assert_eq!(bits(&action), bits(&policy.act(&obs)));
+            let mut expected = [0.0f32; 2];
+            model(&blob).act(&obs, &mut Scratch::<32>::new(), &mut expected).expect("act");
+            proptest::prop_assert_eq!(bits(&action), bits(&expected));
             for ((&x, &lo), &hi) in action.iter().zip(&low).zip(&high) {
                 proptest::prop_assert!(x.is_finite() && lo <= x && x <= hi);
             }
@@ -561,16 +654,19 @@ mod tests {
     #[test]
     fn unsupported_and_mismatched_shapes_are_errors() {
         let norm = norm_with_stats();
-        let odd = trained_like(2, 40, 2, 2, Activation::Tanh, Output::Tanh);
+        let wide = trained_like(2, 1025, 1, 2, Activation::Tanh, Output::Tanh);
         let parts = ActorParts {
-            net: &odd,
+            net: &wide,
             norm: &norm,
             low: &[-1.0; 2],
             high: &[1.0; 2],
         };
-        let err = actor_blob(&parts, "x").expect_err("width 40 is not compiled");
+        let err = actor_blob(&parts, "x").expect_err("width 1025 is beyond the format's limit");
         assert!(matches!(err, Error::UnsupportedShape { .. }), "{err}");
-        assert!(err.to_string().contains(SUPPORTED));
+        assert!(
+            err.to_string().contains("width must be in 1..=1024"),
+            "{err}"
+        );
 
         let net = trained_like(2, 32, 2, 2, Activation::Tanh, Output::Tanh);
         let parts = ActorParts {

@@ -15,8 +15,9 @@
 //!   exploration in the unit action box) and [`noise`] (the exploration process).
 //! - [`ddpg`] and [`dcp`]: the two actor updates, one file each, config first.
 //! - [`train`]: the episode loop on a firmware-sim plant, metrics, checkpoints, divergence stop.
-//! - [`export`]: actor and critic blobs for policy-core; [`checkpoint`], [`run_dir`], [`plot`]:
-//!   the files of a run folder `{task}__{algo}__{seed}/`.
+//! - [`export`]: actor and critic blobs of any shape for policy-core's runtime model;
+//!   [`inspect`]: what a blob holds; [`checkpoint`], [`run_dir`], [`plot`]: the files of a run
+//!   folder `{task}__{algo}__{seed}/`.
 //!
 //! ```no_run
 //! use host_trainer::{run_dir::RunDir, train::{self, TrainConfig, Trainer}};
@@ -44,6 +45,7 @@ pub mod crash_test;
 pub mod dcp;
 pub mod ddpg;
 pub mod error;
+pub mod inspect;
 pub mod plot;
 pub mod run_dir;
 pub mod train;

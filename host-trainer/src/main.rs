@@ -5,6 +5,7 @@
 //!                    [--t 16] [--sigma 0.2] [--noise gaussian|ou] [--seed 0] [--out runs] [--config FILE] [--resume RUN_DIR]
 //! host-trainer eval --blob FILE [--task nav-walls] [--episodes 100] [--seed 0] [--json FILE]
 //! host-trainer export --run RUN_DIR
+//! host-trainer inspect BLOB
 //! ```
 //! Errors are one line on stderr and a non-zero exit.
 
@@ -18,10 +19,11 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
 use firmware_sim::files;
-use firmware_sim::harness::{self, EvalConfig, Report};
+use firmware_sim::harness::{self, EvalConfig, PlantSizes, Report};
 use firmware_sim::scenario::Scenario;
 use host_trainer::agent::Hidden;
 use host_trainer::checkpoint::Checkpoint;
+use host_trainer::inspect;
 use host_trainer::noise::Noise;
 use host_trainer::run_dir::{self, RunDir};
 use host_trainer::train::{self, Algo, Outcome, RewardKind, TrainConfig, Trainer};
@@ -49,6 +51,8 @@ enum Command {
     Eval(EvalArgs),
     /// Export policy.postcard and critic.postcard from a run's checkpoint.
     Export(ExportArgs),
+    /// Print what a blob holds: kind, shape, label, sizes, CRC, normaliser, bounds or table.
+    Inspect(InspectArgs),
 }
 
 /// Flags override the config file, which overrides the defaults (the paper's values).
@@ -127,6 +131,12 @@ struct ExportArgs {
     run: PathBuf,
 }
 
+#[derive(Debug, Args)]
+struct InspectArgs {
+    /// The blob file (policy.postcard, critic.postcard, ...).
+    blob: PathBuf,
+}
+
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
@@ -149,8 +159,11 @@ fn main() -> ExitCode {
         Some(Command::Train(args)) => train_command(args),
         Some(Command::Eval(args)) => eval_command(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Export(args)) => export_command(args).map(|()| ExitCode::SUCCESS),
+        Some(Command::Inspect(args)) => inspect_command(&args).map(|()| ExitCode::SUCCESS),
         None => {
-            eprintln!("host-trainer: missing a subcommand: train, eval or export (see --help)");
+            eprintln!(
+                "host-trainer: missing a subcommand: train, eval, export or inspect (see --help)"
+            );
             return ExitCode::from(2);
         }
     };
@@ -371,7 +384,9 @@ fn eval_command(args: EvalArgs) -> Result<()> {
         .with_context(|| format!("cannot read blob {}", args.blob.display()))?;
     // firmware-sim boots a bad blob into the safe state and reports it (that is what the chip
     // does); for a user asking to evaluate a file, a blob that does not boot is an error.
-    harness::boot(&blob).with_context(|| format!("{} does not boot", args.blob.display()))?;
+    let plant = PlantSizes::of(&scenario)?;
+    harness::boot(&blob, &plant)
+        .with_context(|| format!("{} does not boot", args.blob.display()))?;
     let report = evaluate(&blob, &scenario, args.episodes, args.seed)?;
     print_summary(&report);
     if let Some(path) = &args.json {
@@ -390,6 +405,14 @@ fn export_command(args: ExportArgs) -> Result<()> {
         run.file(run_dir::CRITIC).display(),
         trainer.episode
     );
+    Ok(())
+}
+
+fn inspect_command(args: &InspectArgs) -> Result<()> {
+    let path = args.blob.display();
+    let bytes = files::read_blob(&args.blob).with_context(|| format!("cannot read blob {path}"))?;
+    let text = inspect::describe(&bytes).with_context(|| format!("{path} is not a valid blob"))?;
+    print!("{text}");
     Ok(())
 }
 

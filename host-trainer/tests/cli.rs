@@ -27,7 +27,8 @@ fn malformed_values_are_rejected_before_any_file_is_written() {
     let dir = out_dir.to_str().expect("utf-8");
     for (flag, value, needle) in [
         ("--hidden", "4by48", "4by48"),
-        ("--hidden", "5x40", "unsupported"),
+        // Beyond policy-core's limits (depth <= 64, width <= 1024); any shape within them trains.
+        ("--hidden", "65x40", "depth must be in 1..=64"),
         ("--sigma", "nan", "sigma"),
         ("--t", "0", "dcp.t"),
         ("--task", "nav-nowhere", "nav-nowhere"),
@@ -37,6 +38,9 @@ fn malformed_values_are_rejected_before_any_file_is_written() {
         // check ran.
         ("--hidden", "100x100000", "unsupported network shape"),
         ("--hidden", "4x65536", "unsupported network shape"),
+        ("--hidden", "4x1025", "width must be in 1..=1024"),
+        // Within every size limit, but 67 million parameters: beyond the 16 MiB payload.
+        ("--hidden", "64x1024", "16 MiB"),
         // Regression (issue 9, item 7): a NaN or infinite reward scale was not validated.
         ("--reward-scale", "nan", "agent.reward_scale"),
         ("--reward-scale", "inf", "agent.reward_scale"),
@@ -182,9 +186,13 @@ fn actor_blobs() -> (Vec<u8>, Vec<u8>) {
 #[test]
 fn eval_of_a_blob_that_does_not_boot_fails() {
     let base = scratch("eval-boot");
-    let critic = Critic::<2, 2, 32, 1>::ZERO
-        .to_blob("critic")
-        .expect("critic blob");
+    // A valid critic (policy-core checks every parameter before the kind).
+    let critic = Critic::<2, 2, 32, 1> {
+        normalizer: Normalizer::identity(5.0),
+        ..Critic::ZERO
+    }
+    .to_blob("critic")
+    .expect("critic blob");
     let (good, nan) = actor_blobs();
     for (name, bytes, needle) in [
         ("critic.postcard", &critic, "kind"),
@@ -431,5 +439,128 @@ fn export_of_a_corrupt_checkpoint_is_one_line() {
     std::fs::write(&path, bytes).expect("corrupt it");
     let out = host_trainer(&["export", "--run", s(&run)]);
     assert_one_line_error(&out, &["checkpoint", "checksum mismatch"]);
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// Issue "policy-core v2": no table of compiled shapes. A 3x40 network (never compiled) trains,
+/// exports, and its blob boots and runs in firmware-sim's loop (the end-of-training evaluation
+/// and `eval`), and `inspect` reads it.
+#[test]
+fn train_3x40_exports_and_runs_in_firmware_sim() {
+    let base = scratch("train-3x40");
+    let config = smoke_config_file(&base, 2);
+    let out = host_trainer(&[
+        "train",
+        "--config",
+        s(&config),
+        "--hidden",
+        "3x40",
+        "--out",
+        s(&base),
+        "--quiet",
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("3x40"),
+        "the evaluation names the blob: {stdout}"
+    );
+    let blob = base.join("nav-walls__dcp__3").join("policy.postcard");
+    let eval = host_trainer(&["eval", "--blob", s(&blob), "--episodes", "3"]);
+    assert!(
+        eval.status.success(),
+        "{}",
+        String::from_utf8_lossy(&eval.stderr)
+    );
+    assert!(String::from_utf8_lossy(&eval.stdout).contains("3 test starts"));
+    let inspect = host_trainer(&["inspect", s(&blob)]);
+    let text = String::from_utf8_lossy(&inspect.stdout);
+    assert!(
+        inspect.status.success(),
+        "{}",
+        String::from_utf8_lossy(&inspect.stderr)
+    );
+    assert!(
+        text.contains("shape       3x40 hidden, 2 observations, 2 actions\n"),
+        "{text}"
+    );
+    let critic = host_trainer(&[
+        "inspect",
+        s(&base.join("nav-walls__dcp__3").join("critic.postcard")),
+    ]);
+    assert!(String::from_utf8_lossy(&critic.stdout).contains("kind        critic\n"));
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// `inspect` prints every header field and the small vectors, from the verified bytes.
+#[test]
+fn inspect_prints_what_a_blob_holds() {
+    let base = scratch("inspect");
+    let mut p = Box::new(Policy::<2, 48, 3, 2>::ZERO);
+    p.normalizer = Normalizer::identity(5.0);
+    p.bounds = ActionBounds::symmetric(0.25);
+    let bytes = p.to_blob("nav-walls__dcp__0").expect("blob");
+    let path = base.join("policy.postcard");
+    std::fs::write(&path, &bytes).expect("write");
+    let out = host_trainer(&["inspect", s(&path)]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let crc = u32::from_le_bytes(bytes[bytes.len() - 4..].try_into().expect("crc"));
+    let expected = format!(
+        "kind        actor
+shape       4x48 hidden, 2 observations, 2 actions
+activation  tanh
+encoding    f32
+version     2
+label       \"nav-walls__dcp__0\"
+parameters  7307
+bytes       {} (header 36, payload 29228, CRC 4)
+crc         {crc:#010x}
+normaliser  mean [0.0, 0.0], inv_std [1.0, 1.0], clip 5.0
+bounds      low [-0.25, -0.25], high [0.25, 0.25]
+",
+        bytes.len()
+    );
+    assert_eq!(String::from_utf8_lossy(&out.stdout), expected);
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// `inspect` of a file that is not a blob: one line naming the file and the reason, exit 1.
+#[test]
+fn inspect_of_a_bad_file_is_one_line() {
+    let base = scratch("inspect-bad");
+    let mut p = Policy::<2, 32, 1, 2>::ZERO;
+    p.normalizer = Normalizer::identity(5.0);
+    let mut flipped = p.to_blob("x").expect("blob");
+    let mid = flipped.len() / 2;
+    flipped[mid] ^= 8;
+    let mut nan = p.clone();
+    nan.trunk.output.b[0] = f32::NAN;
+    let cases: [(&str, Vec<u8>, &str); 4] = [
+        ("text.postcard", b"hello".to_vec(), "magic"),
+        ("flipped.postcard", flipped, "checksum"),
+        (
+            "nan.postcard",
+            nan.to_blob("x").expect("blob"),
+            "NaN or infinite",
+        ),
+        ("empty.postcard", Vec::new(), "truncated"),
+    ];
+    for (name, bytes, needle) in cases {
+        let path = base.join(name);
+        std::fs::write(&path, bytes).expect("write");
+        let out = host_trainer(&["inspect", s(&path)]);
+        assert_one_line_error(&out, &[name, "is not a valid blob", needle]);
+        assert_eq!(out.status.code(), Some(1));
+    }
+    let missing = host_trainer(&["inspect", s(&base.join("missing.postcard"))]);
+    assert_one_line_error(&missing, &["cannot read blob", "missing.postcard"]);
     std::fs::remove_dir_all(&base).expect("cleanup");
 }

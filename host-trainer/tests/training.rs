@@ -190,10 +190,88 @@ fn unsupported_shape_is_refused_before_training() {
     let mut c = TrainConfig::smoke(Algo::Dcp, 0);
     c.agent.hidden = Hidden {
         depth: 3,
+        width: 2000,
+    };
+    let err = Trainer::new(c).expect_err("2000 wide is beyond the format's limit");
+    assert!(err.to_string().contains("unsupported"), "{err}");
+    assert!(
+        err.to_string().contains("width must be in 1..=1024"),
+        "{err}"
+    );
+}
+
+/// FNV-1a (64 bits) of a blob's payload: the parameter values' f32 bits, little-endian.
+fn payload_hash(blob: &[u8]) -> u64 {
+    let v = policy_core::blob::verify(blob).expect("verify");
+    v.payload.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// Training stays bit-identical across the switch from compiled-shape export tables to
+/// policy-core's runtime writer (issue "policy-core v2"). The hashes were recorded from the
+/// code before that change (commit 5068717, blob format version 1: the header bytes differ,
+/// the payload values do not) with `TrainConfig::smoke(algo, 0)` and 20 episodes.
+#[test]
+fn training_payloads_are_bit_identical_to_the_pinned_run() {
+    let pinned = [
+        (
+            Algo::Dcp,
+            1227,
+            0x5a69_2554_20c8_bf51,
+            0xd2ea_714f_d644_dd46,
+        ),
+        (
+            Algo::Ddpg,
+            1227,
+            0x87db_47f2_8dbd_a0bd,
+            0x945b_c537_453c_6573,
+        ),
+    ];
+    for (algo, params, actor, critic) in pinned {
+        let mut config = TrainConfig::smoke(algo, 0);
+        config.episodes = 20;
+        let mut trainer = Trainer::new(config).expect("trainer");
+        while !trainer.done() {
+            trainer.run_episode().expect("episode");
+        }
+        let blob = trainer.agent.actor_blob("x").expect("actor");
+        assert_eq!(
+            policy_core::blob::verify(&blob)
+                .expect("verify")
+                .payload
+                .len(),
+            4 * params
+        );
+        assert_eq!(payload_hash(&blob), actor, "{algo:?} actor payload");
+        let blob = trainer.agent.critic_blob("x").expect("critic");
+        assert_eq!(payload_hash(&blob), critic, "{algo:?} critic payload");
+    }
+}
+
+/// A shape no build ever compiled trains and exports (no table of compiled shapes).
+#[test]
+fn a_3x40_network_trains_and_exports() {
+    let out = scratch("train-3x40-lib");
+    let mut c = TrainConfig::smoke(Algo::Ddpg, 1);
+    c.agent.hidden = Hidden {
+        depth: 3,
         width: 40,
     };
-    let err = Trainer::new(c).expect_err("40 wide is not compiled");
-    assert!(err.to_string().contains("unsupported"), "{err}");
+    let (trainer, run) = train_to_end(c, &out);
+    let blob = trainer.export(&run).expect("export");
+    let report = firmware_sim::harness::evaluate(
+        &blob,
+        &trainer.scenario,
+        &firmware_sim::harness::EvalConfig {
+            episodes: 2,
+            ..Default::default()
+        },
+    )
+    .expect("eval");
+    assert_eq!(report.boot_error, None);
+    assert!(report.controller.contains("3x40"), "{}", report.controller);
+    std::fs::remove_dir_all(&out).expect("cleanup");
 }
 
 /// Guards the bug where a checkpoint from an older build decoded "successfully" into garbage

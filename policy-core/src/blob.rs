@@ -699,7 +699,7 @@ pub fn write(spec: &Spec<'_>, params: &mut Params<'_>, out: &mut [u8]) -> Result
     Ok(needed)
 }
 
-/// [`write`] into a new vector (host side).
+/// [`write()`] into a new vector (host side).
 #[cfg(feature = "std")]
 pub fn to_vec_with(spec: &Spec<'_>, params: &mut Params<'_>) -> Result<std::vec::Vec<u8>, Error> {
     let mut out = std::vec![0u8; encoded_len(spec)?];

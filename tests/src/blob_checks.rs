@@ -60,8 +60,18 @@ pub fn check(bytes: &[u8]) {
     check_actor::<2, 32, 1, 2>(bytes, &header, runtime.as_ref());
     check_actor::<2, 48, 3, 2>(bytes, &header, runtime.as_ref());
     check_actor::<1, 2, 0, 1>(bytes, &header, runtime.as_ref());
-    check_load(&mut *Box::new(Critic2x32::ZERO), bytes, &header, runtime.is_some());
-    check_load(&mut *Box::new(TinyCritic::ZERO), bytes, &header, runtime.is_some());
+    check_load(
+        &mut *Box::new(Critic2x32::ZERO),
+        bytes,
+        &header,
+        runtime.is_some(),
+    );
+    check_load(
+        &mut *Box::new(TinyCritic::ZERO),
+        bytes,
+        &header,
+        runtime.is_some(),
+    );
     check_boot(bytes, runtime.as_ref());
 }
 
@@ -107,7 +117,10 @@ fn check_model(model: &Model<'_>, v: &Verified<'_>) {
         expected,
         "model values differ from the payload"
     );
-    assert!(values.iter().all(|x| x.is_finite()), "accepted a non-finite value");
+    assert!(
+        values.iter().all(|x| x.is_finite()),
+        "accepted a non-finite value"
+    );
     let h = model.header();
     let spec = Spec {
         kind: h.kind,
@@ -162,7 +175,8 @@ fn check_outputs(model: &Model<'_>) {
                 if h.kind == ModelKind::Discrete {
                     let row = model.choose(&obs, &mut scratch).expect("chooses");
                     let at = bounds + 2 * a + row * a;
-                    let expected: Vec<u32> = values[at..at + a].iter().map(|x| x.to_bits()).collect();
+                    let expected: Vec<u32> =
+                        values[at..at + a].iter().map(|x| x.to_bits()).collect();
                     let got: Vec<u32> = action.iter().map(|x| x.to_bits()).collect();
                     assert_eq!(got, expected, "discrete act is not its chosen table row");
                 }
@@ -214,9 +228,17 @@ fn check_load<M: Compiled>(
         Ok(()) => {
             let payload = blob::verify(bytes).expect("verified above").payload;
             let expected: Vec<u32> = blob::payload_values(payload).map(f32::to_bits).collect();
-            assert_eq!(bits(slot), expected, "loaded parameters differ from the payload");
+            assert_eq!(
+                bits(slot),
+                expected,
+                "loaded parameters differ from the payload"
+            );
         }
-        Err(_) => assert_eq!(bits(slot), before, "a failed load changed the slot ({result:?})"),
+        Err(_) => assert_eq!(
+            bits(slot),
+            before,
+            "a failed load changed the slot ({result:?})"
+        ),
     }
     result.is_ok()
 }
@@ -267,13 +289,16 @@ fn probe_observations(s: usize) -> Vec<Vec<f32>> {
 /// exactly the blobs the runtime accepts as a policy (actor or discrete) of those sizes, and
 /// then acts like the runtime.
 fn check_boot(bytes: &[u8], runtime: Option<&Model<'_>>) {
-    let booted = harness::boot(bytes);
-    let runnable = runtime.filter(|m| {
-        m.header().kind != ModelKind::Critic && m.expect_sizes(2, 2).is_ok()
-    });
+    let nav = harness::PlantSizes {
+        observations: 2,
+        actions: 2,
+    };
+    let booted = harness::boot(bytes, &nav);
+    let runnable =
+        runtime.filter(|m| m.header().kind != ModelKind::Critic && m.expect_sizes(2, 2).is_ok());
     let (Ok(mut policy), Some(model)) = (booted, runnable) else {
         assert_eq!(
-            harness::boot(bytes).is_ok(),
+            harness::boot(bytes, &nav).is_ok(),
             runnable.is_some(),
             "boot and the runtime disagree on whether the blob runs"
         );

@@ -1,19 +1,47 @@
 //! Valid blobs, mutated one field at a time, through every loader (proptest).
 //!
-//! Each case starts from a real blob (the golden 2x32 actor and critic, or a tiny actor), decodes
-//! it into header fields and payload values, changes some of them, re-encodes it (with the CRC
+//! Each case starts from a real blob (the golden 2x32 actor and critic, a tiny actor, an 8-row
+//! discrete policy, all format version 2), decodes it into header fields and payload values, changes some of them, re-encodes it (with the CRC
 //! fixed or left stale) and runs [`tests::blob_checks::check`], the same properties the `blob`
 //! fuzz target checks.
 
-use policy_core::blob::{self, Header};
-use policy_core::{ActionBounds, Activation, ModelKind, Normalizer, Policy};
+use policy_core::blob::{self, Header, Spec};
+use policy_core::{ActionBounds, Activation, ModelKind, Normalizer, Policy, Shape};
 use proptest::prelude::*;
 use tests::blob_checks::{self, TinyActor};
 
 static ACTOR_2X32: &[u8] = include_bytes!("../../policy-core/tests/golden/actor_2x32.postcard");
 static CRITIC_2X32: &[u8] = include_bytes!("../../policy-core/tests/golden/critic_2x32.postcard");
+static ACTOR_V1: &[u8] = include_bytes!("../../policy-core/tests/golden/v1/actor_2x32.postcard");
 
-/// A valid 66-byte actor.
+/// A valid discrete policy: 8 moves of 0.25 at n·45°, a 1x4 Q network.
+fn discrete() -> Vec<u8> {
+    let shape = Shape {
+        observations: 2,
+        actions: 2,
+        width: 4,
+        depth: 1,
+        choices: 8,
+    };
+    let mut p = vec![0.0, 0.0, 1.0, 1.0, 5.0, -0.25, -0.25, 0.25, 0.25];
+    for k in 0..8 {
+        let angle = k as f32 * std::f32::consts::FRAC_PI_4;
+        p.extend([0.25 * angle.cos(), 0.25 * angle.sin()]);
+    }
+    let total = shape.param_count(ModelKind::Discrete).expect("fits");
+    while p.len() < total {
+        p.push(0.1 * ((p.len() % 7) as f32 - 3.0));
+    }
+    let spec = Spec {
+        kind: ModelKind::Discrete,
+        shape,
+        activation: Activation::Relu,
+        label: "dqn",
+    };
+    blob::to_vec_with(&spec, &mut |sink| sink(&p)).expect("a discrete policy writes")
+}
+
+/// A valid tiny actor.
 fn tiny_actor() -> Vec<u8> {
     let mut p = TinyActor::ZERO;
     p.normalizer = Normalizer::identity(5.0);
@@ -39,9 +67,12 @@ impl Parts {
         }
     }
 
-    /// Header, payload and (correct) CRC.
+    /// Header, padding (version 2), payload and (correct) CRC.
     fn encode(&self) -> Vec<u8> {
         let mut out = postcard::to_allocvec(&self.header).expect("a header encodes");
+        if self.header.version != 1 {
+            out.resize(out.len().next_multiple_of(4), 0);
+        }
         self.values.iter().for_each(|v| out.extend(v.to_le_bytes()));
         let crc = policy_core::crc32(&out);
         out.extend(crc.to_le_bytes());
@@ -53,7 +84,8 @@ impl Parts {
 #[derive(Clone, Debug)]
 enum Mutation {
     Version(u16),
-    Kind(bool),
+    Kind(u8),
+    Choices(u16),
     Observations(u16),
     Actions(u16),
     Width(u16),
@@ -92,8 +124,10 @@ fn size_u16() -> impl Strategy<Value = u16> {
 
 fn mutation() -> impl Strategy<Value = Mutation> {
     let header = prop_oneof![
-        prop_oneof![Just(0u16), Just(2), Just(u16::MAX), any::<u16>()].prop_map(Mutation::Version),
-        any::<bool>().prop_map(Mutation::Kind),
+        prop_oneof![Just(0u16), Just(1), Just(3), Just(u16::MAX), any::<u16>()]
+            .prop_map(Mutation::Version),
+        (0u8..3).prop_map(Mutation::Kind),
+        size_u16().prop_map(Mutation::Choices),
         size_u16().prop_map(Mutation::Observations),
         size_u16().prop_map(Mutation::Actions),
         size_u16().prop_map(Mutation::Width),
@@ -121,9 +155,10 @@ fn mutate(mut parts: Parts, mutations: &[Mutation], fix_crc: bool) -> Vec<u8> {
     for m in mutations {
         match m {
             Mutation::Version(v) => h.version = *v,
-            Mutation::Kind(actor) => {
-                h.kind = [ModelKind::Critic, ModelKind::Actor][*actor as usize]
+            Mutation::Kind(k) => {
+                h.kind = [ModelKind::Actor, ModelKind::Critic, ModelKind::Discrete][*k as usize % 3]
             }
+            Mutation::Choices(n) => h.shape.choices = *n,
             Mutation::Observations(n) => h.shape.observations = *n,
             Mutation::Actions(n) => h.shape.actions = *n,
             Mutation::Width(n) => h.shape.width = *n,
@@ -174,6 +209,7 @@ fn base() -> impl Strategy<Value = Vec<u8>> {
         Just(ACTOR_2X32.to_vec()),
         Just(CRITIC_2X32.to_vec()),
         Just(tiny_actor()),
+        Just(discrete()),
     ]
 }
 
@@ -208,5 +244,10 @@ fn unmutated_bases_load() {
     assert!(Policy::<2, 32, 1, 2>::from_blob(ACTOR_2X32).is_ok());
     assert!(TinyActor::from_blob(&tiny_actor()).is_ok());
     assert_eq!(mutate(Parts::of(CRITIC_2X32), &[], false), CRITIC_2X32);
+    assert_eq!(mutate(Parts::of(&discrete()), &[], false), discrete());
     blob_checks::check(ACTOR_2X32);
+    blob_checks::check(&discrete());
+    // Version 1 still loads, through every loader.
+    assert_eq!(blob::verify(ACTOR_V1).expect("v1").header.version, 1);
+    blob_checks::check(ACTOR_V1);
 }

@@ -26,7 +26,8 @@ fn trained_dcp_blob_runs_in_the_firmware_loop() {
     // The bytes on disk, exactly as they would be flashed.
     let blob = std::fs::read(run.file(run_dir::POLICY)).expect("policy.postcard");
 
-    // The firmware's policy acts exactly like the trainer's evaluation action.
+    // The firmware's policy (policy-core's runtime model over the bytes) acts exactly like the
+    // trainer's own forward pass on its networks.
     let mut firmware = BlobPolicy::boot(&blob).expect("the blob boots");
     for obs in [[4.0f32, -5.5], [0.3, 0.2], [-5.9, 5.9]] {
         let mut action = [0.0f32; 2];
