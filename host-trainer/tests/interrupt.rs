@@ -1,6 +1,6 @@
 //! Ctrl-C during training writes a checkpoint, exits with 130 and says how to resume.
 
-use std::process::Stdio;
+use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
 
 use host_trainer::checkpoint::Checkpoint;
@@ -8,23 +8,39 @@ use host_trainer::run_dir;
 
 use crate::support::{command, s, scratch, smoke_config_file, temporaries};
 
+/// Kills the child if the test fails before it has exited (a training run of 100,000 episodes
+/// must not outlive a failed test).
+struct KillOnDrop(Option<Child>);
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        if let Some(child) = &mut self.0 {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
+
 #[test]
 fn ctrl_c_checkpoints_and_says_how_to_resume() {
     let base = scratch("ctrl-c");
     // Far more episodes than the test waits for: the run is still training when Ctrl-C comes.
     let config = smoke_config_file(&base, 100_000);
-    let child = command(&[
-        "train",
-        "--config",
-        s(&config),
-        "--out",
-        s(&base),
-        "--quiet",
-    ])
-    .stdout(Stdio::null())
-    .stderr(Stdio::piped())
-    .spawn()
-    .expect("spawn");
+    let mut child = KillOnDrop(Some(
+        command(&[
+            "train",
+            "--config",
+            s(&config),
+            "--out",
+            s(&base),
+            "--quiet",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn"),
+    ));
+    let pid = child.0.as_ref().map_or(0, Child::id);
     let run = base.join("nav-walls__dcp__3");
     // The episode-0 checkpoint exists once training has started (and the handler is set).
     let started = Instant::now();
@@ -36,11 +52,16 @@ fn ctrl_c_checkpoints_and_says_how_to_resume() {
         std::thread::sleep(Duration::from_millis(20));
     }
     let sent = std::process::Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
+        .args(["-INT", &pid.to_string()])
         .status()
         .expect("kill");
     assert!(sent.success());
-    let out = child.wait_with_output().expect("wait");
+    let out = child
+        .0
+        .take()
+        .expect("the child")
+        .wait_with_output()
+        .expect("wait");
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(130), "{stderr}");
     assert!(stderr.contains("checkpoint written"), "{stderr}");
