@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use policy_core::{ActionBounds, Critic, Normalizer, Policy};
 
 use crate::support::{
-    assert_one_line_error, command, entries, host_trainer, s, scratch, smoke_config_file,
-    temporaries,
+    assert_ok, assert_one_line_error, command, entries, host_trainer, s, scratch,
+    smoke_config_file, temporaries,
 };
 
 #[test]
@@ -207,11 +207,7 @@ fn eval_of_a_blob_that_does_not_boot_fails() {
     let path = base.join("good.postcard");
     std::fs::write(&path, good).expect("write");
     let out = host_trainer(&["eval", "--blob", s(&path), "--episodes", "2"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
 
@@ -281,11 +277,7 @@ fn a_huge_seed_and_a_long_task_name_still_export() {
         s(&base),
         "--quiet",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let run = base.join("a-task-file-with-a-long-name__dcp__18446744073709551615");
     let blob = std::fs::read(run.join("policy.postcard")).expect("blob");
     let label = policy_core::blob::verify(&blob)
@@ -294,11 +286,7 @@ fn a_huge_seed_and_a_long_task_name_still_export() {
         .label;
     assert_eq!(label.as_str(), "a-ta~__dcp__18446744073709551615");
     let out = host_trainer(&["export", "--run", s(&run)]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
 
@@ -364,11 +352,7 @@ fn a_run_resumes_and_exports_from_its_own_folder_alone() {
     .current_dir(&work)
     .output()
     .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let run = work.join("mytask__dcp__3");
     assert!(
         run.join("scenario.toml").exists(),
@@ -402,17 +386,9 @@ fn a_run_resumes_and_exports_from_its_own_folder_alone() {
     // Deleted, and from another folder: export and resume still work.
     std::fs::remove_file(work.join("mytask.toml")).expect("delete");
     let out = host_trainer(&["export", "--run", s(&run)]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let out = host_trainer(&["train", "--resume", s(&run), "--episodes", "3", "--quiet"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     assert_eq!(temporaries(&run), Vec::<String>::new());
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
@@ -460,30 +436,18 @@ fn train_3x40_exports_and_runs_in_firmware_sim() {
         "--quiet",
     ]);
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     assert!(
         stdout.contains("3x40"),
         "the evaluation names the blob: {stdout}"
     );
     let blob = base.join("nav-walls__dcp__3").join("policy.postcard");
     let eval = host_trainer(&["eval", "--blob", s(&blob), "--episodes", "3"]);
-    assert!(
-        eval.status.success(),
-        "{}",
-        String::from_utf8_lossy(&eval.stderr)
-    );
+    assert_ok(&eval);
     assert!(String::from_utf8_lossy(&eval.stdout).contains("3 test starts"));
     let inspect = host_trainer(&["inspect", s(&blob)]);
     let text = String::from_utf8_lossy(&inspect.stdout);
-    assert!(
-        inspect.status.success(),
-        "{}",
-        String::from_utf8_lossy(&inspect.stderr)
-    );
+    assert_ok(&inspect);
     assert!(
         text.contains("shape       3x40 hidden, 2 observations, 2 actions\n"),
         "{text}"
@@ -507,11 +471,7 @@ fn inspect_prints_what_a_blob_holds() {
     let path = base.join("policy.postcard");
     std::fs::write(&path, &bytes).expect("write");
     let out = host_trainer(&["inspect", s(&path)]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let crc = u32::from_le_bytes(bytes[bytes.len() - 4..].try_into().expect("crc"));
     let expected = format!(
         "kind        actor

@@ -45,6 +45,15 @@ pub fn assert_one_line_error(out: &Output, needles: &[&str]) -> String {
     stderr
 }
 
+/// Asserts a run succeeded, showing its stderr if not.
+pub fn assert_ok(out: &Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 /// The names in a folder, sorted.
 pub fn entries(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(dir)
