@@ -8,6 +8,7 @@ use core::fmt::Write;
 use core::panic::PanicInfo;
 
 use policy_core::compare::refine;
+use policy_core::model::{Model, Scratch};
 use policy_core::{Critic, Policy};
 
 #[cfg(not(all(target_arch = "x86_64", target_os = "linux")))]
@@ -43,6 +44,21 @@ fn check() -> Result<(), &'static str> {
         .map_err(|_| "the golden critic blob did not load")?;
     if actor.act(&[0.0, 0.0]).map(f32::to_bits) != GOLDEN_ORIGIN {
         return Err("act([0, 0]) differs from the golden vector");
+    }
+    // The runtime: the same blob, run straight from its bytes with a stack scratch.
+    let model = Model::from_blob(ACTOR_BLOB).map_err(|_| "the runtime refused the golden actor")?;
+    model
+        .expect_sizes(2, 2)
+        .map_err(|_| "the runtime reports other sizes")?;
+    let mut scratch = Scratch::<32>::new();
+    for obs in [[0.0, 0.0], [4.0, -2.5], [f32::NAN, f32::INFINITY]] {
+        let mut a = [0.0f32; 2];
+        model
+            .act(&obs, &mut scratch, &mut a)
+            .map_err(|_| "the runtime could not act")?;
+        if a.map(f32::to_bits) != actor.act(&obs).map(f32::to_bits) {
+            return Err("the runtime and the compiled actor differ");
+        }
     }
     let mut rng = XorShift(0x9E37_79B9);
     for obs in [
@@ -91,7 +107,7 @@ extern "C" fn main() -> ! {
         Ok(()) => {
             let _ = write!(
                 line,
-                "nostd-check: ok (policy-core loaded, acted and refined without std)"
+                "nostd-check: ok (policy-core loaded, acted from the blob bytes and refined without std)"
             );
             0
         }
