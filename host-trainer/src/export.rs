@@ -160,25 +160,8 @@ pub fn act(parts: &ActorParts<'_>, obs: &[f32]) -> Vec<f32> {
     let unit = act_unit(parts, obs);
     unit.iter()
         .zip(parts.low.iter().zip(parts.high))
-        .map(|(&u, (&lo, &hi))| scale(u, lo, hi))
+        .map(|(&u, (&lo, &hi))| policy_core::bounds::scale_value(u, lo, hi))
         .collect()
-}
-
-/// policy-core's `ActionBounds::scale` for one dimension.
-fn scale(u: f32, lo: f32, hi: f32) -> f32 {
-    let u = if u.is_finite() {
-        u.clamp(-1.0, 1.0)
-    } else {
-        0.0
-    };
-    let a = lo + (u + 1.0) * 0.5 * (hi - lo);
-    // `clamp` would panic on an invalid box; a valid one (all the blob accepts) takes the
-    // same path as policy-core.
-    if lo <= hi {
-        a.clamp(lo, hi)
-    } else {
-        a.max(lo).min(hi)
-    }
 }
 
 /// Q of a raw observation and a unit-box action with the critic `net` (inputs: observation

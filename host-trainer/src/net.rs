@@ -382,14 +382,7 @@ impl Net {
     fn squash(&self, y: f32) -> f32 {
         match self.config.output {
             Output::Linear => y,
-            Output::Tanh => {
-                let t = libm::tanhf(y);
-                if t.is_finite() {
-                    t
-                } else {
-                    0.0
-                }
-            }
+            Output::Tanh => policy_core::mlp::squash(y),
         }
     }
 

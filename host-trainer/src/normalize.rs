@@ -7,6 +7,7 @@
 //! [`RunningNorm::mean_f32`] / [`RunningNorm::inv_std_f32`]: those f32 values are what the blob
 //! stores, and [`RunningNorm::normalize`] uses them with policy-core's exact formula.
 
+use policy_core::normalizer::normalize_value;
 use serde::{Deserialize, Serialize};
 
 use crate::net::Matrix;
@@ -134,12 +135,7 @@ impl RunningNorm {
         );
         assert_eq!(out.len(), self.dim(), "RunningNorm::normalize: output size");
         for (((z, &x), &mean), &m2) in out.iter_mut().zip(obs).zip(&self.mean).zip(&self.m2) {
-            let v = (x - mean as f32) * self.inv_std_of(m2);
-            *z = if !x.is_finite() || v.is_nan() {
-                0.0
-            } else {
-                v.clamp(-self.clip, self.clip)
-            };
+            *z = normalize_value(x, mean as f32, self.inv_std_of(m2), self.clip);
         }
     }
 

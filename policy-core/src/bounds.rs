@@ -45,13 +45,7 @@ impl<const A: usize> ActionBounds<A> {
     pub fn scale(&self, unit: &[f32; A]) -> [f32; A] {
         let mut out = [0.0; A];
         for (((o, &u), &lo), &hi) in out.iter_mut().zip(unit).zip(&self.low).zip(&self.high) {
-            let u = if u.is_finite() {
-                u.clamp(-1.0, 1.0)
-            } else {
-                0.0
-            };
-            let a = lo + (u + 1.0) * 0.5 * (hi - lo);
-            *o = clamp(a, lo, hi);
+            *o = scale_value(u, lo, hi);
         }
         out
     }
@@ -92,27 +86,7 @@ impl<const A: usize> ActionBounds<A> {
     /// assert!(matches!(inverted.validate(), Err(Error::InvalidParameter { index: 0, .. })));
     /// ```
     pub fn validate(&self) -> Result<(), Error> {
-        for (index, (&lo, &hi)) in self.low.iter().zip(&self.high).enumerate() {
-            if !lo.is_finite() || !hi.is_finite() {
-                return Err(Error::InvalidParameter {
-                    what: "non-finite action bound",
-                    index,
-                });
-            }
-            if lo > hi {
-                return Err(Error::InvalidParameter {
-                    what: "action bound low > high",
-                    index,
-                });
-            }
-            if !(hi - lo).is_finite() || !(hi + lo).is_finite() {
-                return Err(Error::InvalidParameter {
-                    what: "action bounds too wide for f32",
-                    index,
-                });
-            }
-        }
-        Ok(())
+        check(self.low.iter().copied(), self.high.iter().copied())
     }
 
     /// Parameters in blob order: low, then high.
@@ -124,4 +98,45 @@ impl<const A: usize> ActionBounds<A> {
     pub fn params_mut(&mut self) -> [&mut [f32]; 2] {
         [self.low.as_mut_slice(), self.high.as_mut_slice()]
     }
+}
+
+/// One action component: the unit value `u` (clamped into `[-1, 1]`; non-finite reads as 0)
+/// mapped linearly onto `[lo, hi]` and clamped there. The one definition the compiled
+/// [`ActionBounds`], the runtime model and the trainer all use.
+///
+/// ```
+/// use policy_core::bounds::scale_value;
+/// assert_eq!(scale_value(1.0, -0.25, 0.25), 0.25);
+/// assert_eq!(scale_value(f32::NAN, -0.25, 0.25), 0.0);
+/// assert_eq!(scale_value(7.0, 0.0, 2.0), 2.0);
+/// ```
+#[inline]
+pub fn scale_value(u: f32, lo: f32, hi: f32) -> f32 {
+    let u = if u.is_finite() {
+        u.clamp(-1.0, 1.0)
+    } else {
+        0.0
+    };
+    clamp(lo + (u + 1.0) * 0.5 * (hi - lo), lo, hi)
+}
+
+/// The rules loaded bounds obey (see [`ActionBounds::validate`]), over `low` and `high` in blob
+/// order, so the compiled type and the runtime model check them in one place.
+pub(crate) fn check(
+    low: impl Iterator<Item = f32>,
+    high: impl Iterator<Item = f32>,
+) -> Result<(), Error> {
+    for (index, (lo, hi)) in low.zip(high).enumerate() {
+        let what = if !lo.is_finite() || !hi.is_finite() {
+            "non-finite action bound"
+        } else if lo > hi {
+            "action bound low > high"
+        } else if !(hi - lo).is_finite() || !(hi + lo).is_finite() {
+            "action bounds too wide for f32"
+        } else {
+            continue;
+        };
+        return Err(Error::InvalidParameter { what, index });
+    }
+    Ok(())
 }

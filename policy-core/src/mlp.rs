@@ -50,6 +50,26 @@ impl core::fmt::Display for Activation {
     }
 }
 
+/// The actor's output squashing: `tanh(y)` (`libm::tanhf`), and 0 where that is not finite.
+/// The one definition the compiled [`Policy`](crate::Policy), the runtime model and the trainer
+/// use.
+///
+/// ```
+/// use policy_core::mlp::squash;
+/// assert_eq!(squash(0.0), 0.0);
+/// assert_eq!(squash(f32::NAN), 0.0);
+/// assert_eq!(squash(50.0), 1.0);
+/// ```
+#[inline]
+pub fn squash(y: f32) -> f32 {
+    let t = libm::tanhf(y);
+    if t.is_finite() {
+        t
+    } else {
+        0.0
+    }
+}
+
 /// Adds `W x` to `y`, one input column at a time in increasing order:
 /// `y[o] += W[o, j] * x[j]` for `j = 0, 1, ...`.
 ///

@@ -27,7 +27,8 @@
 //! ```
 
 use crate::blob::{self, Header, ModelKind, Verified};
-use crate::clamp::clamp;
+use crate::bounds::{self, scale_value};
+use crate::normalizer::{self, normalize_value};
 use crate::{Activation, Error};
 
 /// Activation buffers for [`Model`]: two vectors of `W` floats, used in turn as a layer's input
@@ -79,6 +80,8 @@ struct Layout {
     table: usize,
     /// Offset of the first layer's weights.
     layers: usize,
+    /// The scratch width the forward pass needs (computed once, checked every call).
+    scratch_width: usize,
 }
 
 impl Layout {
@@ -105,6 +108,7 @@ impl Layout {
             bounds,
             table,
             layers,
+            scratch_width: s.scratch_width(header.kind),
         }
     }
 }
@@ -205,8 +209,7 @@ impl<'a> Model<'a> {
         self.normalize(obs, x);
         let out = self.forward(x, y);
         for (u, &v) in unit.iter_mut().zip(out) {
-            let t = libm::tanhf(v);
-            *u = if t.is_finite() { t } else { 0.0 };
+            *u = crate::mlp::squash(v);
         }
         Ok(())
     }
@@ -271,7 +274,7 @@ impl<'a> Model<'a> {
 
     fn check_io(&self, observations: usize, actions: usize, width: usize) -> Result<(), Error> {
         self.expect_sizes(observations, actions)?;
-        let needed = self.header.shape.scratch_width(self.header.kind);
+        let needed = self.layout.scratch_width;
         if width < needed {
             return Err(Error::ScratchTooSmall {
                 needed,
@@ -305,12 +308,7 @@ impl<'a> Model<'a> {
         let clip = self.value(2 * s);
         let (mean, inv_std) = (self.slice(0, s), self.slice(s, s));
         for (((zi, &x), m), k) in z.iter_mut().zip(obs).zip(mean.iter()).zip(inv_std.iter()) {
-            let v = (x - m) * k;
-            *zi = if !x.is_finite() || v.is_nan() {
-                0.0
-            } else {
-                clamp(v, -clip, clip)
-            };
+            *zi = normalize_value(x, m, k, clip);
         }
     }
 
@@ -322,12 +320,7 @@ impl<'a> Model<'a> {
             self.slice(self.layout.bounds + a, a),
         );
         for ((o, lo), hi) in action.iter_mut().zip(low.iter()).zip(high.iter()) {
-            let u = if o.is_finite() {
-                o.clamp(-1.0, 1.0)
-            } else {
-                0.0
-            };
-            *o = clamp(lo + (u + 1.0) * 0.5 * (hi - lo), lo, hi);
+            *o = scale_value(*o, lo, hi);
         }
     }
 
@@ -376,51 +369,29 @@ impl<'a> Model<'a> {
         offset + inputs * outputs + outputs
     }
 
-    /// The parameter rules, checked once at load: finite values, a valid normaliser, valid
-    /// bounds, an action table inside the bounds.
+    /// The parameter rules, checked once at load: finite values, then the normaliser's and the
+    /// bounds' own rules (`normalizer::check`, `bounds::check`, shared with the compiled types),
+    /// and an action table inside the bounds.
     fn check_parameters(&self) -> Result<(), Error> {
         if let Some(index) = self.values().position(|v| !v.is_finite()) {
             return Err(Error::NonFiniteParameter { index });
         }
         let l = self.layout;
-        let inv_std = self.slice(l.observations, l.observations);
-        if let Some(index) = inv_std.iter().position(|k| k < 0.0) {
-            return Err(Error::InvalidParameter {
-                what: "negative inverse standard deviation",
-                index,
-            });
-        }
-        if self.value(2 * l.observations) <= 0.0 {
-            return Err(Error::InvalidParameter {
-                what: "normaliser clip must be > 0",
-                index: 0,
-            });
-        }
+        let s = l.observations;
+        normalizer::check(
+            self.slice(0, s).iter(),
+            self.slice(s, s).iter(),
+            self.value(2 * s),
+        )?;
         if self.header.kind == ModelKind::Critic {
             return Ok(());
         }
-        self.check_bounds()?;
+        bounds::check(
+            self.slice(l.bounds, l.actions).iter(),
+            self.slice(l.bounds + l.actions, l.actions).iter(),
+        )?;
         if self.header.kind == ModelKind::Discrete {
             self.check_table()?;
-        }
-        Ok(())
-    }
-
-    fn check_bounds(&self) -> Result<(), Error> {
-        let l = self.layout;
-        let low = self.slice(l.bounds, l.actions);
-        let high = self.slice(l.bounds + l.actions, l.actions);
-        for (index, (lo, hi)) in low.iter().zip(high.iter()).enumerate() {
-            let rule = if lo > hi {
-                Some("action bound low > high")
-            } else if !(hi - lo).is_finite() || !(hi + lo).is_finite() {
-                Some("action bounds too wide for f32")
-            } else {
-                None
-            };
-            if let Some(what) = rule {
-                return Err(Error::InvalidParameter { what, index });
-            }
         }
         Ok(())
     }

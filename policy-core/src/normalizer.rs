@@ -56,14 +56,7 @@ impl<const S: usize> Normalizer<S> {
     pub fn normalize(&self, obs: &[f32; S]) -> SVector<f32, S> {
         let mut z = SVector::<f32, S>::zeros();
         for (((zi, &x), &m), &k) in z.iter_mut().zip(obs).zip(&self.mean).zip(&self.inv_std) {
-            let v = (x - m) * k;
-            // A non-finite input, or 0 * inf after an overflowing subtraction, carries no
-            // information: it becomes the mean. Everything else is clipped.
-            *zi = if !x.is_finite() || v.is_nan() {
-                0.0
-            } else {
-                clamp(v, -self.clip, self.clip)
-            };
+            *zi = normalize_value(x, m, k, self.clip);
         }
         z
     }
@@ -77,30 +70,11 @@ impl<const S: usize> Normalizer<S> {
     /// assert!(matches!(Normalizer::<2>::ZERO.validate(), Err(Error::InvalidParameter { .. })));
     /// ```
     pub fn validate(&self) -> Result<(), Error> {
-        if let Some(index) = self.mean.iter().position(|m| !m.is_finite()) {
-            return Err(Error::InvalidParameter {
-                what: "non-finite observation mean",
-                index,
-            });
-        }
-        // `!(k >= 0)` also rejects NaN.
-        if let Some(index) = self
-            .inv_std
-            .iter()
-            .position(|&k| !(k >= 0.0 && k.is_finite()))
-        {
-            return Err(Error::InvalidParameter {
-                what: "inverse standard deviation must be finite and >= 0",
-                index,
-            });
-        }
-        if !(self.clip > 0.0 && self.clip.is_finite()) {
-            return Err(Error::InvalidParameter {
-                what: "normaliser clip must be finite and > 0",
-                index: 0,
-            });
-        }
-        Ok(())
+        check(
+            self.mean.iter().copied(),
+            self.inv_std.iter().copied(),
+            self.clip,
+        )
     }
 
     /// Visits the parameters in blob order: mean, inverse std, clip.
@@ -120,4 +94,56 @@ impl<const S: usize> Normalizer<S> {
             core::slice::from_mut(&mut self.clip),
         ]
     }
+}
+
+/// One normalised component: `clip((x - mean) * inv_std)`. A non-finite input, or 0 × ∞ after an
+/// overflowing subtraction, carries no information: it becomes the mean (0). This is the one
+/// definition the compiled [`Normalizer`], the runtime model and the trainer all use.
+///
+/// ```
+/// use policy_core::normalizer::normalize_value;
+/// assert_eq!(normalize_value(3.0, 1.0, 0.5, 5.0), 1.0);
+/// assert_eq!(normalize_value(1e9, 0.0, 1.0, 5.0), 5.0);
+/// assert_eq!(normalize_value(f32::NAN, 0.0, 1.0, 5.0), 0.0);
+/// ```
+#[inline]
+pub fn normalize_value(x: f32, mean: f32, inv_std: f32, clip: f32) -> f32 {
+    let v = (x - mean) * inv_std;
+    if !x.is_finite() || v.is_nan() {
+        0.0
+    } else {
+        clamp(v, -clip, clip)
+    }
+}
+
+/// The rules a loaded normaliser obeys (see [`Normalizer::validate`]), over its values in blob
+/// order, so the compiled type and the runtime model check them in one place.
+pub(crate) fn check(
+    mean: impl Iterator<Item = f32>,
+    inv_std: impl Iterator<Item = f32>,
+    clip: f32,
+) -> Result<(), Error> {
+    if let Some(index) = mean.into_iter().position(|m| !m.is_finite()) {
+        return Err(Error::InvalidParameter {
+            what: "non-finite observation mean",
+            index,
+        });
+    }
+    // `!(k >= 0)` also rejects NaN.
+    if let Some(index) = inv_std
+        .into_iter()
+        .position(|k| !(k >= 0.0 && k.is_finite()))
+    {
+        return Err(Error::InvalidParameter {
+            what: "inverse standard deviation must be finite and >= 0",
+            index,
+        });
+    }
+    if !(clip > 0.0 && clip.is_finite()) {
+        return Err(Error::InvalidParameter {
+            what: "normaliser clip must be finite and > 0",
+            index: 0,
+        });
+    }
+    Ok(())
 }

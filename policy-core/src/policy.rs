@@ -128,8 +128,7 @@ impl<const S: usize, const H: usize, const L: usize, const A: usize> Policy<S, H
         let out = self.trunk.run(pre);
         let mut unit = [0.0; A];
         for (u, &y) in unit.iter_mut().zip(out.iter()) {
-            let t = libm::tanhf(y);
-            *u = if t.is_finite() { t } else { 0.0 };
+            *u = crate::mlp::squash(y);
         }
         unit
     }
