@@ -191,35 +191,6 @@ impl<'a> BlobPolicy<'a> {
         })
     }
 
-    /// Checks that the blob fits a plant with `observations` inputs and `actions` outputs (the
-    /// firmware's own sizes); a mismatch is [`Error::SizeMismatch`].
-    ///
-    /// ```
-    /// use firmware_sim::{controller::BlobPolicy, Error};
-    /// let mut p = policy_core::Policy::<2, 32, 1, 2>::ZERO;
-    /// p.normalizer = policy_core::Normalizer::identity(5.0);
-    /// let blob = p.to_blob("x").unwrap();
-    /// let policy = BlobPolicy::boot(&blob).unwrap();
-    /// assert!(policy.expect_sizes(2, 2).is_ok());
-    /// assert!(matches!(policy.expect_sizes(3, 2), Err(Error::SizeMismatch { expected: 3, found: 2, .. })));
-    /// ```
-    pub fn expect_sizes(&self, observations: usize, actions: usize) -> Result<(), Error> {
-        self.model
-            .expect_sizes(observations, actions)
-            .map_err(|e| match e {
-                policy_core::Error::SizeMismatch {
-                    what,
-                    expected,
-                    found,
-                } => Error::SizeMismatch {
-                    what,
-                    expected,
-                    found,
-                },
-                other => Error::Blob(other),
-            })
-    }
-
     /// The blob's header (kind, shape, activation, label).
     pub fn header(&self) -> &Header {
         self.model.header()

@@ -376,7 +376,7 @@ pub fn boot_or_safe_state<'a>(
 /// ```
 pub fn boot<'a>(blob: &'a [u8], plant: &PlantSizes) -> Result<BlobPolicy<'a>, Error> {
     let policy = BlobPolicy::boot(blob)?;
-    policy.expect_sizes(plant.observations, plant.actions)?;
+    check_sizes(&policy, plant)?;
     Ok(policy)
 }
 
