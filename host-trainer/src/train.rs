@@ -425,8 +425,6 @@ impl Trainer {
             &space.high,
             &mut init,
         )?;
-        // Fail before training if the network cannot be exported.
-        agent.actor_blob(&config.blob_label())?;
         Ok(Trainer {
             learner: learner(&config),
             rngs: Rngs::new(config.seed),
