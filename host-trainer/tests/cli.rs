@@ -7,7 +7,7 @@ use policy_core::{ActionBounds, Critic, Normalizer, Policy};
 
 use crate::support::{
     assert_ok, assert_one_line_error, command, entries, host_trainer, s, scratch,
-    smoke_config_file, temporaries,
+    smoke_config_file, temporaries, train_smoke,
 };
 
 #[test]
@@ -264,19 +264,11 @@ fn a_huge_seed_and_a_long_task_name_still_export() {
         .expect("scenario"),
     )
     .expect("task");
-    let config = smoke_config_file(&base, 1);
-    let out = host_trainer(&[
-        "train",
-        "--config",
-        s(&config),
-        "--task",
-        s(&task),
-        "--seed",
-        "18446744073709551615",
-        "--out",
-        s(&base),
-        "--quiet",
-    ]);
+    let out = train_smoke(
+        &base,
+        1,
+        &["--task", s(&task), "--seed", "18446744073709551615"],
+    );
     assert_ok(&out);
     let run = base.join("a-task-file-with-a-long-name__dcp__18446744073709551615");
     let blob = std::fs::read(run.join("policy.postcard")).expect("blob");
@@ -295,17 +287,7 @@ fn a_huge_seed_and_a_long_task_name_still_export() {
 #[test]
 fn training_into_a_finished_run_is_refused_and_keeps_it() {
     let base = scratch("overwrite");
-    let config = smoke_config_file(&base, 1);
-    let train = || {
-        host_trainer(&[
-            "train",
-            "--config",
-            s(&config),
-            "--out",
-            s(&base),
-            "--quiet",
-        ])
-    };
+    let train = || train_smoke(&base, 1, &[]);
     assert!(train().status.success());
     let run = base.join("nav-walls__dcp__3");
     let before: Vec<Vec<u8>> = ["checkpoint.postcard", "policy.postcard", "eval.json"]
@@ -397,16 +379,7 @@ fn a_run_resumes_and_exports_from_its_own_folder_alone() {
 #[test]
 fn export_of_a_corrupt_checkpoint_is_one_line() {
     let base = scratch("corrupt-export");
-    let config = smoke_config_file(&base, 1);
-    let out = host_trainer(&[
-        "train",
-        "--config",
-        s(&config),
-        "--out",
-        s(&base),
-        "--quiet",
-    ]);
-    assert!(out.status.success());
+    assert!(train_smoke(&base, 1, &[]).status.success());
     let run = base.join("nav-walls__dcp__3");
     let path = run.join("checkpoint.postcard");
     let mut bytes = std::fs::read(&path).expect("checkpoint");
@@ -424,17 +397,7 @@ fn export_of_a_corrupt_checkpoint_is_one_line() {
 #[test]
 fn train_3x40_exports_and_runs_in_firmware_sim() {
     let base = scratch("train-3x40");
-    let config = smoke_config_file(&base, 2);
-    let out = host_trainer(&[
-        "train",
-        "--config",
-        s(&config),
-        "--hidden",
-        "3x40",
-        "--out",
-        s(&base),
-        "--quiet",
-    ]);
+    let out = train_smoke(&base, 2, &["--hidden", "3x40"]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert_ok(&out);
     assert!(

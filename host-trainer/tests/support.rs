@@ -82,6 +82,15 @@ pub fn smoke_config_file(dir: &Path, episodes: usize) -> PathBuf {
     path
 }
 
+/// Runs `train` on the smoke config with `episodes` episodes, output into `base`, plus `extra`
+/// flags (which override the config).
+pub fn train_smoke(base: &Path, episodes: usize, extra: &[&str]) -> Output {
+    let config = smoke_config_file(base, episodes);
+    let mut args = vec!["train", "--config", s(&config), "--out", s(base), "--quiet"];
+    args.extend_from_slice(extra);
+    host_trainer(&args)
+}
+
 /// A path as the `&str` the CLI takes.
 pub fn s(path: &Path) -> &str {
     path.to_str().expect("utf-8 path")
