@@ -2,7 +2,9 @@
 //!
 //! - `act/tanh/*`: the real thing, the compiled `Policy::act` with tanh hidden layers.
 //! - `model/{tanh,relu}/*`: the same blob run by the runtime `Model::act` straight from its bytes
-//!   (no compiled shape, weights decoded with `f32::from_le_bytes`), in the same run.
+//!   (no compiled shape; the aligned payload is read as `f32` words), in the same run.
+//! - `model-unaligned/*`: the same blob one byte off alignment, every weight decoded with
+//!   `f32::from_le_bytes`: the cost of the other read path.
 //! - `act/relu/*`: the same network with ReLU, whose activation costs next to nothing, so it
 //!   measures the normaliser, the multiply-adds and the output scaling alone.
 //! - `tanhf/libm/*`: `libm::tanhf` on as many values as one `act` call evaluates (every hidden
@@ -94,6 +96,23 @@ fn bench_shape<const H: usize, const L: usize>(c: &mut Criterion, name: &str) {
                 i = (i + 1) % observations.len();
                 let mut a = [0.0f32; 2];
                 let _ = black_box(&model).act(black_box(&observations[i]), &mut scratch, &mut a);
+                a
+            })
+        });
+        group.finish();
+        // The same blob one byte off a 4-byte boundary: the payload cannot be viewed as `f32`
+        // words, so every weight is decoded with `f32::from_le_bytes` (the other read path).
+        let mut shifted = vec![0u8; bytes.len() + 1];
+        shifted[1..].copy_from_slice(&bytes);
+        let unaligned = Model::from_blob(&shifted[1..]).expect("model");
+        let mut group = c.benchmark_group(format!("model-unaligned/{activation}"));
+        group.throughput(Throughput::Elements(macs));
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                i = (i + 1) % observations.len();
+                let mut a = [0.0f32; 2];
+                let _ =
+                    black_box(&unaligned).act(black_box(&observations[i]), &mut scratch, &mut a);
                 a
             })
         });
