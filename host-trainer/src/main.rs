@@ -236,7 +236,13 @@ fn train_command(args: TrainArgs) -> Result<ExitCode> {
     let steps = trainer.total_steps - steps_before;
     println!("trained {} ({} episodes, {steps} env steps in {seconds:.1} s, {:.0} steps/s incl. updates)", run.path().display(), trainer.episode, steps as f64 / seconds.max(1e-9));
     let blob = trainer.export(&run)?;
-    let report = evaluate(&blob, &trainer.scenario, trainer.config.eval_episodes, 0)?;
+    let report = evaluate(
+        &blob,
+        &run.file(run_dir::POLICY),
+        &trainer.scenario,
+        trainer.config.eval_episodes,
+        0,
+    )?;
     print_summary(&report);
     run.write(run_dir::EVAL, report_json(&report)?.as_bytes())?;
     println!("wrote {}", run.path().display());
@@ -382,12 +388,7 @@ fn eval_command(args: EvalArgs) -> Result<()> {
     let scenario = train::scenario(&args.task)?;
     let blob = files::read_blob(&args.blob)
         .with_context(|| format!("cannot read blob {}", args.blob.display()))?;
-    // firmware-sim boots a bad blob into the safe state and reports it (that is what the chip
-    // does); for a user asking to evaluate a file, a blob that does not boot is an error.
-    let plant = PlantSizes::of(&scenario)?;
-    harness::boot(&blob, &plant)
-        .with_context(|| format!("{} does not boot", args.blob.display()))?;
-    let report = evaluate(&blob, &scenario, args.episodes, args.seed)?;
+    let report = evaluate(&blob, &args.blob, &scenario, args.episodes, args.seed)?;
     print_summary(&report);
     if let Some(path) = &args.json {
         files::write_atomic(path, report_json(&report)?.as_bytes())
@@ -417,18 +418,25 @@ fn inspect_command(args: &InspectArgs) -> Result<()> {
 }
 
 /// firmware-sim's test protocol on the blob; a blob that does not boot is an error here.
-fn evaluate(blob: &[u8], scenario: &Scenario, episodes: usize, seed: u64) -> Result<Report> {
+/// Boots the blob as firmware-sim's loop does and runs its test protocol. Where the loop would run
+/// a blob that does not boot in the safe state (what a chip does), a user asking to evaluate a
+/// file gets an error naming `source`, before any episode runs.
+fn evaluate(
+    blob: &[u8],
+    source: &Path,
+    scenario: &Scenario,
+    episodes: usize,
+    seed: u64,
+) -> Result<Report> {
+    let mut policy = harness::boot(blob, &PlantSizes::of(scenario)?)
+        .with_context(|| format!("{} does not boot", source.display()))?;
     let config = EvalConfig {
         episodes,
         seed,
         ..EvalConfig::default()
     };
-    let report = harness::evaluate(blob, scenario, &config)
-        .with_context(|| format!("evaluating the policy on {}", scenario.name))?;
-    if let Some(reason) = &report.boot_error {
-        anyhow::bail!("the blob does not boot in firmware-sim: {reason}");
-    }
-    Ok(report)
+    harness::evaluate_controller(&mut policy, scenario, &config)
+        .with_context(|| format!("evaluating the policy on {}", scenario.name))
 }
 
 fn report_json(report: &Report) -> Result<String> {
