@@ -78,7 +78,8 @@ impl AtomicFile {
         result
     }
 
-    /// The temporary file's path (tests use it to check clean-up).
+    /// The temporary file's path: the bytes written so far, before the commit (the JSON report
+    /// reads its episode spool back from it).
     pub fn temp_path(&self) -> &Path {
         &self.temp
     }

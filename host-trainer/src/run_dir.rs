@@ -154,12 +154,6 @@ impl RunDir {
         let path = self.file(name);
         files::write_atomic(&path, bytes).map_err(|source| Error::Io { path, source })
     }
-
-    /// Reads a text file of the run.
-    pub fn read_text(&self, name: &str) -> Result<String, Error> {
-        let path = self.file(name);
-        fs::read_to_string(&path).map_err(|source| Error::Io { path, source })
-    }
 }
 
 fn io_error(path: &Path, kind: std::io::ErrorKind, message: &'static str) -> Error {
