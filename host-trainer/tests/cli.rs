@@ -487,3 +487,32 @@ fn inspect_of_a_bad_file_is_one_line() {
     assert_one_line_error(&missing, &["cannot read blob", "missing.postcard"]);
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+/// Regression (issue 9, item 10): a run killed before its first checkpoint could not be resumed.
+/// Killed even before it recorded its plant (only `config.toml` written), `--resume` starts it
+/// again from the config and the task it names.
+#[test]
+fn a_run_with_only_its_config_restarts_on_resume() {
+    let base = scratch("config-only");
+    assert_ok(&train_smoke(&base, 1, &[]));
+    let run = base.join("nav-walls__dcp__3");
+    let finished = std::fs::read(run.join("policy.postcard")).expect("blob");
+    for file in [
+        "checkpoint.postcard",
+        "scenario.toml",
+        "policy.postcard",
+        "eval.json",
+    ] {
+        std::fs::remove_file(run.join(file)).expect("remove");
+    }
+    let out = host_trainer(&["train", "--resume", s(&run), "--quiet"]);
+    assert_ok(&out);
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("starting it again"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let again = std::fs::read(run.join("policy.postcard")).expect("blob again");
+    assert_eq!(again, finished, "the restarted run is the same run");
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
