@@ -1,4 +1,4 @@
-//! Speed of the network machinery on the shapes of a training update (4×48, batch 64): single
+//! Speed of the network machinery on the shapes of a training update (4×48 ReLU, batch 64): single
 //! passes, and the network work of whole DDPG / DCP updates without replay, normalisation or
 //! bookkeeping (the full updates are in `benches/update.rs`).
 //!
@@ -12,12 +12,23 @@ use policy_core::Activation;
 use std::hint::black_box;
 
 fn net(inputs: usize, outputs: usize, output: Output, dropout: f32) -> Net {
+    net_with(Activation::Relu, inputs, outputs, output, dropout)
+}
+
+/// ReLU is the training default; the tanh critic shows what the activation costs.
+fn net_with(
+    activation: Activation,
+    inputs: usize,
+    outputs: usize,
+    output: Output,
+    dropout: f32,
+) -> Net {
     let config = NetConfig {
         inputs,
         width: 48,
         depth: 4,
         outputs,
-        activation: Activation::Tanh,
+        activation,
         output,
         dropout,
     };
@@ -48,6 +59,10 @@ fn layers(c: &mut Criterion) {
     });
     c.bench_function("critic 4x48 forward, 64x17 rows (DCP T=16 scoring)", |b| {
         b.iter(|| black_box(critic.forward(&x1088, &mut tape, None).data[0]))
+    });
+    let tanh_critic = net_with(Activation::Tanh, 4, 1, Output::Linear, 0.0);
+    c.bench_function("tanh critic 4x48 forward, 64x17 rows", |b| {
+        b.iter(|| black_box(tanh_critic.forward(&x1088, &mut tape, None).data[0]))
     });
     c.bench_function("critic 4x48 forward+backward, 64 rows", |b| {
         b.iter(|| {

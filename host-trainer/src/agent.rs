@@ -287,7 +287,6 @@ struct Scratch {
     target_tape: Tape,
     actor_grads: Option<Grads>,
     critic_grads: Option<Grads>,
-    spare_grads: Option<Grads>,
 }
 
 impl Clone for Scratch {
@@ -485,15 +484,10 @@ impl Agent {
             cols: 1,
             data: vec![1.0; q.len()],
         };
-        // The critic's own parameter gradients are a by-product here and are thrown away.
-        let spare = self
-            .scratch
-            .spare_grads
-            .get_or_insert_with(|| self.critic.zero_grads());
-        spare.zero();
-        let d_input = self
-            .critic
-            .backward(&self.scratch.critic_tape, &ones, spare);
+        // Only dQ/d(input): the critic's parameter gradients would be thrown away.
+        let mut d_input = Matrix::default();
+        self.critic
+            .input_grads_into(&mut self.scratch.critic_tape, &ones, &mut d_input);
         let obs_dim = z.cols;
         let mut d_action = Matrix::zeros(q.len(), action.cols);
         for i in 0..q.len() {

@@ -37,6 +37,7 @@ pub mod noise;
 pub mod normalize;
 pub mod replay;
 pub mod seed;
+mod ziggurat;
 
 // Algorithms, training loop and CLI support.
 pub mod agent;

@@ -578,12 +578,7 @@ impl Net {
         for l in (0..self.layers.len()).rev() {
             let layer = &self.layers[l];
             if let Some(grads) = grads.as_deref_mut() {
-                kernels::accumulate_grads(
-                    rec.layer_input(l),
-                    delta,
-                    &mut grads.layers[l],
-                    transposed,
-                );
+                kernels::accumulate_grads(rec.layer_input(l), delta, &mut grads.layers[l]);
             }
             let below = if l == 0 { &mut *dx } else { &mut *delta_below };
             kernels::input_grads(delta, layer, below, transposed);
@@ -697,10 +692,16 @@ pub fn soft_update(target: &mut Net, source: &Net, tau: f32) {
         "soft_update: network shapes differ"
     );
     let keep = 1.0 - tau;
-    for (t, s) in target.layers.iter_mut().zip(&source.layers) {
-        for (t, &s) in t.params_mut().zip(s.params()) {
+    // Slice by slice, not through the chained `params_mut` iterator: that one does not
+    // vectorise, and this loop runs over every parameter of two networks per update.
+    let blend = |t: &mut [f32], s: &[f32]| {
+        for (t, &s) in t.iter_mut().zip(s) {
             *t = tau * s + keep * *t;
         }
+    };
+    for (t, s) in target.layers.iter_mut().zip(&source.layers) {
+        blend(&mut t.w, &s.w);
+        blend(&mut t.b, &s.b);
     }
 }
 

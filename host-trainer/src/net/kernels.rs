@@ -1,24 +1,53 @@
 //! The loops of the forward and backward passes, on row-major batches.
 //!
 //! Everything is one kernel, [`matmul`]: `y[r, :] = init[r, :] + Σ_k x[r, k] w[k, :]` with `w`
-//! row-major, summed in increasing `k`. A layer's weights are column-major (`w[j * outputs + o]`),
-//! which is exactly the row-major `inputs × outputs` matrix the forward pass needs, so the forward
-//! pass adds bias first, then input `j = 0, 1, ...` — policy-core's order of operations, and the
-//! batched pass agrees with the chip bit for bit (up to the tanh, see [`tanh_fast`]). The two
-//! backward products use the same kernel on transposed copies (a few KB, made once per call).
+//! row-major, summed in increasing `k`, one multiply-add at a time. A layer's weights are
+//! column-major (`w[j * outputs + o]`), which is exactly the row-major `inputs × outputs` matrix
+//! the forward pass needs, so the forward pass adds bias first, then input `j = 0, 1, ...`:
+//! policy-core's order of operations. The weight gradient `aᵀ delta` reads `a` transposed in
+//! place ([`Lhs::Transposed`]), so the backward pass copies nothing but the small `Wᵀ`.
 //!
-//! The kernel works on tiles of `ROWS` rows × `COLS` outputs held in registers, so each weight
-//! loaded is used `ROWS` times and each accumulator stays out of memory for the whole sum; plain
-//! safe Rust that LLVM vectorises (the crate forbids `unsafe`, so no intrinsics).
+//! The kernel works on tiles of `R` rows × `C` outputs held in registers, so each weight loaded
+//! is used `R` times and each accumulator stays out of memory for the whole sum; plain safe
+//! Rust that LLVM vectorises. Where the build has FMA (the workspace builds for x86-64-v3: AVX2
+//! and FMA), each multiply-add is fused, one rounding instead of two; a build without it
+//! (`-C target-cpu=x86-64`, or a target without the `fma` feature) multiplies and adds, and
+//! trains to other bits. Within one build, the result does not depend on the tile shape.
+//!
+//! The one exception to "same order as policy-core" is a layer with one output (the critic's
+//! last layer), where a row-by-row sequential sum cannot use vectors: [`dot_rows`] sums 16
+//! interleaved partial sums and adds them in a fixed tree, the same on every instruction set.
+//! The batched pass is only the training pass; what is exported and evaluated is
+//! [`super::Net::forward_one`], which repeats policy-core's arithmetic exactly.
 
 use policy_core::Activation;
 
 use super::{Layer, Matrix};
 
-/// Rows per register tile.
-const ROWS: usize = 4;
-/// Outputs per register tile: two vectors (SSE: 8 lanes; with AVX enabled at build time, 16).
-const COLS: usize = if cfg!(target_feature = "avx") { 16 } else { 8 };
+/// `acc + w * x`: fused where the build has FMA (one rounding), else a multiply and an add.
+/// Never `mul_add` without the `fma` feature: that would be a slow software fallback.
+#[inline(always)]
+fn madd(acc: f32, w: f32, x: f32) -> f32 {
+    #[cfg(target_feature = "fma")]
+    {
+        w.mul_add(x, acc)
+    }
+    #[cfg(not(target_feature = "fma"))]
+    {
+        acc + w * x
+    }
+}
+
+/// `y[o] += W[o, j] * x[j]` for `j` ascending: policy-core's `mlp::accumulate` on slices, a
+/// multiply and an add (never fused), because [`super::Net::forward_one`] must equal the chip.
+pub(super) fn accumulate_one(w: &[f32], x: &[f32], y: &mut [f32]) {
+    let outputs = y.len();
+    for (col, &xj) in w.chunks_exact(outputs).zip(x) {
+        for (yo, &wo) in y.iter_mut().zip(col) {
+            *yo += wo * xj;
+        }
+    }
+}
 
 /// What a [`matmul`] output row starts from.
 #[derive(Clone, Copy)]
@@ -31,61 +60,105 @@ pub(super) enum Init<'a> {
     Keep,
 }
 
-/// `y[o] += W[o, j] * x[j]` for `j` ascending: policy-core's `mlp::accumulate` on slices.
-pub(super) fn accumulate_one(w: &[f32], x: &[f32], y: &mut [f32]) {
-    let outputs = y.len();
-    for (col, &xj) in w.chunks_exact(outputs).zip(x) {
-        for (yo, &wo) in y.iter_mut().zip(col) {
-            *yo += wo * xj;
-        }
-    }
+/// The left operand of [`matmul`], `rows × k`.
+#[derive(Clone, Copy)]
+pub(super) enum Lhs<'a> {
+    /// Row-major: element `(r, kk)` at `data[r * k + kk]`.
+    Rows(&'a [f32]),
+    /// Stored transposed (`k × rows`, row-major): element `(r, kk)` at `data[kk * rows + r]`.
+    Transposed(&'a [f32]),
 }
 
 /// `y[r, :] = init + Σ_k x[r, k] w[k, :]` for `x`: rows × `k`, `w`: `k` × `n`, `y`: rows × `n`
-/// (all row-major), accumulating in increasing `k`.
-pub(super) fn matmul(x: &[f32], k: usize, w: &[f32], n: usize, y: &mut [f32], init: Init<'_>) {
+/// (row-major), accumulating in increasing `k`.
+pub(super) fn matmul(x: Lhs<'_>, k: usize, w: &[f32], n: usize, y: &mut [f32], init: Init<'_>) {
     debug_assert!(k > 0 && n > 0, "matmul: empty inner or output dimension");
     debug_assert_eq!(w.len(), k * n);
-    debug_assert_eq!(x.len() / k, y.len() / n);
-    let full = y.len() / n / ROWS * ROWS;
-    let (x_full, x_rest) = x.split_at(full * k);
-    let (y_full, y_rest) = y.split_at_mut(full * n);
-    for (xb, yb) in x_full
-        .chunks_exact(ROWS * k)
-        .zip(y_full.chunks_exact_mut(ROWS * n))
-    {
-        row_block::<ROWS>(xb, k, w, n, yb, init);
-    }
-    for (xr, yr) in x_rest.chunks_exact(k).zip(y_rest.chunks_exact_mut(n)) {
-        row_block::<1>(xr, k, w, n, yr, init);
-    }
+    debug_assert_eq!(y.len() % n, 0);
+    matmul_tiled::<ROWS, COLS>(x, k, w, n, y, init);
 }
 
-/// `R` rows of [`matmul`]: full `COLS`-wide tiles, then the leftover outputs one by one.
-fn row_block<const R: usize>(
-    x: &[f32],
+/// Rows per register tile: 6 rows × 2 vectors of 8 outputs keeps 12 multiply-add chains in
+/// flight in AVX2's 16 registers (4 rows, 8 chains, was measurably slower: an FMA's latency
+/// needs about 10 chains to keep both FMA units busy).
+const ROWS: usize = 6;
+/// Outputs per register tile: two vectors (SSE: 4 lanes each; AVX: 8).
+const COLS: usize = if cfg!(target_feature = "avx") { 16 } else { 8 };
+
+/// [`matmul`] with `R × C` tiles; leftover rows in tiles of 4 and 1, leftover outputs in tiles
+/// of 16, 8 and 1. A one-output row-major product goes to [`dot_rows`].
+#[inline(always)]
+fn matmul_tiled<const R: usize, const C: usize>(
+    x: Lhs<'_>,
     k: usize,
     w: &[f32],
     n: usize,
     y: &mut [f32],
     init: Init<'_>,
 ) {
+    let rows = y.len() / n;
+    if let (1, Lhs::Rows(x), Init::Bias(_) | Init::Zero) = (n, x, init) {
+        if k >= 16 {
+            dot_rows(x, k, w, y, init);
+            return;
+        }
+    }
+    let mut r = 0;
+    while r + R <= rows {
+        row_block::<R, C>(x, rows, k, r, w, n, y, init);
+        r += R;
+    }
+    while r + 4 <= rows {
+        row_block::<4, C>(x, rows, k, r, w, n, y, init);
+        r += 4;
+    }
+    while r < rows {
+        row_block::<1, C>(x, rows, k, r, w, n, y, init);
+        r += 1;
+    }
+}
+
+/// Rows `r0..r0 + R` of [`matmul`]: `C`-wide tiles, then 16, 8 and 1 wide.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn row_block<const R: usize, const C: usize>(
+    x: Lhs<'_>,
+    rows: usize,
+    k: usize,
+    r0: usize,
+    w: &[f32],
+    n: usize,
+    y: &mut [f32],
+    init: Init<'_>,
+) {
     let mut c = 0;
-    while c + COLS <= n {
-        tile::<R, COLS>(x, k, w, n, c, y, init);
-        c += COLS;
+    while c + C <= n {
+        tile::<R, C>(x, rows, k, r0, w, n, c, y, init);
+        c += C;
+    }
+    while c + 16 <= n {
+        tile::<R, 16>(x, rows, k, r0, w, n, c, y, init);
+        c += 16;
+    }
+    while c + 8 <= n {
+        tile::<R, 8>(x, rows, k, r0, w, n, c, y, init);
+        c += 8;
     }
     while c < n {
-        tile::<R, 1>(x, k, w, n, c, y, init);
+        tile::<R, 1>(x, rows, k, r0, w, n, c, y, init);
         c += 1;
     }
 }
 
-/// One `R × C` tile of [`matmul`], outputs `c..c + C`, accumulated in registers.
+/// One `R × C` tile of [`matmul`]: rows `r0..r0 + R`, outputs `c..c + C`, accumulated in
+/// registers.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn tile<const R: usize, const C: usize>(
-    x: &[f32],
+    x: Lhs<'_>,
+    rows: usize,
     k: usize,
+    r0: usize,
     w: &[f32],
     n: usize,
     c: usize,
@@ -96,34 +169,91 @@ fn tile<const R: usize, const C: usize>(
     for (r, a) in acc.iter_mut().enumerate() {
         match init {
             Init::Bias(b) => a.copy_from_slice(&b[c..c + C]),
-            Init::Keep => a.copy_from_slice(&y[r * n + c..r * n + c + C]),
+            Init::Keep => a.copy_from_slice(&y[(r0 + r) * n + c..][..C]),
             Init::Zero => {}
         }
     }
-    let xs: [&[f32]; R] = std::array::from_fn(|r| &x[r * k..(r + 1) * k]);
-    for (kk, wrow) in w.chunks_exact(n).enumerate().take(k) {
-        let wv: &[f32; C] = match wrow[c..c + C].try_into() {
-            Ok(v) => v,
-            Err(_) => unreachable!("tile slice has length C"),
-        };
-        for (a, xr) in acc.iter_mut().zip(&xs) {
-            let xv = xr[kk];
-            for (s, &wc) in a.iter_mut().zip(wv) {
-                *s += wc * xv;
+    match x {
+        Lhs::Rows(x) => {
+            let xs: [&[f32]; R] = std::array::from_fn(|r| &x[(r0 + r) * k..(r0 + r + 1) * k]);
+            for (kk, wrow) in (0..k).zip(w.chunks_exact(n)) {
+                let xv: [f32; R] = std::array::from_fn(|r| xs[r][kk]);
+                tile_step(&mut acc, &wrow[c..c + C], &xv);
+            }
+        }
+        Lhs::Transposed(x) => {
+            for (wrow, xcol) in w.chunks_exact(n).zip(x.chunks_exact(rows)).take(k) {
+                let xv: &[f32; R] = match xcol[r0..r0 + R].try_into() {
+                    Ok(v) => v,
+                    Err(_) => unreachable!("tile slice has length R"),
+                };
+                tile_step(&mut acc, &wrow[c..c + C], xv);
             }
         }
     }
     for (r, a) in acc.iter().enumerate() {
-        y[r * n + c..r * n + c + C].copy_from_slice(a);
+        y[(r0 + r) * n + c..][..C].copy_from_slice(a);
+    }
+}
+
+/// One `k` of a tile: `acc[r][c] += w[c] * x[r]` for the tile's `C` weights and `R` inputs.
+#[inline(always)]
+fn tile_step<const R: usize, const C: usize>(acc: &mut [[f32; C]; R], w: &[f32], x: &[f32; R]) {
+    let wv: &[f32; C] = match w.try_into() {
+        Ok(v) => v,
+        Err(_) => unreachable!("tile slice has length C"),
+    };
+    for (a, &xr) in acc.iter_mut().zip(x) {
+        for (s, &wc) in a.iter_mut().zip(wv) {
+            *s = madd(*s, wc, xr);
+        }
+    }
+}
+
+/// Lanes of [`dot_rows`]' partial sums.
+const LANES: usize = 16;
+
+/// `y[r] = init + x[r, :] · w` for a one-output layer: lane `l` sums the products with
+/// `k ≡ l (mod 16)` in increasing `k`, the lanes are added in a fixed tree, then to `init`.
+/// Written on plain arrays, so every instruction set gives the same bits.
+#[inline(always)]
+fn dot_rows(x: &[f32], k: usize, w: &[f32], y: &mut [f32], init: Init<'_>) {
+    let start = match init {
+        Init::Bias(b) => b[0],
+        _ => 0.0,
+    };
+    let full = k / LANES * LANES;
+    for (xr, yr) in x.chunks_exact(k).zip(y.iter_mut()) {
+        let mut lanes = [0.0f32; LANES];
+        for (xc, wc) in xr[..full]
+            .chunks_exact(LANES)
+            .zip(w[..full].chunks_exact(LANES))
+        {
+            for ((l, &xv), &wv) in lanes.iter_mut().zip(xc).zip(wc) {
+                *l = madd(*l, wv, xv);
+            }
+        }
+        for ((l, &xv), &wv) in lanes.iter_mut().zip(&xr[full..]).zip(&w[full..k]) {
+            *l = madd(*l, wv, xv);
+        }
+        let mut width = LANES / 2;
+        while width > 0 {
+            let (lo, hi) = lanes.split_at_mut(width);
+            for (a, &b) in lo.iter_mut().zip(&hi[..width]) {
+                *a += b;
+            }
+            width /= 2;
+        }
+        *yr = start + lanes[0];
     }
 }
 
 /// `dst` (cols × rows) = transpose of `src` (rows × cols), both row-major.
 fn transpose(src: &[f32], rows: usize, cols: usize, dst: &mut Vec<f32>) {
     dst.resize(rows * cols, 0.0);
-    for (r, row) in src.chunks_exact(cols.max(1)).enumerate() {
-        for (c, &v) in row.iter().enumerate() {
-            dst[c * rows + r] = v;
+    for (c, out) in dst.chunks_exact_mut(rows.max(1)).enumerate() {
+        for (o, row) in out.iter_mut().zip(src.chunks_exact(cols.max(1))) {
+            *o = row[c];
         }
     }
 }
@@ -132,7 +262,7 @@ fn transpose(src: &[f32], rows: usize, cols: usize, dst: &mut Vec<f32>) {
 pub(super) fn affine(x: &Matrix, layer: &Layer, y: &mut Matrix) {
     y.reshape(x.rows, layer.outputs);
     matmul(
-        &x.data,
+        Lhs::Rows(&x.data),
         layer.inputs,
         &layer.w,
         layer.outputs,
@@ -219,17 +349,32 @@ pub(super) fn dropout(
 
 /// Adds the gradients of a layer that consumed `a` and produced pre-activations with gradient
 /// `delta`: `gW[o, j] += Σ_r delta[r, o] a[r, j]` (as `G += aᵀ delta`, `G` being the row-major
-/// `inputs × outputs` view of the column-major weights), `gb[o] += Σ_r delta[r, o]`.
-pub(super) fn accumulate_grads(a: &Matrix, delta: &Matrix, g: &mut Layer, scratch: &mut Vec<f32>) {
-    transpose(&a.data, a.rows, a.cols, scratch);
-    matmul(
-        scratch,
-        a.rows,
-        &delta.data,
-        g.outputs,
-        &mut g.w,
-        Init::Keep,
-    );
+/// `inputs × outputs` view of the column-major weights, `aᵀ` read in place), `gb[o] += Σ_r
+/// delta[r, o]`. A one-output layer's `G` is a single row, `deltaᵀ a`, the same sums in the
+/// same order with the batch as the inner dimension.
+pub(super) fn accumulate_grads(a: &Matrix, delta: &Matrix, g: &mut Layer) {
+    if a.rows == 0 {
+        return;
+    }
+    if g.outputs == 1 {
+        matmul(
+            Lhs::Rows(&delta.data),
+            a.rows,
+            &a.data,
+            g.inputs,
+            &mut g.w,
+            Init::Keep,
+        );
+    } else {
+        matmul(
+            Lhs::Transposed(&a.data),
+            a.rows,
+            &delta.data,
+            g.outputs,
+            &mut g.w,
+            Init::Keep,
+        );
+    }
     for dr in delta.data.chunks_exact(g.outputs.max(1)) {
         for (gb, &d) in g.b.iter_mut().zip(dr) {
             *gb += d;
@@ -248,7 +393,7 @@ pub(super) fn input_grads(
     // Wᵀ as a row-major outputs × inputs matrix: row o holds W[o, :].
     transpose(&layer.w, layer.inputs, layer.outputs, scratch);
     matmul(
-        &delta.data,
+        Lhs::Rows(&delta.data),
         layer.outputs,
         scratch,
         layer.inputs,
@@ -277,11 +422,12 @@ pub(super) fn activation_grads(
             .iter_mut()
             .zip(&h.data)
             .for_each(|(d, &h)| *d *= 1.0 - h * h),
-        Activation::Relu => d.data.iter_mut().zip(&h.data).for_each(|(d, &h)| {
-            if h <= 0.0 {
-                *d = 0.0;
-            }
-        }),
+        // A select, not a conditional store, so it vectorises; NaN `h` keeps `d` as before.
+        Activation::Relu => d
+            .data
+            .iter_mut()
+            .zip(&h.data)
+            .for_each(|(d, &h)| *d = if h <= 0.0 { 0.0 } else { *d }),
     }
 }
 
@@ -303,42 +449,99 @@ mod tests {
         assert_eq!(tanh_fast(0.0), 0.0);
     }
 
+    fn data(len: usize, f: f32) -> Vec<f32> {
+        (0..len).map(|i| (i as f32 * f).sin()).collect()
+    }
+
+    /// `y[r, c]` as the kernel documents it: init, then one multiply-add per `k`, ascending.
+    fn naive(x: &[f32], k: usize, w: &[f32], n: usize, init: f32, r: usize, c: usize) -> f32 {
+        (0..k).fold(init, |acc, kk| madd(acc, w[kk * n + c], x[r * k + kk]))
+    }
+
+    const SHAPES: [(usize, usize, usize); 9] = [
+        (1, 1, 1),
+        (3, 5, 7),
+        (4, 8, 8),
+        (9, 3, 17),
+        (13, 48, 48),
+        (64, 4, 48),
+        (100, 64, 64),
+        (11, 20, 57),
+        (17, 33, 1),
+    ];
+
     #[test]
-    fn matmul_matches_a_naive_product_on_ragged_shapes() {
-        for (rows, k, n) in [
-            (1, 1, 1),
-            (3, 5, 7),
-            (4, 8, 8),
-            (9, 3, 17),
-            (13, 48, 48),
-            (64, 4, 48),
-        ] {
-            let x: Vec<f32> = (0..rows * k).map(|i| (i as f32 * 0.37).sin()).collect();
-            let w: Vec<f32> = (0..k * n).map(|i| (i as f32 * 0.11).cos()).collect();
+    fn matmul_is_bit_exact_with_the_documented_order_on_ragged_shapes() {
+        for (rows, k, n) in SHAPES {
+            let x = data(rows * k, 0.37);
+            let w = data(k * n, 0.11);
             let b: Vec<f32> = (0..n).map(|i| i as f32 * 0.5).collect();
             let mut y = vec![f32::NAN; rows * n];
-            matmul(&x, k, &w, n, &mut y, Init::Bias(&b));
-            let mut keep = y.clone();
-            matmul(&x, k, &w, n, &mut keep, Init::Keep);
+            matmul(Lhs::Rows(&x), k, &w, n, &mut y, Init::Bias(&b));
+            let mut keep = vec![0.25; rows * n];
+            matmul(Lhs::Rows(&x), k, &w, n, &mut keep, Init::Keep);
+            // The same product with x stored transposed.
+            let mut xt = Vec::new();
+            transpose(&x, rows, k, &mut xt);
+            let mut from_t = vec![0.25; rows * n];
+            matmul(Lhs::Transposed(&xt), k, &w, n, &mut from_t, Init::Keep);
             for r in 0..rows {
                 for c in 0..n {
-                    // The documented order: init, then k ascending; so this is bit-exact.
-                    let mut expect = b[c];
-                    for kk in 0..k {
-                        expect += w[kk * n + c] * x[r * k + kk];
-                    }
+                    let at = r * n + c;
                     assert_eq!(
-                        y[r * n + c].to_bits(),
-                        expect.to_bits(),
-                        "{rows}x{k}x{n} at ({r}, {c})"
+                        keep[at].to_bits(),
+                        naive(&x, k, &w, n, 0.25, r, c).to_bits()
                     );
-                    let mut twice = expect;
-                    for kk in 0..k {
-                        twice += w[kk * n + c] * x[r * k + kk];
+                    assert_eq!(from_t[at].to_bits(), keep[at].to_bits());
+                    let expect = naive(&x, k, &w, n, b[c], r, c);
+                    if n == 1 && k >= LANES {
+                        // One output: 16 partial sums (dot_rows), so only close.
+                        assert!((y[at] - expect).abs() < 1e-5, "{rows}x{k}x{n} at {r}");
+                    } else {
+                        assert_eq!(
+                            y[at].to_bits(),
+                            expect.to_bits(),
+                            "{rows}x{k}x{n} ({r}, {c})"
+                        );
                     }
-                    assert_eq!(keep[r * n + c].to_bits(), twice.to_bits());
                 }
             }
         }
+    }
+
+    /// Builds for wider or narrower vectors (x86-64-v4, SSE) tile differently; with the same
+    /// multiply-add they must give the same bits.
+    #[test]
+    fn the_tile_shape_does_not_change_the_bits() {
+        for (rows, k, n) in SHAPES {
+            let x = data(rows * k, 0.29);
+            let w = data(k * n, 0.07);
+            let b = data(n, 0.5);
+            for init in [Init::Bias(&b), Init::Keep, Init::Zero] {
+                let mut wide = vec![0.5; rows * n];
+                matmul_tiled::<ROWS, COLS>(Lhs::Rows(&x), k, &w, n, &mut wide, init);
+                let mut narrow = vec![0.5; rows * n];
+                matmul_tiled::<3, 4>(Lhs::Rows(&x), k, &w, n, &mut narrow, init);
+                let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&wide), bits(&narrow), "{rows}x{k}x{n}");
+            }
+        }
+    }
+
+    #[test]
+    fn weight_gradients_of_a_one_output_layer_match_the_general_form() {
+        let (rows, inputs) = (37, 48);
+        let a = Matrix::from_vec(rows, inputs, data(rows * inputs, 0.13));
+        let delta = Matrix::from_vec(rows, 1, data(rows, 0.71));
+        let mut g = Layer::zeros(inputs, 1);
+        g.w.iter_mut().for_each(|v| *v = 0.5);
+        accumulate_grads(&a, &delta, &mut g);
+        for j in 0..inputs {
+            let expect = (0..rows).fold(0.5, |acc, r| {
+                madd(acc, delta.data[r], a.data[r * inputs + j])
+            });
+            assert_eq!(g.w[j].to_bits(), expect.to_bits(), "input {j}");
+        }
+        assert!((g.b[0] - delta.data.iter().sum::<f32>()).abs() < 1e-5);
     }
 }

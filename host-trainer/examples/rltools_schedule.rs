@@ -1,0 +1,167 @@
+//! RLtools' TD3 Pendulum benchmark schedule, run by this project's DDPG machinery, for the
+//! side-by-side comparison in the README ("Training speed against RLtools").
+//!
+//! `cargo run --release -p host-trainer --example rltools_schedule [-- --seed S]`
+//!
+//! RLtools' `src/rl/environments/pendulum/td3/cpu/benchmark.cpp` (commit 9acdf5c) times 10,001
+//! Pendulum steps: random actions for the first 100, then every step two critic updates (TD3's
+//! twin critics, on one minibatch of 100) and every second step an actor update and the target
+//! updates; actor 3→64→64→1 (ReLU, tanh output), critics 4→64→64→1, Adam (lr 1e-3), γ 0.99,
+//! τ 0.005, exploration σ 0.1, a replay buffer of 10,000. Its timer covers the whole loop:
+//! environment steps, acting, replay inserts and sampling, and all updates.
+//!
+//! This program runs the same loop at the same shapes with [`Agent`] and [`Ddpg`]: each step
+//! after the first 100 makes two `critic_update`s on one minibatch (our agent has one critic,
+//! so the second update trains it again; each recomputes its Bellman targets, as each of
+//! RLtools' critic updates does), and every second step one `actor_update` and one
+//! `soft_update` of both targets. The work differs from TD3's in two ways, both counted in the
+//! multiply-adds printed: our Bellman target uses one target critic (TD3 takes the minimum of
+//! two), and our critic's backward pass also computes the first layer's input gradient.
+//!
+//! Output: one line, `schedule: SECONDS s, ... multiply-adds, ... G/s`. The timer covers the
+//! same loop as RLtools'; building the agent is outside it.
+
+use std::time::Instant;
+
+use host_trainer::agent::{self, Agent, Hidden};
+use host_trainer::ddpg::{self, Ddpg};
+use host_trainer::replay::Transition;
+use host_trainer::seed;
+
+/// Environment steps (RLtools: `STEP_LIMIT` 10,000, steps 0 through 10,000).
+const STEPS: usize = 10_001;
+/// Steps of random actions before training starts.
+const WARMUP: usize = 100;
+/// Pendulum's time limit.
+const EPISODE: usize = 200;
+/// Minibatch.
+const BATCH: usize = 100;
+
+/// Gym's Pendulum-v1 (the dynamics RLtools' Pendulum implements): torque in [-2, 2].
+struct Pendulum {
+    theta: f32,
+    omega: f32,
+}
+
+impl Pendulum {
+    fn reset(rng: &mut seed::Rng) -> Pendulum {
+        Pendulum {
+            theta: seed::uniform_in(rng, -std::f32::consts::PI, std::f32::consts::PI),
+            omega: seed::uniform_in(rng, -1.0, 1.0),
+        }
+    }
+
+    fn observe(&self) -> Vec<f32> {
+        vec![self.theta.cos(), self.theta.sin(), self.omega]
+    }
+
+    /// One step with a unit action in [-1, 1]; returns the reward.
+    fn step(&mut self, unit: f32) -> f32 {
+        let (g, m, l, dt) = (10.0f32, 1.0f32, 1.0f32, 0.05f32);
+        let u = 2.0 * unit.clamp(-1.0, 1.0);
+        let angle = (self.theta + std::f32::consts::PI).rem_euclid(2.0 * std::f32::consts::PI)
+            - std::f32::consts::PI;
+        let cost = angle * angle + 0.1 * self.omega * self.omega + 0.001 * u * u;
+        let omega =
+            self.omega + (3.0 * g / (2.0 * l) * self.theta.sin() + 3.0 / (m * l * l) * u) * dt;
+        self.omega = omega.clamp(-8.0, 8.0);
+        self.theta += self.omega * dt;
+        -cost
+    }
+}
+
+/// Multiply-adds of one row through a network's layers (forward).
+fn forward_macs(net: &host_trainer::net::Net) -> u64 {
+    net.layers
+        .iter()
+        .map(|l| (l.inputs * l.outputs) as u64)
+        .sum()
+}
+
+fn main() {
+    let seed = std::env::args()
+        .skip_while(|a| a != "--seed")
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0u64);
+    let config = agent::Config {
+        hidden: Hidden {
+            depth: 2,
+            width: 64,
+        },
+        lr_actor: 1e-3,
+        lr_critic: 1e-3,
+        l2: 0.0,
+        batch: BATCH,
+        sigma: 0.1,
+        replay_capacity: 10_000,
+        ..agent::Config::default()
+    };
+    let mut rngs = ["init", "env", "explore", "replay", "dropout"].map(|n| seed::stream(seed, n));
+    let [init, env_rng, explore, replay, dropout] = &mut rngs;
+    let mut agent = match Agent::new(config, 3, &[-2.0], &[2.0], init) {
+        Ok(agent) => agent,
+        Err(e) => {
+            eprintln!("rltools_schedule: {e}");
+            std::process::exit(1);
+        }
+    };
+    let ddpg = Ddpg::new(ddpg::Config::default());
+    let mut noise = agent.noise_process();
+    let (mut critic_updates, mut actor_updates, mut target_updates) = (0u64, 0u64, 0u64);
+
+    let start = Instant::now();
+    let mut env = Pendulum::reset(env_rng);
+    for step in 0..STEPS {
+        if step % EPISODE == 0 && step > 0 {
+            env = Pendulum::reset(env_rng);
+            noise = agent.noise_process();
+        }
+        let obs = env.observe();
+        let action = if step < WARMUP {
+            vec![seed::uniform_in(explore, -1.0, 1.0)]
+        } else {
+            agent.explore(&obs, &mut noise, explore)
+        };
+        let reward = env.step(action[0]);
+        agent.remember(&Transition {
+            obs,
+            action,
+            reward,
+            next_obs: env.observe(),
+            terminal: false,
+        });
+        if step >= WARMUP {
+            let sample = agent.sample(replay);
+            for _ in 0..2 {
+                agent.critic_update(&sample, dropout);
+                critic_updates += 1;
+            }
+            if step % 2 == 0 {
+                ddpg.actor_update(&mut agent, &sample, dropout);
+                agent.soft_update();
+                actor_updates += 1;
+                target_updates += 1;
+            }
+        }
+    }
+    let seconds = start.elapsed().as_secs_f64();
+
+    // Per row: a critic update runs the target actor and target critic, the critic forward and
+    // its backward (weight and input gradients: twice the forward); an actor update runs the
+    // actor forward, the critic forward, dQ/d(input) through the critic, and the actor's
+    // backward (twice its forward).
+    let (a, c) = (forward_macs(&agent.actor), forward_macs(&agent.critic));
+    let rows = BATCH as u64;
+    let macs = critic_updates * rows * (a + 4 * c) + actor_updates * rows * (3 * a + 2 * c);
+    if !agent.is_finite() {
+        eprintln!("rltools_schedule: training diverged");
+        std::process::exit(1);
+    }
+    println!(
+        "schedule: {seconds:.3} s, {STEPS} env steps, {critic_updates} critic + {actor_updates} actor + \
+         {target_updates} target updates, {:.2} G multiply-adds, {:.1} G/s",
+        macs as f64 / 1e9,
+        macs as f64 / seconds / 1e9
+    );
+}
