@@ -56,6 +56,13 @@ pub enum Error {
         /// The run file found in it.
         found: String,
     },
+    /// A sweep's run folder holds a run of other settings than the sweep would run there.
+    RunDiffers {
+        /// The run folder.
+        path: PathBuf,
+        /// The first setting that differs, e.g. `episodes = 4 recorded, 6 in the sweep`.
+        difference: String,
+    },
     /// A checkpoint could not be encoded or decoded.
     Checkpoint {
         /// The file.
@@ -110,6 +117,11 @@ impl fmt::Display for Error {
                 f,
                 "{} already holds a run ({found}); continue it with --resume {}, or choose another --out or --seed",
                 path.display(),
+                path.display()
+            ),
+            Error::RunDiffers { path, difference } => write!(
+                f,
+                "{} holds a run of other settings than this sweep's ({difference}); sweep into another --out, or move the folder away",
                 path.display()
             ),
             Error::Checkpoint { path, message } => {

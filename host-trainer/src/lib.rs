@@ -18,6 +18,8 @@
 //! - [`export`]: actor and critic blobs of any shape for policy-core's runtime model;
 //!   [`inspect`]: what a blob holds; [`checkpoint`], [`run_dir`], [`plot`]: the files of a run
 //!   folder `{task}__{algo}__{seed}/`.
+//! - [`sweep`]: many seeds and algorithms as parallel `train` processes, with a summary whose
+//!   intervals [`stats`] computes.
 //!
 //! ```no_run
 //! use host_trainer::{run_dir::RunDir, train::{self, TrainConfig, Trainer}};
@@ -49,6 +51,8 @@ pub mod error;
 pub mod inspect;
 pub mod plot;
 pub mod run_dir;
+pub mod stats;
+pub mod sweep;
 pub mod train;
 
 pub use error::Error;

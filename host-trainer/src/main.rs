@@ -6,6 +6,7 @@
 //! host-trainer eval --blob FILE [--task nav-walls] [--episodes 100] [--seed 0] [--json FILE]
 //! host-trainer export --run RUN_DIR
 //! host-trainer inspect BLOB
+//! host-trainer sweep --seeds 0-4 [--algo dcp,ddpg] [--jobs N] --out DIR [--config FILE] [--quiet]
 //! ```
 //! Errors are one line on stderr and a non-zero exit.
 
@@ -14,7 +15,8 @@ use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicU32, Ordering};
-use std::time::Instant;
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
@@ -26,6 +28,7 @@ use host_trainer::checkpoint::Checkpoint;
 use host_trainer::inspect;
 use host_trainer::noise::Noise;
 use host_trainer::run_dir::{self, RunDir};
+use host_trainer::sweep::{self, Seeds};
 use host_trainer::train::{self, Algo, Outcome, RewardKind, TrainConfig, Trainer};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
@@ -53,6 +56,9 @@ enum Command {
     Export(ExportArgs),
     /// Print what a blob holds: kind, shape, label, sizes, CRC, normaliser, bounds or table.
     Inspect(InspectArgs),
+    /// Train one run per (algo, seed) as parallel processes; skips finished runs, continues
+    /// unfinished ones, and writes OUT/sweep.md and OUT/sweep.json.
+    Sweep(SweepArgs),
 }
 
 /// Flags override the config file, which overrides the defaults (the paper's values).
@@ -100,6 +106,28 @@ struct TrainArgs {
     /// Continue the run in this folder from its checkpoint (--episodes may raise the budget).
     #[arg(long, conflicts_with_all = ["task", "algo", "hidden", "reward", "t", "sigma", "noise", "dropout", "reward_scale", "seed", "out", "config"])]
     resume: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+#[derive(Debug, Args)]
+struct SweepArgs {
+    /// Train config file for every run (TOML, or JSON if it ends in .json) [default: defaults].
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Seeds: 0-4, 3, 0,2,5 or combinations like 0-2,7.
+    #[arg(long)]
+    seeds: Seeds,
+    /// Algorithms, repeated or comma-separated [default: the config's].
+    #[arg(long, value_enum, value_delimiter = ',')]
+    algo: Vec<Algo>,
+    /// Most runs at once [default: the number of cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    jobs: Option<u32>,
+    /// Existing output folder: run folders, sweep-logs/, sweep.md and sweep.json go there.
+    #[arg(long)]
+    out: PathBuf,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
@@ -160,9 +188,10 @@ fn main() -> ExitCode {
         Some(Command::Eval(args)) => eval_command(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Export(args)) => export_command(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Inspect(args)) => inspect_command(&args).map(|()| ExitCode::SUCCESS),
+        Some(Command::Sweep(args)) => sweep_command(args),
         None => {
             eprintln!(
-                "host-trainer: missing a subcommand: train, eval, export or inspect (see --help)"
+                "host-trainer: missing a subcommand: train, eval, export, inspect or sweep (see --help)"
             );
             return ExitCode::from(2);
         }
@@ -180,17 +209,38 @@ fn main() -> ExitCode {
 /// checkpoint, the second exits at once.
 static INTERRUPTS: AtomicU32 = AtomicU32::new(0);
 
+/// When the first Ctrl-C came. A second delivery within [`SAME_PRESS`] is the same press: a
+/// sweep's children get a terminal's Ctrl-C directly (they share its process group) and once
+/// more from the sweep, which forwards it for the case where only the sweep got the signal.
+static FIRST_PRESS: OnceLock<Instant> = OnceLock::new();
+const SAME_PRESS: Duration = Duration::from_millis(500);
+
 fn install_ctrl_c_handler() {
-    // Without a handler (it can only fail if another one is installed) Ctrl-C still ends the
-    // process, losing at most `checkpoint_every` episodes: worth a warning, not a failure.
-    let installed = ctrlc::set_handler(|| {
+    set_ctrl_c_handler(|| {
+        let first = *FIRST_PRESS.get_or_init(Instant::now);
         if INTERRUPTS.fetch_add(1, Ordering::SeqCst) == 0 {
             eprintln!("\nhost-trainer: stopping after this episode and writing a checkpoint (Ctrl-C again to exit at once)");
-        } else {
+        } else if first.elapsed() >= SAME_PRESS {
             eprintln!("\nhost-trainer: interrupted; the last checkpoint is kept");
             std::process::exit(i32::from(INTERRUPTED));
         }
     });
+}
+
+/// A sweep never exits from its handler: it forwards the press to its children and waits for
+/// them, so no run is left writing after the sweep has gone.
+fn install_sweep_ctrl_c_handler() {
+    set_ctrl_c_handler(|| {
+        if INTERRUPTS.fetch_add(1, Ordering::SeqCst) == 0 {
+            eprintln!("\nhost-trainer: stopping the sweep: no new run starts, running runs write a checkpoint and stop (Ctrl-C again stops them at once)");
+        }
+    });
+}
+
+fn set_ctrl_c_handler(handler: fn()) {
+    // Without a handler (it can only fail if another one is installed) Ctrl-C still ends the
+    // process, losing at most `checkpoint_every` episodes: worth a warning, not a failure.
+    let installed = ctrlc::set_handler(handler);
     if let Err(e) = installed {
         eprintln!("host-trainer: warning: no Ctrl-C handler ({e}); Ctrl-C loses the episodes since the last checkpoint");
     }
@@ -378,6 +428,60 @@ fn progress_bar(len: u64, pos: u64, quiet: bool) -> ProgressBar {
     }
     bar.set_position(pos);
     bar
+}
+
+/// Everything is checked (config, algorithms, output folder, every run folder) before the
+/// first run starts; then the runs go, and the summary is printed and written at the end.
+fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
+    let base = match &args.config {
+        Some(path) => TrainConfig::from_file(path)?,
+        None => TrainConfig::default(),
+    };
+    let mut algos = Vec::new();
+    for algo in if args.algo.is_empty() {
+        vec![base.algo]
+    } else {
+        args.algo
+    } {
+        if !algos.contains(&algo) {
+            algos.push(algo);
+        }
+    }
+    let plan = sweep::plan(&base, &algos, &args.seeds.0, &args.out)?;
+    let jobs = match args.jobs {
+        Some(n) => n as usize,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    install_sweep_ctrl_c_handler();
+    let runner = sweep::Runner {
+        exe: std::env::current_exe().context("cannot find the host-trainer binary")?,
+        config_file: args.config,
+        out: args.out.clone(),
+        jobs,
+        quiet: args.quiet,
+        interrupts: &INTERRUPTS,
+    };
+    let records = sweep::execute(&plan, &runner)?;
+    if INTERRUPTS.load(Ordering::SeqCst) > 0 {
+        eprintln!("host-trainer: sweep interrupted; the stopped runs kept a checkpoint. Re-run the same sweep command to continue (finished runs are skipped)");
+        return Ok(ExitCode::from(INTERRUPTED));
+    }
+    sweep::write_summary(&args.out, &records)?;
+    print!("{}", sweep::markdown(&records));
+    let failed = records
+        .iter()
+        .filter(|r| r.status == sweep::Status::Failed)
+        .count();
+    if failed > 0 {
+        eprintln!(
+            "host-trainer: {failed} of {} runs failed; see {} and the logs in {}",
+            records.len(),
+            args.out.join(sweep::SUMMARY_MD).display(),
+            args.out.join(sweep::LOGS).display()
+        );
+        return Ok(ExitCode::FAILURE);
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 fn eval_command(args: EvalArgs) -> Result<()> {

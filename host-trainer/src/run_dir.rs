@@ -79,6 +79,12 @@ pub fn blob_label(task: &str, algo: &str, seed: u64) -> String {
     label[..end].to_string()
 }
 
+/// The first file in `dir` that marks it as holding a run, if any: such a folder is continued
+/// with `--resume`, never started afresh.
+pub fn run_file_in(dir: &Path) -> Option<&'static str> {
+    RUN_FILES.iter().copied().find(|f| dir.join(f).exists())
+}
+
 /// An existing, writable run folder.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RunDir {
@@ -106,10 +112,10 @@ impl RunDir {
             ));
         }
         let path = out.join(name);
-        if let Some(found) = RUN_FILES.iter().find(|f| path.join(f).exists()) {
+        if let Some(found) = run_file_in(&path) {
             return Err(Error::RunExists {
                 path,
-                found: (*found).to_string(),
+                found: found.to_string(),
             });
         }
         fs::create_dir_all(&path).map_err(|source| Error::Io {

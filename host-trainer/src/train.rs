@@ -165,7 +165,8 @@ impl TrainConfig {
         run_dir::blob_label(&self.task_name(), &self.algo.to_string(), self.seed)
     }
 
-    fn task_name(&self) -> String {
+    /// The task as run folders name it: a built-in scenario's name, or a scenario file's stem.
+    pub fn task_name(&self) -> String {
         Path::new(&self.task)
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())

@@ -8,5 +8,7 @@ mod crash;
 mod interrupt;
 /// Shared helpers: scratch folders, running the binary, tiny configs.
 mod support;
+/// `host-trainer sweep`: parallel runs, summary, and re-running after a kill, failure or Ctrl-C.
+mod sweep;
 /// Training runs with tiny budgets: smoke, determinism, resume, divergence, checkpoints.
 mod training;
