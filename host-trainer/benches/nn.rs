@@ -57,9 +57,13 @@ fn layers(c: &mut Criterion) {
     c.bench_function("critic 4x48 forward, 64 rows", |b| {
         b.iter(|| black_box(critic.forward(&x64, &mut tape, None).data[0]))
     });
-    c.bench_function("critic 4x48 forward, 64x17 rows (DCP T=16 scoring)", |b| {
+    let mut group = c.benchmark_group("critic 4x48 forward, 64x17 rows (DCP T=16 scoring)");
+    // Multiply-adds per row: 4x48 + 3 x 48x48 + 48x1.
+    group.throughput(criterion::Throughput::Elements(64 * 17 * 7_152));
+    group.bench_function("relu", |b| {
         b.iter(|| black_box(critic.forward(&x1088, &mut tape, None).data[0]))
     });
+    group.finish();
     let tanh_critic = net_with(Activation::Tanh, 4, 1, Output::Linear, 0.0);
     c.bench_function("tanh critic 4x48 forward, 64x17 rows", |b| {
         b.iter(|| black_box(tanh_critic.forward(&x1088, &mut tape, None).data[0]))
@@ -188,9 +192,40 @@ fn update_shaped(c: &mut Criterion) {
     }
 }
 
+/// The build's multiply-add peak, the yardstick for the kernels: 12 independent chains of
+/// 8-lane multiply-adds (fused where the build has FMA, as in the kernels) on registers only.
+/// Criterion's throughput line gives multiply-adds per second.
+fn mac_peak(c: &mut Criterion) {
+    const STEPS: usize = 1_000;
+    let mut group = c.benchmark_group("peak");
+    group.throughput(criterion::Throughput::Elements((STEPS * 12 * 8) as u64));
+    group.bench_function("register multiply-adds, 12 x 8 lanes", |b| {
+        b.iter(|| {
+            let (x, y) = (black_box(0.999_f32), black_box(1e-4_f32));
+            let mut acc = [[0.0f32; 8]; 12];
+            for _ in 0..STEPS {
+                for chain in acc.iter_mut() {
+                    for lane in chain.iter_mut() {
+                        #[cfg(target_feature = "fma")]
+                        {
+                            *lane = lane.mul_add(x, y);
+                        }
+                        #[cfg(not(target_feature = "fma"))]
+                        {
+                            *lane = *lane * x + y;
+                        }
+                    }
+                }
+            }
+            black_box(acc)
+        })
+    });
+    group.finish();
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(20).warm_up_time(std::time::Duration::from_millis(500)).measurement_time(std::time::Duration::from_secs(2));
-    targets = layers, update_shaped
+    targets = mac_peak, layers, update_shaped
 }
 criterion_main!(benches);

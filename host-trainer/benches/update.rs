@@ -1,8 +1,9 @@
 //! Training updates per second: one minibatch of 64, critic step + actor step + soft target
 //! update, 4×48 actor and critic on the navigation shapes (2 observations, 2 actions).
 //!
-//! `cargo bench -p host-trainer --bench update`; criterion reports time per update and
-//! (Throughput::Elements(1)) updates per second.
+//! `cargo bench -p host-trainer --bench update`; criterion reports time per update and, as its
+//! throughput, multiply-adds per second of the update's network passes (counted in
+//! [`multiply_adds`]).
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -43,10 +44,27 @@ fn agent() -> Agent {
     agent
 }
 
+/// Multiply-adds of one update at batch 64 with 4x48 networks (2 observations, 2 actions), with
+/// `t` proposals for DCP (`None`: DDPG). Per row, A = 7,104 for the actor (2x48 + 3 x 48x48 +
+/// 48x2) and C = 7,152 for the critic (4x48 + 3 x 48x48 + 48x1); a backward pass costs two
+/// forwards (weight and input gradients).
+/// - critic step: target actor and target critic forward, critic forward and backward: A + 4C;
+/// - DDPG actor step: actor forward, critic forward, dQ/d(input), actor backward: 3A + 2C;
+/// - DCP actor step: actor forward (reused for the regression), the critic on T + 1 actions per
+///   state, actor backward: 3A + (T + 1) C.
+fn multiply_adds(t: Option<u64>) -> u64 {
+    let (a, c) = (7_104u64, 7_152u64);
+    let actor = match t {
+        None => 3 * a + 2 * c,
+        Some(t) => 3 * a + (t + 1) * c,
+    };
+    64 * (a + 4 * c + actor)
+}
+
 fn updates(c: &mut Criterion) {
     let mut group = c.benchmark_group("update_4x48_batch64");
     group
-        .throughput(Throughput::Elements(1))
+        .throughput(Throughput::Elements(multiply_adds(None)))
         .measurement_time(Duration::from_secs(5))
         .sample_size(30);
     let mut rngs = [
@@ -77,6 +95,7 @@ fn updates(c: &mut Criterion) {
             0.2,
         );
         let mut a = agent();
+        group.throughput(Throughput::Elements(multiply_adds(Some(t as u64))));
         group.bench_with_input(BenchmarkId::new("dcp", format!("T={t}")), &t, |b, _| {
             b.iter(|| {
                 let [replay, dropout, proposals] = &mut rngs;

@@ -18,7 +18,7 @@
 //! multiply-adds printed: our Bellman target uses one target critic (TD3 takes the minimum of
 //! two), and our critic's backward pass also computes the first layer's input gradient.
 //!
-//! Output: one line, `schedule: SECONDS s, ... multiply-adds, ... G/s`. The timer covers the
+//! Output: one line, `schedule: SECONDS s, ... multiply-adds, ... G/s, kernels ISA`. The timer covers the
 //! same loop as RLtools'; building the agent is outside it.
 
 use std::time::Instant;
@@ -160,8 +160,24 @@ fn main() {
     }
     println!(
         "schedule: {seconds:.3} s, {STEPS} env steps, {critic_updates} critic + {actor_updates} actor + \
-         {target_updates} target updates, {:.2} G multiply-adds, {:.1} G/s",
+         {target_updates} target updates, {:.2} G multiply-adds, {:.1} G/s, kernels {}",
         macs as f64 / 1e9,
-        macs as f64 / seconds / 1e9
+        macs as f64 / seconds / 1e9,
+        instruction_set()
     );
+}
+
+/// The vector instructions the build lets the training kernels use.
+fn instruction_set() -> &'static str {
+    if cfg!(target_feature = "avx512f") {
+        "avx512f+fma"
+    } else if cfg!(all(target_feature = "avx2", target_feature = "fma")) {
+        "avx2+fma"
+    } else if cfg!(target_feature = "avx2") {
+        "avx2"
+    } else if cfg!(target_feature = "sse2") {
+        "sse2"
+    } else {
+        "scalar"
+    }
 }

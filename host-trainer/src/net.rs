@@ -263,6 +263,8 @@ struct Record {
     dropout: bool,
     /// The network's output (after tanh for [`Output::Tanh`]).
     out: Matrix,
+    /// Scratch: the current hidden layer's pre-activation.
+    pre: Matrix,
 }
 
 impl Record {
@@ -278,8 +280,10 @@ impl Record {
 
 #[derive(Debug, Default)]
 struct Scratch {
+    /// dL/d(pre-activation) of the layer being back-propagated.
     delta: Matrix,
-    delta_below: Matrix,
+    /// dL/d(its input), before the activation below turns it into that layer's `delta`.
+    grad_below: Matrix,
     /// Transposed copies for the backward products.
     transposed: Vec<f32>,
 }
@@ -448,8 +452,9 @@ impl Net {
                 _ => &hidden_below[l - 1],
             };
             let h = &mut hidden[0];
-            kernels::affine(input, &self.layers[l], h);
-            kernels::activate(self.config.activation, &mut h.data);
+            kernels::affine(input, &self.layers[l], &mut rec.pre);
+            h.reshape(rec.pre.rows, rec.pre.cols);
+            kernels::activate(self.config.activation, &rec.pre.data, &mut h.data);
             if let Some(rng) = rng.as_deref_mut() {
                 kernels::dropout(
                     h,
@@ -561,7 +566,7 @@ impl Net {
         );
         let Scratch {
             delta,
-            delta_below,
+            grad_below,
             transposed,
         } = scratch;
         delta.reshape(grad_out.rows, grad_out.cols);
@@ -580,17 +585,18 @@ impl Net {
             if let Some(grads) = grads.as_deref_mut() {
                 kernels::accumulate_grads(rec.layer_input(l), delta, &mut grads.layers[l]);
             }
-            let below = if l == 0 { &mut *dx } else { &mut *delta_below };
-            kernels::input_grads(delta, layer, below, transposed);
-            if l > 0 {
+            if l == 0 {
+                kernels::input_grads(delta, layer, dx, transposed);
+            } else {
+                kernels::input_grads(delta, layer, grad_below, transposed);
                 let mask = rec.dropout.then(|| &rec.masks[l - 1]);
                 kernels::activation_grads(
                     self.config.activation,
                     &rec.hidden[l - 1],
                     mask,
-                    delta_below,
+                    grad_below,
+                    delta,
                 );
-                std::mem::swap(delta, delta_below);
             }
         }
     }
