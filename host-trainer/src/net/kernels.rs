@@ -78,6 +78,7 @@ pub(super) fn matmul(x: Lhs<'_>, k: usize, w: &[f32], n: usize, y: &mut [f32], i
     matmul_tiled::<ROWS, COLS>(x, k, w, n, y, init);
 }
 
+
 /// Rows per register tile: 6 rows × 2 vectors of 8 outputs keeps 12 multiply-add chains in
 /// flight in AVX2's 16 registers (4 rows, 8 chains, was measurably slower: an FMA's latency
 /// needs about 10 chains to keep both FMA units busy).
@@ -484,14 +485,14 @@ mod tests {
             let mut from_t = vec![0.25; rows * n];
             matmul(Lhs::Transposed(&xt), k, &w, n, &mut from_t, Init::Keep);
             for r in 0..rows {
-                for c in 0..n {
+                for (c, &bias) in b.iter().enumerate() {
                     let at = r * n + c;
                     assert_eq!(
                         keep[at].to_bits(),
                         naive(&x, k, &w, n, 0.25, r, c).to_bits()
                     );
                     assert_eq!(from_t[at].to_bits(), keep[at].to_bits());
-                    let expect = naive(&x, k, &w, n, b[c], r, c);
+                    let expect = naive(&x, k, &w, n, bias, r, c);
                     if n == 1 && k >= LANES {
                         // One output: 16 partial sums (dot_rows), so only close.
                         assert!((y[at] - expect).abs() < 1e-5, "{rows}x{k}x{n} at {r}");
