@@ -78,7 +78,6 @@ pub(super) fn matmul(x: Lhs<'_>, k: usize, w: &[f32], n: usize, y: &mut [f32], i
     matmul_tiled::<ROWS, COLS>(x, k, w, n, y, init);
 }
 
-
 /// Rows per register tile: 6 rows × 2 vectors of 8 outputs keeps 12 multiply-add chains in
 /// flight in AVX2's 16 registers (4 rows, 8 chains, was measurably slower: an FMA's latency
 /// needs about 10 chains to keep both FMA units busy).
