@@ -19,7 +19,7 @@
 //!   [`inspect`]: what a blob holds; [`checkpoint`], [`run_dir`], [`plot`]: the files of a run
 //!   folder `{task}__{algo}__{seed}/`.
 //! - [`sweep`]: many seeds and algorithms as parallel `train` processes, with a summary whose
-//!   intervals [`stats`] computes.
+//!   intervals [`stats`] computes; [`progress`]: the progress bar `train` and `sweep` share.
 //!
 //! ```no_run
 //! use host_trainer::{run_dir::RunDir, train::{self, TrainConfig, Trainer}};
@@ -50,6 +50,7 @@ pub mod ddpg;
 pub mod error;
 pub mod inspect;
 pub mod plot;
+pub mod progress;
 pub mod run_dir;
 pub mod stats;
 pub mod sweep;

@@ -10,7 +10,6 @@
 //! ```
 //! Errors are one line on stderr and a non-zero exit.
 
-use std::io::IsTerminal;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -30,7 +29,6 @@ use host_trainer::noise::Noise;
 use host_trainer::run_dir::{self, RunDir};
 use host_trainer::sweep::{self, Seeds};
 use host_trainer::train::{self, Algo, Outcome, RewardKind, TrainConfig, Trainer};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 #[derive(Debug, Parser)]
 #[command(
@@ -253,11 +251,8 @@ fn train_command(args: TrainArgs) -> Result<ExitCode> {
         None => fresh(args)?,
     };
     install_ctrl_c_handler();
-    let bar = progress_bar(
-        trainer.config.episodes as u64,
-        trainer.episode as u64,
-        quiet,
-    );
+    let bar = host_trainer::progress::bar(trainer.config.episodes as u64, "episode", quiet);
+    bar.set_position(trainer.episode as u64);
     let started = Instant::now();
     let steps_before = trainer.total_steps;
     let outcome = train::run(&mut trainer, &run, &mut |row, t| {
@@ -412,22 +407,6 @@ fn note_changed_plant(trainer: &Trainer) {
             run_dir::SCENARIO
         );
     }
-}
-
-fn progress_bar(len: u64, pos: u64, quiet: bool) -> ProgressBar {
-    if quiet || !std::io::stderr().is_terminal() {
-        return ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::hidden());
-    }
-    let bar = ProgressBar::new(len);
-    let style = ProgressStyle::with_template(
-        "{elapsed_precise} [{bar:30}] episode {pos}/{len}  {msg}  eta {eta}",
-    )
-    .map(|s| s.progress_chars("=> "));
-    if let Ok(style) = style {
-        bar.set_style(style);
-    }
-    bar.set_position(pos);
-    bar
 }
 
 /// Everything is checked (config, algorithms, output folder, every run folder) before the

@@ -26,7 +26,7 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
 use firmware_sim::files;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use indicatif::ProgressBar;
 use serde::{Deserialize, Serialize};
 
 use crate::run_dir;
@@ -611,18 +611,8 @@ fn signal(child: &Child, which: &str) {
 }
 
 fn progress_bar(len: u64, quiet: bool) -> ProgressBar {
-    use std::io::IsTerminal;
-    if quiet || !std::io::stderr().is_terminal() {
-        return ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::hidden());
-    }
-    let bar = ProgressBar::new(len);
-    let style = ProgressStyle::with_template(
-        "{elapsed_precise} [{bar:30}] runs {pos}/{len}  {msg}  eta {eta}",
-    )
-    .map(|s| s.progress_chars("=> "));
-    if let Ok(style) = style {
-        bar.set_style(style);
-    }
+    let bar = crate::progress::bar(len, "runs", quiet);
+    // Runs take minutes: tick so the elapsed time and the ETA move in between.
     bar.enable_steady_tick(Duration::from_secs(1));
     bar
 }
