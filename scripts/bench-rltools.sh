@@ -6,9 +6,8 @@
 #
 # RLTOOLS_BINARY is RLtools' rl_environments_pendulum_td3_blas_benchmark, built outside this
 # repository as the README ("Training speed against RLtools") describes; it runs with OpenBLAS on
-# one thread. ROUNDS (default 7) rounds alternate RLtools, ours, ours on the build's AVX2 path
-# (HOST_TRAINER_SIMD=build; only where the CPU has AVX-512, which ours uses by default); the
-# table gives every run, the medians and the ratios ours / RLtools.
+# one thread. ROUNDS (default 7) pairs of runs alternate RLtools, ours, RLtools, ...; the table
+# gives every run, the medians and the ratio ours / RLtools.
 set -euo pipefail
 rltools=${1:?usage: scripts/bench-rltools.sh RLTOOLS_BINARY [ROUNDS]}
 rounds=${2:-7}
@@ -22,8 +21,8 @@ command -v taskset >/dev/null && pin=(taskset -c 0)
 
 median() { sort -g | awk '{v[NR]=$1} END {print (NR % 2) ? v[(NR+1)/2] : (v[NR/2] + v[NR/2+1]) / 2}'; }
 
-r_times=() o_times=() b_times=()
-core=? isa=? build_isa=?
+r_times=() o_times=()
+core=? isa=?
 for i in $(seq "$rounds"); do
   out=$(cd "$(dirname "$rltools")" && OPENBLAS_NUM_THREADS=1 OPENBLAS_VERBOSE=2 "${pin[@]}" "$rltools" 2>&1)
   r=$(printf '%s\n' "$out" | sed -n 's/^Time: \([0-9.]*\)s.*/\1/p' | tail -1)
@@ -34,12 +33,7 @@ for i in $(seq "$rounds"); do
   isa=$(printf '%s\n' "$line" | sed -n 's/.*kernels \(.*\)$/\1/p')
   macs=$(printf '%s\n' "$line" | sed -n 's/.* \([0-9.]*\) G multiply-adds.*/\1/p')
   r_times+=("$r") o_times+=("$o")
-  if [ "$isa" != "${isa#avx512}" ]; then
-    line=$(HOST_TRAINER_SIMD=build "${pin[@]}" "$ours")
-    b_times+=("$(printf '%s\n' "$line" | sed -n 's/^schedule: \([0-9.]*\) s.*/\1/p')")
-    build_isa=$(printf '%s\n' "$line" | sed -n 's/.*kernels \(.*\)$/\1/p')
-  fi
-  echo "round $i: RLtools $r s, ours $o s ${b_times[*]:+(build path ${b_times[-1]} s)}" >&2
+  echo "round $i: RLtools $r s, ours $o s" >&2
 done
 rm=$(printf '%s\n' "${r_times[@]}" | median)
 om=$(printf '%s\n' "${o_times[@]}" | median)
@@ -47,9 +41,4 @@ echo "| | runs (s) | median (s) | instruction set |"
 echo "|---|---|---:|---|"
 echo "| RLtools TD3 Pendulum (OpenBLAS, 1 thread) | ${r_times[*]} | $rm | OpenBLAS core $core, -march=native |"
 echo "| host-trainer, same schedule ($macs G multiply-adds) | ${o_times[*]} | $om | $isa |"
-if [ ${#b_times[@]} -gt 0 ]; then
-  bm=$(printf '%s\n' "${b_times[@]}" | median)
-  echo "| host-trainer, same schedule, HOST_TRAINER_SIMD=build | ${b_times[*]} | $bm | $build_isa |"
-  awk -v b="$bm" -v r="$rm" 'BEGIN { printf "\nbuild path / RLtools = %.2f\n", b / r }'
-fi
 awk -v o="$om" -v r="$rm" 'BEGIN { printf "ours / RLtools = %.2f (median over median)\n", o / r }'

@@ -44,27 +44,28 @@ fn agent() -> Agent {
     agent
 }
 
-/// Multiply-adds of one update at batch 64 with 4x48 networks (2 observations, 2 actions), with
-/// `t` proposals for DCP (`None`: DDPG). Per row, A = 7,104 for the actor (2x48 + 3 x 48x48 +
-/// 48x2) and C = 7,152 for the critic (4x48 + 3 x 48x48 + 48x1); a backward pass costs two
-/// forwards (weight and input gradients).
+/// Multiply-adds of one update at batch 64 with `agent`'s networks, with `t` proposals for DCP
+/// (`None`: DDPG). Per row, A for the actor and C for the critic (`Net::multiply_adds`: 7,104 and
+/// 7,152 for 4×48 on the navigation shapes); a backward pass costs two forwards (weight and input
+/// gradients).
 /// - critic step: target actor and target critic forward, critic forward and backward: A + 4C;
 /// - DDPG actor step: actor forward, critic forward, dQ/d(input), actor backward: 3A + 2C;
 /// - DCP actor step: actor forward (reused for the regression), the critic on T + 1 actions per
 ///   state, actor backward: 3A + (T + 1) C.
-fn multiply_adds(t: Option<u64>) -> u64 {
-    let (a, c) = (7_104u64, 7_152u64);
+fn multiply_adds(agent: &Agent, t: Option<u64>) -> u64 {
+    let (a, c) = (agent.actor.multiply_adds(), agent.critic.multiply_adds());
     let actor = match t {
         None => 3 * a + 2 * c,
         Some(t) => 3 * a + (t + 1) * c,
     };
-    64 * (a + 4 * c + actor)
+    agent.config.batch as u64 * (a + 4 * c + actor)
 }
 
 fn updates(c: &mut Criterion) {
     let mut group = c.benchmark_group("update_4x48_batch64");
+    let mut a = agent();
     group
-        .throughput(Throughput::Elements(multiply_adds(None)))
+        .throughput(Throughput::Elements(multiply_adds(&a, None)))
         .measurement_time(Duration::from_secs(5))
         .sample_size(30);
     let mut rngs = [
@@ -74,7 +75,6 @@ fn updates(c: &mut Criterion) {
     ];
 
     let ddpg = Ddpg::new(ddpg::Config::default());
-    let mut a = agent();
     group.bench_function("ddpg", |b| {
         b.iter(|| {
             let [replay, dropout, _] = &mut rngs;
@@ -95,7 +95,7 @@ fn updates(c: &mut Criterion) {
             0.2,
         );
         let mut a = agent();
-        group.throughput(Throughput::Elements(multiply_adds(Some(t as u64))));
+        group.throughput(Throughput::Elements(multiply_adds(&a, Some(t as u64))));
         group.bench_with_input(BenchmarkId::new("dcp", format!("T={t}")), &t, |b, _| {
             b.iter(|| {
                 let [replay, dropout, proposals] = &mut rngs;

@@ -70,14 +70,6 @@ impl Pendulum {
     }
 }
 
-/// Multiply-adds of one row through a network's layers (forward).
-fn forward_macs(net: &host_trainer::net::Net) -> u64 {
-    net.layers
-        .iter()
-        .map(|l| (l.inputs * l.outputs) as u64)
-        .sum()
-}
-
 fn main() {
     let seed = std::env::args()
         .skip_while(|a| a != "--seed")
@@ -151,7 +143,7 @@ fn main() {
     // its backward (weight and input gradients: twice the forward); an actor update runs the
     // actor forward, the critic forward, dQ/d(input) through the critic, and the actor's
     // backward (twice its forward).
-    let (a, c) = (forward_macs(&agent.actor), forward_macs(&agent.critic));
+    let (a, c) = (agent.actor.multiply_adds(), agent.critic.multiply_adds());
     let rows = BATCH as u64;
     let macs = critic_updates * rows * (a + 4 * c) + actor_updates * rows * (3 * a + 2 * c);
     if !agent.is_finite() {

@@ -287,6 +287,8 @@ struct Scratch {
     target_tape: Tape,
     actor_grads: Option<Grads>,
     critic_grads: Option<Grads>,
+    /// dQ/d(critic input) of DDPG's actor step.
+    d_input: Matrix,
 }
 
 impl Clone for Scratch {
@@ -485,9 +487,9 @@ impl Agent {
             data: vec![1.0; q.len()],
         };
         // Only dQ/d(input): the critic's parameter gradients would be thrown away.
-        let mut d_input = Matrix::default();
+        let d_input = &mut self.scratch.d_input;
         self.critic
-            .input_grads_into(&mut self.scratch.critic_tape, &ones, &mut d_input);
+            .input_grads_into(&mut self.scratch.critic_tape, &ones, d_input);
         let obs_dim = z.cols;
         let mut d_action = Matrix::zeros(q.len(), action.cols);
         for i in 0..q.len() {

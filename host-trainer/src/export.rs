@@ -524,6 +524,12 @@ mod tests {
 
     /// The runtime writer puts the parameters exactly where the compiled types' writer did: for
     /// shapes both can write, the bytes are identical.
+    /// Copies a trainer layer into a compiled layer's weights and biases.
+    fn fill(w: &mut [f32], b: &mut [f32], layer: &crate::net::Layer) {
+        w.copy_from_slice(&layer.w);
+        b.copy_from_slice(&layer.b);
+    }
+
     #[test]
     fn runtime_writer_matches_the_compiled_writer_byte_for_byte() {
         let norm = norm_with_stats();
@@ -539,22 +545,16 @@ mod tests {
         p.normalizer = norm.to_policy::<2>();
         p.bounds.low.as_mut_slice().copy_from_slice(&low);
         p.bounds.high.as_mut_slice().copy_from_slice(&high);
-        p.input.w.as_mut_slice().copy_from_slice(&net.layers[0].w);
-        p.input.b.as_mut_slice().copy_from_slice(&net.layers[0].b);
+        fill(
+            p.input.w.as_mut_slice(),
+            p.input.b.as_mut_slice(),
+            &net.layers[0],
+        );
         for (d, l) in p.trunk.hidden.iter_mut().zip(&net.layers[1..]) {
-            d.w.as_mut_slice().copy_from_slice(&l.w);
-            d.b.as_mut_slice().copy_from_slice(&l.b);
+            fill(d.w.as_mut_slice(), d.b.as_mut_slice(), l);
         }
-        p.trunk
-            .output
-            .w
-            .as_mut_slice()
-            .copy_from_slice(&net.layers[3].w);
-        p.trunk
-            .output
-            .b
-            .as_mut_slice()
-            .copy_from_slice(&net.layers[3].b);
+        let out = &mut p.trunk.output;
+        fill(out.w.as_mut_slice(), out.b.as_mut_slice(), &net.layers[3]);
         p.trunk.activation = Activation::Relu;
         assert_eq!(
             actor_blob(&parts, "same").expect("export"),
@@ -571,24 +571,18 @@ mod tests {
             .b
             .as_mut_slice()
             .copy_from_slice(&critic.layers[0].b);
-        c.trunk.hidden[0]
-            .w
-            .as_mut_slice()
-            .copy_from_slice(&critic.layers[1].w);
-        c.trunk.hidden[0]
-            .b
-            .as_mut_slice()
-            .copy_from_slice(&critic.layers[1].b);
-        c.trunk
-            .output
-            .w
-            .as_mut_slice()
-            .copy_from_slice(&critic.layers[2].w);
-        c.trunk
-            .output
-            .b
-            .as_mut_slice()
-            .copy_from_slice(&critic.layers[2].b);
+        let hidden = &mut c.trunk.hidden[0];
+        fill(
+            hidden.w.as_mut_slice(),
+            hidden.b.as_mut_slice(),
+            &critic.layers[1],
+        );
+        let out = &mut c.trunk.output;
+        fill(
+            out.w.as_mut_slice(),
+            out.b.as_mut_slice(),
+            &critic.layers[2],
+        );
         c.trunk.activation = Activation::Tanh;
         assert_eq!(
             critic_blob(&critic, &norm, 2, "same").expect("export"),

@@ -620,6 +620,24 @@ impl Net {
         }
     }
 
+    /// Multiply-adds of one row through the forward pass (Σ inputs × outputs over the layers);
+    /// a backward pass with weight and input gradients costs twice this. Benchmarks count work
+    /// with it.
+    ///
+    /// ```
+    /// # use host_trainer::net::{Net, NetConfig, Output};
+    /// # let config = NetConfig { inputs: 2, width: 4, depth: 1, outputs: 1,
+    /// #     activation: policy_core::Activation::Tanh, output: Output::Linear, dropout: 0.0 };
+    /// let net = Net::new(config, &mut host_trainer::seed::stream(0, "n"));
+    /// assert_eq!(net.multiply_adds(), 2 * 4 + 4);
+    /// ```
+    pub fn multiply_adds(&self) -> u64 {
+        self.layers
+            .iter()
+            .map(|l| (l.inputs * l.outputs) as u64)
+            .sum()
+    }
+
     /// Number of parameters (weights and biases).
     ///
     /// ```
