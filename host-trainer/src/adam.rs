@@ -110,6 +110,59 @@ impl Adam {
 }
 
 /// The per-parameter update of one step.
+/// Adam for a plain parameter vector that is not a network (PPO's state-independent
+/// log-standard-deviation), with [`Adam`]'s constants and no weight decay.
+///
+/// ```
+/// use host_trainer::adam::VecAdam;
+/// let mut p = vec![1.0f32, -1.0];
+/// let mut adam = VecAdam::new(2, 0.1);
+/// adam.step(&mut p, &[1.0, -1.0]);
+/// assert!((p[0] - 0.9).abs() < 1e-6 && (p[1] + 0.9).abs() < 1e-6);
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct VecAdam {
+    /// Learning rate.
+    pub lr: f32,
+    /// Steps taken (for the bias correction).
+    pub steps: u64,
+    m: Vec<f32>,
+    v: Vec<f32>,
+}
+
+impl VecAdam {
+    /// Adam at rest for `len` parameters.
+    pub fn new(len: usize, lr: f32) -> VecAdam {
+        VecAdam {
+            lr,
+            steps: 0,
+            m: vec![0.0; len],
+            v: vec![0.0; len],
+        }
+    }
+
+    /// One step of `p` against the gradient `g`.
+    ///
+    /// # Panics
+    /// If `p` or `g` does not have the length given to [`VecAdam::new`].
+    pub fn step(&mut self, p: &mut [f32], g: &[f32]) {
+        assert_eq!(p.len(), self.m.len(), "VecAdam::step: parameter length");
+        self.steps += 1;
+        let t = self.steps.min(i32::MAX as u64) as i32;
+        let (beta1, beta2) = (0.9f32, 0.999f32);
+        let c1 = 1.0 - f64::from(beta1).powi(t);
+        let c2 = 1.0 - f64::from(beta2).powi(t);
+        let step = Step {
+            lr: (f64::from(self.lr) / c1) as f32,
+            inv_c2: (1.0 / c2) as f32,
+            beta1,
+            beta2,
+            eps: 1e-8,
+        };
+        step.apply(p, g, &mut self.m, &mut self.v, 0.0);
+    }
+}
+
 struct Step {
     lr: f32,
     inv_c2: f32,

@@ -2,11 +2,12 @@
 //!
 //! A checkpoint holds everything the next episode depends on: the configuration, the networks,
 //! the optimiser moments, the normaliser, the whole replay buffer, the metrics so far and the
-//! exact position of every random stream. Resuming from it therefore continues the very run
+//! exact position of every random stream. The algorithm's part ([`Learner`]) holds its own
+//! networks, buffers and random streams (for PPO, the unfinished rollout too). Resuming from it therefore continues the very run
 //! that was interrupted: a run of N episodes and a run stopped at k and resumed to N produce
 //! the same blob bytes (tested in `tests/train_runs.rs`).
 //!
-//! Layout: the 8 bytes `DCPCKPT3` (magic and version), the postcard encoding of
+//! Layout: the 8 bytes `DCPCKPT4` (magic and version), the postcard encoding of
 //! [`Checkpoint`], then the CRC-32 (policy-core's, little-endian) of everything before it, so a
 //! flipped bit anywhere is a clear error rather than a silently different run. The config and
 //! the plant are stored as TOML text: the file stays readable by `export` even if a config field
@@ -18,14 +19,14 @@ use std::path::Path;
 use firmware_sim::files::AtomicFile;
 use serde::{Deserialize, Serialize};
 
-use crate::agent::Agent;
+use crate::algo::Learner;
 use crate::crash_test;
 use crate::seed::Rng;
 use crate::train::EpisodeRow;
 use crate::Error;
 
 /// Magic and format version at the start of every checkpoint file.
-pub const MAGIC: &[u8; 8] = b"DCPCKPT3";
+pub const MAGIC: &[u8; 8] = b"DCPCKPT4";
 /// Bytes of the trailing checksum.
 const CRC_LEN: usize = 4;
 
@@ -37,16 +38,17 @@ pub struct Checkpoint {
     /// The plant the run trains on (the resolved scenario, before the run's reward and γ
     /// overrides), as TOML text.
     pub scenario_toml: String,
-    /// Networks, optimisers, normaliser, replay buffer.
-    pub agent: Agent,
+    /// The algorithm's state: networks, optimisers, normaliser, replay buffer or rollout, and
+    /// its random streams.
+    pub learner: Learner,
     /// Completed episodes.
     pub episode: usize,
     /// Environment steps so far.
     pub total_steps: u64,
     /// One row per completed episode.
     pub metrics: Vec<EpisodeRow>,
-    /// The random streams, in the trainer's fixed order.
-    pub rngs: Vec<RngState>,
+    /// The stream of episode starts.
+    pub env_rng: RngState,
 }
 
 /// The position of a ChaCha stream, enough to continue it exactly.
@@ -159,13 +161,31 @@ fn wrong_magic(bytes: &[u8]) -> String {
     let found = &bytes[..bytes.len().min(MAGIC.len())];
     if found.starts_with(b"DCPCKPT") {
         format!(
-            "written by an older build (format {:?}); this build reads DCPCKPT3 (with a checksum and the plant): export it with the build that wrote it",
+            "written by an older build (format {:?}); this build reads DCPCKPT4 (one state per algorithm, with a checksum and the plant): export it with the build that wrote it",
             String::from_utf8_lossy(found)
         )
     } else {
         format!(
-            "not a checkpoint: expected the magic \"DCPCKPT3\", found {:?}",
+            "not a checkpoint: expected the magic \"DCPCKPT4\", found {:?}",
             String::from_utf8_lossy(found)
         )
+    }
+}
+
+/// Serde for a random stream inside a checkpoint: its [`RngState`]. Use on a field with
+/// `#[serde(with = "crate::checkpoint::rng")]`.
+pub mod rng {
+    use super::RngState;
+    use crate::seed::Rng;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    /// Writes the stream's position.
+    pub fn serialize<S: Serializer>(rng: &Rng, s: S) -> Result<S::Ok, S::Error> {
+        RngState::of(rng).serialize(s)
+    }
+
+    /// Reads a stream back at its position.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Rng, D::Error> {
+        RngState::deserialize(d).map(|s| s.restore())
     }
 }

@@ -48,6 +48,20 @@ impl Default for Config {
     }
 }
 
+/// The most proposals per state.
+pub const MAX_T: usize = 4096;
+
+impl Config {
+    /// Checks every value's range, naming the offending setting.
+    pub fn validate(&self) -> Result<(), crate::Error> {
+        crate::Error::check_count("dcp.t", self.t, MAX_T)?;
+        if let Some(s) = self.sigma_c {
+            crate::Error::check_range("dcp.sigma_c", s, f32::MIN_POSITIVE, f32::MAX)?;
+        }
+        Ok(())
+    }
+}
+
 /// How the T proposals turn into regression targets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]

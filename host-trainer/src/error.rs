@@ -155,3 +155,36 @@ impl From<policy_core::Error> for Error {
         Error::Blob(e)
     }
 }
+
+impl Error {
+    /// An [`Error::InvalidConfig`] for setting `what`, which accepts `expected` and got `found`.
+    pub(crate) fn invalid(
+        what: &str,
+        expected: impl Into<String>,
+        found: impl fmt::Display,
+    ) -> Error {
+        Error::InvalidConfig {
+            what: what.into(),
+            expected: expected.into(),
+            found: found.to_string(),
+        }
+    }
+
+    /// Checks that `v` is finite and in `[lo, hi]`.
+    pub(crate) fn check_range(what: &str, v: f32, lo: f32, hi: f32) -> Result<(), Error> {
+        if v.is_finite() && (lo..=hi).contains(&v) {
+            Ok(())
+        } else {
+            Err(Error::invalid(what, format!("a number in [{lo}, {hi}]"), v))
+        }
+    }
+
+    /// Checks that the count `n` is in `[1, max]`.
+    pub(crate) fn check_count(what: &str, n: usize, max: usize) -> Result<(), Error> {
+        if (1..=max).contains(&n) {
+            Ok(())
+        } else {
+            Err(Error::invalid(what, format!("an integer in [1, {max}]"), n))
+        }
+    }
+}

@@ -271,6 +271,40 @@ pub fn critic_blob(
 /// Writes `net` as a blob of `kind` with policy-core's runtime writer, then loads it back
 /// through [`Model::from_blob`], which applies every rule the chip applies (finite parameters,
 /// low <= high, positive clip): an exported blob always boots.
+/// A discrete-policy blob (DQN): the Q-network `net` (linear, one output per row of the action
+/// table), the normaliser, the action bounds and the `table` (`net.config.outputs` rows of
+/// `low.len()` plant-unit actions). policy-core's `Model::act` takes the argmax of Q and returns
+/// that row.
+pub fn discrete_blob(
+    net: &Net,
+    norm: &RunningNorm,
+    low: &[f32],
+    high: &[f32],
+    table: &[f32],
+    label: &str,
+) -> Result<Vec<u8>, Error> {
+    check_net(net, Output::Linear, "discrete policy")?;
+    check_size(
+        "Q-network input vs normaliser",
+        norm.dim(),
+        net.config.inputs,
+    )?;
+    check_size("action bounds (high)", low.len(), high.len())?;
+    check_size(
+        "action table (rows x actions)",
+        net.config.outputs * low.len(),
+        table.len(),
+    )?;
+    write(
+        ModelKind::Discrete,
+        net,
+        norm,
+        low.len(),
+        &[low, high, table],
+        label,
+    )
+}
+
 fn write(
     kind: ModelKind,
     net: &Net,
@@ -284,7 +318,13 @@ fn write(
         depth: c.depth,
         width: c.width,
     };
-    let shape = check_supported(norm.dim(), actions, hidden)?;
+    let mut shape = check_supported(norm.dim(), actions, hidden)?;
+    if kind == ModelKind::Discrete {
+        shape.choices = u16::try_from(c.outputs).map_err(|_| Error::UnsupportedShape {
+            shape: format!("{} moves", c.outputs),
+            reason: format!("at most {} rows in an action table", blob::MAX_CHOICES),
+        })?;
+    }
     let spec = Spec {
         kind,
         shape,

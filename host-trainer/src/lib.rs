@@ -9,11 +9,16 @@
 //!
 //! The pieces, in the order data flows:
 //! - [`seed`]: one seed, one named random stream per component (same seed ⇒ same bytes).
-//! - [`net`], [`adam`], [`normalize`], [`replay`]: the MLP with back-propagation, its optimiser,
-//!   the running observation normaliser and the replay buffer.
+//! - [`net`], [`adam`], [`normalize`], [`replay`], [`rollout`]: the MLP with back-propagation,
+//!   its optimiser, the running observation normaliser, the replay buffer and the on-policy
+//!   rollout buffer with GAE.
+//! - [`algo`]: the algorithm plug-in (what the training loop asks of an algorithm, and the list
+//!   of algorithms).
 //! - [`agent`]: the actor-critic machinery DDPG and DCP share (critic Bellman update, targets,
-//!   exploration in the unit action box) and [`noise`] (the exploration process).
-//! - [`ddpg`] and [`dcp`]: the two actor updates, one file each, config first.
+//!   exploration in the unit action box) and [`noise`] (the exploration process);
+//!   [`actor_critic`]: the two as a plug-in.
+//! - [`ddpg`] and [`dcp`]: the two actor updates; [`ppo`] and [`dqn`]: the paper's other two
+//!   agents; one file each, config first.
 //! - [`train`]: the episode loop on a firmware-sim plant, metrics, checkpoints, divergence stop.
 //! - [`export`]: actor and critic blobs of any shape for policy-core's runtime model;
 //!   [`inspect`]: what a blob holds; [`checkpoint`], [`run_dir`], [`plot`]: the files of a run
@@ -38,18 +43,22 @@ pub mod net;
 pub mod noise;
 pub mod normalize;
 pub mod replay;
+pub mod rollout;
 pub mod seed;
-mod ziggurat;
 
 // Algorithms, training loop and CLI support.
+pub mod actor_critic;
 pub mod agent;
+pub mod algo;
 pub mod checkpoint;
 pub mod crash_test;
 pub mod dcp;
 pub mod ddpg;
+pub mod dqn;
 pub mod error;
 pub mod inspect;
 pub mod plot;
+pub mod ppo;
 pub mod progress;
 pub mod run_dir;
 pub mod stats;

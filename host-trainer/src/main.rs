@@ -1,7 +1,7 @@
 //! `host-trainer`: train DCP or DDPG on a firmware-sim plant, export the blob, evaluate it.
 //!
 //! ```text
-//! host-trainer train [--task nav-walls] [--algo dcp] [--hidden 4x48] [--reward gr] [--episodes 3000]
+//! host-trainer train [--task nav-walls] [--algo dcp|ddpg|ppo|dqn] [--hidden 4x48] [--reward gr] [--episodes 3000]
 //!                    [--t 16] [--sigma 0.2] [--noise gaussian|ou] [--seed 0] [--out runs] [--config FILE] [--resume RUN_DIR]
 //! host-trainer eval --blob FILE [--task nav-walls] [--episodes 100] [--seed 0] [--json FILE]
 //! host-trainer export --run RUN_DIR
@@ -50,7 +50,7 @@ enum Command {
     Train(TrainArgs),
     /// Evaluate a policy blob in firmware-sim on test starts.
     Eval(EvalArgs),
-    /// Export policy.postcard and critic.postcard from a run's checkpoint.
+    /// Export policy.postcard (and, for DCP and DDPG, critic.postcard) from a run's checkpoint.
     Export(ExportArgs),
     /// Print what a blob holds: kind, shape, label, sizes, CRC, normaliser, bounds or table.
     Inspect(InspectArgs),
@@ -68,7 +68,7 @@ struct TrainArgs {
     /// Learning algorithm [default: dcp].
     #[arg(long, value_enum)]
     algo: Option<Algo>,
-    /// Hidden layers DEPTHxWIDTH of actor and critic [default: 4x48].
+    /// Hidden layers DEPTHxWIDTH of every network [default: 4x48].
     #[arg(long)]
     hidden: Option<Hidden>,
     /// Reward: gr, lr or lrgr [default: gr].
@@ -483,10 +483,15 @@ fn eval_command(args: EvalArgs) -> Result<()> {
 fn export_command(args: ExportArgs) -> Result<()> {
     let (trainer, run) = resume(&args.run, None)?;
     trainer.export(&run)?;
+    let critic_file = run.file(run_dir::CRITIC);
+    let critic = if critic_file.is_file() {
+        format!(" and {}", critic_file.display())
+    } else {
+        String::new()
+    };
     println!(
-        "wrote {} and {} (episode {})",
+        "wrote {}{critic} (episode {})",
         run.file(run_dir::POLICY).display(),
-        run.file(run_dir::CRITIC).display(),
         trainer.episode
     );
     Ok(())

@@ -249,6 +249,14 @@ pub struct Tape {
     scratch: Scratch,
 }
 
+/// A tape is scratch space: a clone starts empty (the next forward pass fills it), so a learner
+/// holding tapes can be cloned without copying buffers nobody reads.
+impl Clone for Tape {
+    fn clone(&self) -> Self {
+        Tape::default()
+    }
+}
+
 #[derive(Debug, Default)]
 struct Record {
     /// The input batch.

@@ -1,11 +1,16 @@
 //! The training run: configuration, the episode loop, metrics, checkpoints, divergence checks.
 //!
+//! The loop is the same for every algorithm: it asks the run's [`Algorithm`] for an action,
+//! steps the plant, hands the step back, and at the end of an episode records the metrics.
+//! What an algorithm does with a step (replay, rollouts, updates) is its own business
+//! ([`crate::algo`]).
+//!
 //! One seed drives everything: every random stream (initial weights, exploration, replay
-//! sampling, dropout masks, DCP proposals, episode starts) is `seed::stream(seed, name)` with
-//! its own name, and the loop is single-threaded, so the same seed and configuration give the
-//! same blob bytes. Wall-clock times appear only in `metrics.csv`'s `steps_per_s` column.
+//! sampling, dropout masks, DCP proposals, minibatch order, episode starts) is
+//! `seed::stream(seed, name)` with its own name, and the loop is single-threaded, so the same
+//! seed and configuration give the same blob bytes. Wall-clock times appear only in
+//! `metrics.csv`'s `steps_per_s` column.
 
-use std::fmt;
 use std::ops::ControlFlow;
 use std::path::Path;
 use std::time::Instant;
@@ -17,14 +22,17 @@ use firmware_sim::scenario::Scenario;
 use rand_core::Rng as _;
 use serde::{Deserialize, Serialize};
 
-use crate::agent::{self, Agent};
+use crate::agent;
+pub use crate::algo::Algo;
+use crate::algo::{Algorithm, Learner, Step};
 use crate::checkpoint::{Checkpoint, RngState};
 use crate::crash_test;
-use crate::dcp::{self, Dcp};
-use crate::ddpg::{self, Ddpg};
+use crate::dcp;
+use crate::ddpg;
+use crate::dqn;
 use crate::export;
 use crate::plot::{self, Panel, Series};
-use crate::replay::Transition;
+use crate::ppo;
 use crate::run_dir::{self, RunDir};
 use crate::seed::{self, Rng};
 use crate::Error;
@@ -47,18 +55,24 @@ pub struct TrainConfig {
     pub checkpoint_every: usize,
     /// Test starts for the final firmware-sim evaluation [paper: 100].
     pub eval_episodes: usize,
-    /// Shared actor-critic settings.
+    /// Settings every algorithm shares (networks, learning rates, γ, normalisation; each
+    /// algorithm's file says which it reads).
     pub agent: agent::Config,
     /// DCP settings (used when `algo = "dcp"`).
     pub dcp: dcp::Config,
     /// DDPG settings (used when `algo = "ddpg"`).
     pub ddpg: ddpg::Config,
+    /// PPO settings (used when `algo = "ppo"`).
+    pub ppo: ppo::Config,
+    /// DQN settings (used when `algo = "dqn"`).
+    pub dqn: dqn::Config,
 }
 
 impl TrainConfig {
     /// The smallest run that still exercises every code path (warm-up, updates, checkpoint,
-    /// export, evaluation): 3 episodes of a 2×32 network, batch 16, T = 4. Smoke tests and the
-    /// end-to-end test use it; it is far too small to learn anything.
+    /// export, evaluation): 3 episodes of a 2×32 network, batch 16, T = 4, PPO rollouts of 32
+    /// steps in minibatches of 8 over 2 epochs. Smoke tests and the end-to-end test use it; it
+    /// is far too small to learn anything.
     pub fn smoke(algo: Algo, seed: u64) -> Self {
         let mut c = TrainConfig {
             algo,
@@ -75,6 +89,9 @@ impl TrainConfig {
         c.agent.batch = 16;
         c.agent.warmup_steps = 16;
         c.dcp.t = 4;
+        c.ppo.rollout = 32;
+        c.ppo.minibatch = 8;
+        c.ppo.epochs = 2;
         c
     }
 }
@@ -92,6 +109,8 @@ impl Default for TrainConfig {
             agent: agent::Config::default(),
             dcp: dcp::Config::default(),
             ddpg: ddpg::Config::default(),
+            ppo: ppo::Config::default(),
+            dqn: dqn::Config::default(),
         }
     }
 }
@@ -142,17 +161,7 @@ impl TrainConfig {
         }
         positive("checkpoint_every", self.checkpoint_every)?;
         positive("eval_episodes", self.eval_episodes)?;
-        if self.algo == Algo::Dcp {
-            positive("dcp.t", self.dcp.t)?;
-            if let Some(s) = self.dcp.sigma_c.filter(|s| !(s.is_finite() && *s > 0.0)) {
-                return Err(Error::InvalidConfig {
-                    what: "dcp.sigma_c".into(),
-                    expected: "a positive number".into(),
-                    found: s.to_string(),
-                });
-            }
-        }
-        Ok(())
+        Learner::validate(self)
     }
 
     /// The run folder's name, `{task}__{algo}__{seed}` (a scenario file contributes its stem).
@@ -180,25 +189,6 @@ pub const MAX_EPISODES: usize = 1_000_000;
 
 fn one_line(s: &str) -> String {
     s.split_whitespace().collect::<Vec<_>>().join(" ")
-}
-
-/// The learning algorithm.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum Algo {
-    /// Deep Comparative Policy.
-    Dcp,
-    /// Deep Deterministic Policy Gradient.
-    Ddpg,
-}
-
-impl fmt::Display for Algo {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Algo::Dcp => "dcp",
-            Algo::Ddpg => "ddpg",
-        })
-    }
 }
 
 /// The navigation reward (DESIGN.md section 2).
@@ -232,7 +222,7 @@ pub fn scenario(task: &str) -> Result<Scenario, Error> {
 }
 
 /// One row of `metrics.csv`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EpisodeRow {
     /// Episode number, from 1.
     pub episode: usize,
@@ -245,20 +235,25 @@ pub struct EpisodeRow {
     pub success: bool,
     /// Distance from the centre at the end.
     pub final_distance: f32,
-    /// Mean critic loss over the episode's updates (NaN before the first update).
-    pub critic_loss: f32,
-    /// Mean actor loss (NaN before the first update).
-    pub actor_loss: f32,
-    /// DCP: mean fraction of the minibatch with a winning proposal (NaN for DDPG).
-    pub dcp_kept: f32,
+    /// The algorithm's own columns ([`Algorithm::stat_names`]), e.g. DCP's critic loss, actor
+    /// loss and kept fraction (NaN where nothing ran).
+    pub stats: Vec<f32>,
     /// Environment steps since the start of the run.
     pub total_steps: u64,
     /// Environment steps per second in this episode, updates included (wall clock).
     pub steps_per_s: f32,
 }
 
-/// The header of `metrics.csv`.
-pub const CSV_HEADER: &str = "episode,return,steps,success,final_distance,critic_loss,actor_loss,dcp_kept,total_steps,steps_per_s";
+/// The header of `metrics.csv`, with the algorithm's columns (`names`) in the middle.
+pub fn csv_header(names: &[&str]) -> String {
+    let mut h = String::from("episode,return,steps,success,final_distance");
+    for n in names {
+        h.push(',');
+        h.push_str(n);
+    }
+    h.push_str(",total_steps,steps_per_s");
+    h
+}
 
 impl EpisodeRow {
     /// The row as CSV (NaN written as an empty field).
@@ -270,106 +265,26 @@ impl EpisodeRow {
                 format!("{v}")
             }
         };
-        format!(
-            "{},{},{},{},{},{},{},{},{},{}",
+        let mut out = format!(
+            "{},{},{},{},{}",
             self.episode,
             f(self.ret),
             self.steps,
             u8::from(self.success),
             f(self.final_distance),
-            f(self.critic_loss),
-            f(self.actor_loss),
-            f(self.dcp_kept),
-            self.total_steps,
-            f(self.steps_per_s)
-        )
-    }
-}
-
-/// The actor learner of the configured algorithm.
-#[derive(Clone, Debug)]
-enum Learner {
-    Dcp(Dcp),
-    Ddpg(Ddpg),
-}
-
-/// The independent random streams, each `seed::stream(seed, name)`.
-#[derive(Clone, Debug)]
-struct Rngs {
-    explore: Rng,
-    replay: Rng,
-    dropout: Rng,
-    proposals: Rng,
-    env: Rng,
-}
-
-const RNG_NAMES: [&str; 5] = ["explore", "replay", "dropout", "proposals", "env"];
-
-impl Rngs {
-    fn new(seed: u64) -> Rngs {
-        let [explore, replay, dropout, proposals, env] = RNG_NAMES.map(|n| seed::stream(seed, n));
-        Rngs {
-            explore,
-            replay,
-            dropout,
-            proposals,
-            env,
+        );
+        for &v in &self.stats {
+            out.push(',');
+            out.push_str(&f(v));
         }
+        out.push_str(&format!(",{},{}", self.total_steps, f(self.steps_per_s)));
+        out
     }
-    fn states(&self) -> Vec<RngState> {
-        [
-            &self.explore,
-            &self.replay,
-            &self.dropout,
-            &self.proposals,
-            &self.env,
-        ]
-        .map(RngState::of)
-        .to_vec()
-    }
-    fn restore(states: &[RngState]) -> Option<Rngs> {
-        let [explore, replay, dropout, proposals, env] =
-            <[RngState; 5]>::try_from(states).ok()?.map(|s| s.restore());
-        Some(Rngs {
-            explore,
-            replay,
-            dropout,
-            proposals,
-            env,
-        })
-    }
-}
 
-/// Losses of one update.
-#[derive(Clone, Copy, Debug, Default)]
-struct UpdateStats {
-    critic_loss: f32,
-    actor_loss: f32,
-    kept: Option<f32>,
-}
-
-/// Running sums of an episode's update statistics.
-#[derive(Clone, Copy, Debug, Default)]
-struct Totals {
-    updates: u32,
-    critic: f64,
-    actor: f64,
-    kept: f64,
-}
-
-impl Totals {
-    fn add(&mut self, u: UpdateStats) {
-        self.updates += 1;
-        self.critic += f64::from(u.critic_loss);
-        self.actor += f64::from(u.actor_loss);
-        self.kept += f64::from(u.kept.unwrap_or(f32::NAN));
-    }
-    fn mean(&self, sum: f64) -> f32 {
-        if self.updates == 0 {
-            f32::NAN
-        } else {
-            (sum / f64::from(self.updates)) as f32
-        }
+    /// The value of the algorithm's column `name` (its position in `names`).
+    pub fn stat(&self, names: &[&str], name: &str) -> Option<f32> {
+        let i = names.iter().position(|n| *n == name)?;
+        self.stats.get(i).copied()
     }
 }
 
@@ -378,8 +293,8 @@ impl Totals {
 pub struct Trainer {
     /// The configuration.
     pub config: TrainConfig,
-    /// Networks, optimisers, normaliser, replay.
-    pub agent: Agent,
+    /// The algorithm and everything it has learned.
+    pub learner: Learner,
     /// Completed episodes.
     pub episode: usize,
     /// Environment steps so far.
@@ -388,9 +303,9 @@ pub struct Trainer {
     pub metrics: Vec<EpisodeRow>,
     /// The plant, as resolved when the run started (before the reward and γ overrides).
     pub scenario: Scenario,
-    learner: Learner,
     env: NavEnv,
-    rngs: Rngs,
+    /// Episode starts.
+    env_rng: Rng,
 }
 
 /// Positions over which an episode's end is judged (DESIGN.md: the last 20 steps).
@@ -418,20 +333,17 @@ impl Trainer {
             space.dim(),
             config.agent.hidden,
         )?;
-        let mut init = seed::stream(config.seed, "init");
-        let agent = Agent::new(
-            config.agent.clone(),
+        let learner = Learner::new(
+            &config,
             env.observation_space().dim(),
             &space.low,
             &space.high,
-            &mut init,
         )?;
         Ok(Trainer {
-            learner: learner(&config),
-            rngs: Rngs::new(config.seed),
+            learner,
+            env_rng: seed::stream(config.seed, "env"),
             env,
             scenario,
-            agent,
             config,
             episode: 0,
             total_steps: 0,
@@ -455,23 +367,15 @@ impl Trainer {
             config.episodes = n;
         }
         config.validate()?;
-        let rngs = Rngs::restore(&checkpoint.rngs).ok_or_else(|| {
-            bad(format!(
-                "expected {} random streams, found {}",
-                RNG_NAMES.len(),
-                checkpoint.rngs.len()
-            ))
-        })?;
         let scenario = Scenario::from_toml_str(&checkpoint.scenario_toml)
             .map_err(|e| bad(format!("its recorded plant does not load: {e}")))?;
-        let mut agent = checkpoint.agent;
-        agent.config = config.agent.clone();
+        let mut learner = checkpoint.learner;
+        learner.configure(&config).map_err(bad)?;
         Ok(Trainer {
-            learner: learner(&config),
+            learner,
             env: make_env(&config, &scenario)?,
+            env_rng: checkpoint.env_rng.restore(),
             scenario,
-            rngs,
-            agent,
             episode: checkpoint.episode,
             total_steps: checkpoint.total_steps,
             metrics: checkpoint.metrics,
@@ -484,12 +388,17 @@ impl Trainer {
         Checkpoint {
             config_toml: self.config.to_toml(),
             scenario_toml: scenario_toml(&self.scenario),
-            agent: self.agent.clone(),
+            learner: self.learner.clone(),
             episode: self.episode,
             total_steps: self.total_steps,
             metrics: self.metrics.clone(),
-            rngs: self.rngs.states(),
+            env_rng: RngState::of(&self.env_rng),
         }
+    }
+
+    /// The run's algorithm.
+    pub fn algorithm(&self) -> &dyn Algorithm {
+        self.learner.get()
     }
 
     /// Whether the episode budget is used up.
@@ -503,40 +412,50 @@ impl Trainer {
         recent.iter().filter(|r| r.success).count() as f32 / recent.len().max(1) as f32
     }
 
+    /// The value of the algorithm's metrics column `name` in the last episode's row.
+    pub fn last_stat(&self, name: &str) -> Option<f32> {
+        self.metrics
+            .last()?
+            .stat(self.algorithm().stat_names(), name)
+    }
+
     /// Runs one episode with exploration and updates. On a non-finite loss or weight it returns
     /// `Error::Diverged` (without a checkpoint path: [`run`] adds it) and the trainer must be
     /// dropped: its state is no longer good.
     pub fn run_episode(&mut self) -> Result<&EpisodeRow, Error> {
         let started = Instant::now();
-        let mut obs = self.env.reset(self.rngs.env.next_u64());
-        let (mut ret, mut steps, mut totals) = (0.0f32, 0usize, Totals::default());
+        let mut obs = self.env.reset(self.env_rng.next_u64());
+        let (mut ret, mut steps) = (0.0f32, 0usize);
         let mut recent = Vec::with_capacity(SETTLE_WINDOW);
-        let mut noise = self.agent.noise_process(); // at rest: no state crosses episodes
+        let algo = self.learner.algorithm();
+        algo.start_episode(self.episode, self.config.episodes);
         let reached = loop {
-            let unit = self.agent.explore(&obs, &mut noise, &mut self.rngs.explore);
-            let step = self.env.step(&self.agent.scale(&unit));
-            self.agent.remember(&Transition {
-                obs,
-                action: unit,
-                reward: step.reward * self.agent.config.reward_scale,
-                next_obs: step.observation.clone(),
-                terminal: step.terminated,
+            let action = algo.act(&obs);
+            let step = self.env.step(&action);
+            self.total_steps += 1;
+            let learned = algo.learn(&Step {
+                obs: &obs,
+                reward: step.reward,
+                next_obs: &step.observation,
+                terminated: step.terminated,
+                truncated: step.truncated,
+                total_steps: self.total_steps,
             });
+            if let Err(what) = learned {
+                return Err(diverged(self.episode, what));
+            }
             obs = step.observation;
             ret += step.reward;
             steps += 1;
-            self.total_steps += 1;
             push_recent(&mut recent, distance(&obs));
-            for _ in 0..self.updates_due() {
-                totals.add(self.update().map_err(|what| self.diverged(what))?);
-            }
             if step.terminated || step.truncated {
                 break step.terminated && distance(&obs) < SUCCESS_RADIUS;
             }
         };
-        if !self.agent.is_finite() {
-            return Err(self.diverged("network weights"));
+        if !algo.is_finite() {
+            return Err(diverged(self.episode, "network weights"));
         }
+        let stats = algo.episode_stats();
         let settled = recent.iter().all(|&d| d < SUCCESS_RADIUS);
         self.episode += 1;
         self.metrics.push(EpisodeRow {
@@ -545,65 +464,11 @@ impl Trainer {
             steps,
             success: reached || settled,
             final_distance: distance(&obs),
-            critic_loss: totals.mean(totals.critic),
-            actor_loss: totals.mean(totals.actor),
-            dcp_kept: totals.mean(totals.kept),
+            stats,
             total_steps: self.total_steps,
             steps_per_s: steps as f32 / started.elapsed().as_secs_f32().max(1e-9),
         });
         Ok(&self.metrics[self.metrics.len() - 1])
-    }
-
-    fn diverged(&self, what: &str) -> Error {
-        Error::Diverged {
-            episode: self.episode + 1,
-            what: what.into(),
-            checkpoint: None,
-        }
-    }
-
-    fn updates_due(&self) -> usize {
-        let warm = self.total_steps >= self.agent.config.warmup_steps as u64
-            && self.agent.replay.len() >= self.agent.config.batch;
-        if warm {
-            self.agent.config.updates_per_step
-        } else {
-            0
-        }
-    }
-
-    /// One critic step and one actor step on the same minibatch, then the soft target update.
-    fn update(&mut self) -> Result<UpdateStats, &'static str> {
-        let s = self.agent.sample(&mut self.rngs.replay);
-        let critic_loss = self.agent.critic_update(&s, &mut self.rngs.dropout);
-        if !critic_loss.is_finite() {
-            return Err("critic loss");
-        }
-        let (actor_loss, kept) = match &self.learner {
-            Learner::Dcp(d) => {
-                let st = d.actor_update(
-                    &mut self.agent,
-                    &s,
-                    &mut self.rngs.proposals,
-                    &mut self.rngs.dropout,
-                );
-                (st.loss, Some(st.kept))
-            }
-            Learner::Ddpg(d) => (
-                d.actor_update(&mut self.agent, &s, &mut self.rngs.dropout)
-                    .loss,
-                None,
-            ),
-        };
-        if !actor_loss.is_finite() {
-            return Err("actor loss");
-        }
-        self.agent.soft_update();
-        Ok(UpdateStats {
-            critic_loss,
-            actor_loss,
-            kept,
-        })
     }
 
     /// Writes checkpoint, metrics and plot of the current state.
@@ -614,27 +479,40 @@ impl Trainer {
 
     /// Writes `metrics.csv` and the learning-curve SVG.
     pub fn save_metrics(&self, run: &RunDir) -> Result<(), Error> {
-        run.write(run_dir::METRICS, metrics_csv(&self.metrics).as_bytes())?;
+        let names = self.algorithm().stat_names();
+        run.write(
+            run_dir::METRICS,
+            metrics_csv(names, &self.metrics).as_bytes(),
+        )?;
         run.write(
             run_dir::CURVE,
             learning_curve(&self.config.run_name(), &self.metrics).as_bytes(),
         )
     }
 
-    /// Exports `policy.postcard` and `critic.postcard`; returns the actor blob.
+    /// The policy blob (what gets flashed), from the current networks.
+    pub fn policy_blob(&self, label: &str) -> Result<Vec<u8>, Error> {
+        self.algorithm().policy_blob(label)
+    }
+
+    /// Exports `policy.postcard` and, for algorithms with a Q(s, a) critic, `critic.postcard`;
+    /// returns the policy blob.
     pub fn export(&self, run: &RunDir) -> Result<Vec<u8>, Error> {
         let label = self.config.blob_label();
-        let actor = self.agent.actor_blob(&label)?;
-        run.write(run_dir::POLICY, &actor)?;
-        run.write(run_dir::CRITIC, &self.agent.critic_blob(&label)?)?;
-        Ok(actor)
+        let policy = self.policy_blob(&label)?;
+        run.write(run_dir::POLICY, &policy)?;
+        if let Some(critic) = self.algorithm().critic_blob(&label) {
+            run.write(run_dir::CRITIC, &critic?)?;
+        }
+        Ok(policy)
     }
 }
 
-fn learner(config: &TrainConfig) -> Learner {
-    match config.algo {
-        Algo::Dcp => Learner::Dcp(Dcp::new(config.dcp.clone(), config.agent.sigma)),
-        Algo::Ddpg => Learner::Ddpg(Ddpg::new(config.ddpg.clone())),
+fn diverged(done: usize, what: &str) -> Error {
+    Error::Diverged {
+        episode: done + 1,
+        what: what.into(),
+        checkpoint: None,
     }
 }
 
@@ -717,7 +595,7 @@ pub fn run(
     }
     while !trainer.done() {
         let row = match trainer.run_episode() {
-            Ok(row) => *row,
+            Ok(row) => row.clone(),
             Err(Error::Diverged { episode, what, .. }) => {
                 trainer.save_metrics(run)?;
                 return Err(Error::Diverged {
@@ -744,8 +622,8 @@ pub fn run(
 }
 
 /// The whole `metrics.csv`.
-pub fn metrics_csv(rows: &[EpisodeRow]) -> String {
-    let mut out = String::from(CSV_HEADER);
+pub fn metrics_csv(names: &[&str], rows: &[EpisodeRow]) -> String {
+    let mut out = csv_header(names);
     out.push('\n');
     for r in rows {
         out.push_str(&r.csv());

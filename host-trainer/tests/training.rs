@@ -1,7 +1,8 @@
-//! Training runs with tiny budgets: smoke runs of both algorithms, determinism, resume, and
+//! Training runs with tiny budgets: smoke runs of every algorithm, determinism, resume, and
 //! divergence handling. Every run here is small enough for the debug profile.
 
 use host_trainer::agent::Hidden;
+use host_trainer::algo::Learner;
 use host_trainer::checkpoint::Checkpoint;
 use host_trainer::dcp::Variant;
 use host_trainer::ddpg::ActorGradient;
@@ -27,15 +28,14 @@ fn dcp_smoke_run_updates_and_writes_every_file() {
     let (trainer, run) = train_to_end(TrainConfig::smoke(Algo::Dcp, 1), &out);
     trainer.export(&run).expect("export");
     assert_eq!(trainer.metrics.len(), 3);
-    let last = trainer.metrics.last().expect("rows");
+    let stat = |name| trainer.last_stat(name).expect(name);
     assert!(
-        last.critic_loss.is_finite() && last.actor_loss.is_finite(),
-        "updates ran: {last:?}"
+        stat("critic_loss").is_finite() && stat("actor_loss").is_finite(),
+        "updates ran: {:?}",
+        trainer.metrics.last()
     );
-    assert!(
-        last.dcp_kept > 0.0 && last.dcp_kept <= 1.0,
-        "some proposals won: {last:?}"
-    );
+    let kept = stat("dcp_kept");
+    assert!(kept > 0.0 && kept <= 1.0, "some proposals won: {kept}");
     for name in [
         run_dir::CONFIG,
         run_dir::METRICS,
@@ -60,12 +60,14 @@ fn ddpg_smoke_run_both_actor_gradients() {
         let mut config = TrainConfig::smoke(Algo::Ddpg, 2);
         config.ddpg.actor_gradient = gradient;
         let (trainer, _) = train_to_end(config, &out);
-        let last = trainer.metrics.last().expect("rows");
+        let stat = |name| trainer.last_stat(name);
         assert!(
-            last.critic_loss.is_finite() && last.actor_loss.is_finite(),
-            "{gradient:?}: {last:?}"
+            stat("critic_loss").is_some_and(f32::is_finite)
+                && stat("actor_loss").is_some_and(f32::is_finite),
+            "{gradient:?}: {:?}",
+            trainer.metrics.last()
         );
-        assert!(last.dcp_kept.is_nan());
+        assert_eq!(stat("dcp_kept"), None, "DDPG has no kept column");
         std::fs::remove_dir_all(&out).expect("cleanup");
     }
 }
@@ -77,62 +79,163 @@ fn dcp_variants_train() {
         let mut config = TrainConfig::smoke(Algo::Dcp, 3);
         config.dcp.variant = variant;
         let (trainer, _) = train_to_end(config, &out);
-        let last = trainer.metrics.last().expect("rows");
+        let stat = |name| trainer.last_stat(name).expect(name);
         assert!(
-            last.actor_loss.is_finite() && last.dcp_kept > 0.0,
-            "{variant:?}: {last:?}"
+            stat("actor_loss").is_finite() && stat("dcp_kept") > 0.0,
+            "{variant:?}: {:?}",
+            trainer.metrics.last()
         );
         std::fs::remove_dir_all(&out).expect("cleanup");
     }
 }
 
+const ALGOS: [Algo; 4] = [Algo::Dcp, Algo::Ddpg, Algo::Ppo, Algo::Dqn];
+
 #[test]
 fn same_seed_same_blob_bytes_other_seed_other_bytes() {
     let out = scratch("determinism");
-    let blob = |seed: u64, sub: &str| {
-        let dir = out.join(sub);
-        std::fs::create_dir_all(&dir).expect("dir");
-        let (trainer, _) = train_to_end(TrainConfig::smoke(Algo::Dcp, seed), &dir);
-        trainer.agent.actor_blob("determinism").expect("blob")
-    };
-    let a = blob(7, "a");
-    assert_eq!(
-        a,
-        blob(7, "b"),
-        "same seed and config must give the same bytes"
-    );
-    assert_ne!(a, blob(8, "c"));
+    for algo in ALGOS {
+        let blob = |seed: u64, sub: &str| {
+            let dir = out.join(format!("{algo}-{sub}"));
+            std::fs::create_dir_all(&dir).expect("dir");
+            let (trainer, _) = train_to_end(TrainConfig::smoke(algo, seed), &dir);
+            trainer.policy_blob("determinism").expect("blob")
+        };
+        let a = blob(7, "a");
+        assert_eq!(
+            a,
+            blob(7, "b"),
+            "{algo}: same seed and config must give the same bytes"
+        );
+        assert_ne!(a, blob(8, "c"), "{algo}");
+    }
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
 
 #[test]
 fn resumed_run_equals_uninterrupted_run() {
     let out = scratch("resume");
-    let whole = out.join("whole");
-    let parts = out.join("parts");
-    std::fs::create_dir_all(&whole).expect("dir");
-    std::fs::create_dir_all(&parts).expect("dir");
-    let (uninterrupted, _) = train_to_end(TrainConfig::smoke(Algo::Dcp, 5), &whole);
+    for algo in ALGOS {
+        let whole = out.join(format!("{algo}-whole"));
+        let parts = out.join(format!("{algo}-parts"));
+        std::fs::create_dir_all(&whole).expect("dir");
+        std::fs::create_dir_all(&parts).expect("dir");
+        let mut config = TrainConfig::smoke(algo, 5);
+        config.episodes = 4;
+        let (uninterrupted, _) = train_to_end(config.clone(), &whole);
 
-    // Stop after 2 episodes (the checkpoint interval), then resume from the file to 3.
-    let mut first = TrainConfig::smoke(Algo::Dcp, 5);
-    first.episodes = 2;
-    let (_, run) = train_to_end(first, &parts);
-    let path = run.file(run_dir::CHECKPOINT);
-    let mut resumed =
-        Trainer::resume(Checkpoint::load(&path).expect("load"), Some(3), &path).expect("resume");
-    assert_eq!(resumed.episode, 2);
-    train::run(&mut resumed, &run, &mut |_, _| {
-        std::ops::ControlFlow::Continue(())
-    })
-    .expect("resumed training");
+        // Stop after 2 episodes (the checkpoint interval), then resume from the file to 4.
+        config.episodes = 2;
+        let (_, run) = train_to_end(config, &parts);
+        let path = run.file(run_dir::CHECKPOINT);
+        let mut resumed = Trainer::resume(Checkpoint::load(&path).expect("load"), Some(4), &path)
+            .expect("resume");
+        assert_eq!(resumed.episode, 2);
+        if let Learner::Ppo(ppo) = &resumed.learner {
+            // The checkpoint falls inside a rollout: the test covers the unfinished one.
+            assert!(!ppo.rollout.is_empty(), "a rollout in progress is saved");
+        }
+        train::run(&mut resumed, &run, &mut |_, _| {
+            std::ops::ControlFlow::Continue(())
+        })
+        .expect("resumed training");
 
-    assert_eq!(
-        resumed.agent.actor_blob("x").expect("blob"),
-        uninterrupted.agent.actor_blob("x").expect("blob")
-    );
-    let returns = |t: &Trainer| t.metrics.iter().map(|r| r.ret).collect::<Vec<_>>();
-    assert_eq!(returns(&resumed), returns(&uninterrupted));
+        assert_eq!(
+            resumed.policy_blob("x").expect("blob"),
+            uninterrupted.policy_blob("x").expect("blob"),
+            "{algo}"
+        );
+        assert_eq!(resumed.metrics.len(), 4);
+        let rows = |t: &Trainer| {
+            t.metrics
+                .iter()
+                .map(|r| {
+                    (
+                        r.ret,
+                        r.stats.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    )
+                })
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(rows(&resumed), rows(&uninterrupted), "{algo}");
+    }
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+/// PPO and DQN run end to end with tiny budgets: updates happen and report finite values.
+#[test]
+fn ppo_and_dqn_smoke_runs_update_and_export() {
+    let out = scratch("ppo-dqn-smoke");
+    for (algo, columns) in [
+        (
+            Algo::Ppo,
+            &[
+                "policy_loss",
+                "value_loss",
+                "entropy",
+                "approx_kl",
+                "clip_fraction",
+            ][..],
+        ),
+        (Algo::Dqn, &["epsilon", "q_loss"][..]),
+    ] {
+        let mut config = TrainConfig::smoke(algo, 1);
+        config.episodes = 6;
+        let (trainer, run) = train_to_end(config, &out);
+        // PPO: at least two rollouts of 32; DQN: past the warm-up of 16.
+        let needed = if algo == Algo::Ppo { 64 } else { 17 };
+        assert!(
+            trainer.total_steps >= needed,
+            "{algo}: {} steps",
+            trainer.total_steps
+        );
+        assert_eq!(trainer.algorithm().stat_names(), columns);
+        for name in columns {
+            let v = trainer.last_stat(name).expect(name);
+            assert!(v.is_finite(), "{algo} {name} = {v}");
+        }
+        trainer.export(&run).expect("export");
+        assert!(run.file(run_dir::POLICY).is_file());
+        assert!(
+            !run.file(run_dir::CRITIC).exists(),
+            "{algo} has no Q(s, a) critic to export"
+        );
+        let csv = std::fs::read_to_string(run.file(run_dir::METRICS)).expect("metrics");
+        assert!(csv.starts_with(&train::csv_header(columns)), "{csv}");
+        let kind = policy_core::model::Model::from_blob(
+            &std::fs::read(run.file(run_dir::POLICY)).expect("blob"),
+        )
+        .expect("the blob boots")
+        .header()
+        .kind;
+        let want = if algo == Algo::Dqn {
+            policy_core::ModelKind::Discrete
+        } else {
+            policy_core::ModelKind::Actor
+        };
+        assert_eq!(kind, want);
+    }
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+/// DQN's ε falls from 1 to 0.05 over the first 10 % of the episodes of a real run.
+#[test]
+fn dqn_epsilon_follows_its_schedule_in_a_run() {
+    let out = scratch("dqn-epsilon");
+    let mut config = TrainConfig::smoke(Algo::Dqn, 2);
+    config.episodes = 20;
+    config.checkpoint_every = 20;
+    config.task = "nav-open".into();
+    let (trainer, _) = train_to_end(config, &out);
+    let names = trainer.algorithm().stat_names();
+    let eps: Vec<f32> = trainer
+        .metrics
+        .iter()
+        .map(|r| r.stat(names, "epsilon").expect("epsilon"))
+        .collect();
+    assert_eq!(eps[0], 1.0);
+    assert!((eps[1] - 0.525).abs() < 1e-6, "{eps:?}");
+    assert!(eps[2..].iter().all(|&e| e == 0.05), "{eps:?}");
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
 
@@ -164,7 +267,7 @@ fn divergence_stops_with_a_clear_error_and_keeps_the_last_good_checkpoint() {
     let kept = Checkpoint::load(&run.file(run_dir::CHECKPOINT))
         .expect("the last good checkpoint is readable");
     assert!(
-        kept.agent.is_finite(),
+        kept.learner.get().is_finite(),
         "the kept checkpoint holds finite weights"
     );
     assert!(
@@ -223,25 +326,25 @@ fn training_blobs_are_bit_identical_to_the_pinned_run() {
     let fused = [
         (
             Algo::Dcp,
-            "435943876e687eab6e51aa76a6fd362880be8fb7a2ac7e2efc09bf8c4d0c2d63",
-            "4f9379c0873ebd68689065670c415df89297b9371e744fd6b99f773e12d3873a",
+            "324c32c1485a397a7f991cfe3ebc8840873e76b4e2f39d5018d562e8298e891d",
+            "bd3e4f7ca1b36826a8c1a767938a5225f5e8a6c8c03610aa5b878f32dfb64ecc",
         ),
         (
             Algo::Ddpg,
-            "6e99003a44675ad66078a12c8f8f3183eccbce0bfde21859464064ec6d58ad0f",
-            "9f80e4ca1bb587da3926889fd5843d5d02cd997c1ee5a82888cc985d3ebf61fe",
+            "57fc6963031ab732a6eeb54687848515e5891cf5586ccde073b90e92cd868031",
+            "e8922074dc4db9697b2c1199c54cb7875c0ba36058a53b0533f0cc05bf6d7ca3",
         ),
     ];
     let plain = [
         (
             Algo::Dcp,
-            "7bd55366c07170c14927d931b5723da8e342ea549713f7183e8872adc09f86ef",
-            "85edcf2fe13fb7c8cfcc65586e2c6d646947a836e0aa399d01462d495ba07298",
+            "410d56d4dccfdfd73fd88a8097f04acb574cc616d8ac44c9044e89ac8ef589f6",
+            "a5c1a4d696362dc327de07d12b91626f79fce9b148c4f0da0040735d9a78bfb1",
         ),
         (
             Algo::Ddpg,
-            "426185c94cbeebd47cf44b0ee51b1b88c5d91447c97c4dc7ab26310c55953c51",
-            "61d34d868acc1e98119c2652fe2baf17155480df500cacc7fd16e676f1e840a4",
+            "3e07bd6af461136358682fe51a53a78c2fa8961a6b2bd647e3c0a4eaa83fa3ff",
+            "ca0d7b4f4a7fef6cb9a994bb7a02e8991a317223064b4f92172447694649471a",
         ),
     ];
     let pinned = if cfg!(target_feature = "fma") {
@@ -256,9 +359,13 @@ fn training_blobs_are_bit_identical_to_the_pinned_run() {
         while !trainer.done() {
             trainer.run_episode().expect("episode");
         }
-        let blob = trainer.agent.actor_blob("pin").expect("actor");
+        let blob = trainer.policy_blob("pin").expect("actor");
         assert_eq!(sha256(&blob), actor, "{algo:?} actor blob");
-        let blob = trainer.agent.critic_blob("pin").expect("critic");
+        let blob = trainer
+            .algorithm()
+            .critic_blob("pin")
+            .expect("DCP and DDPG have a critic")
+            .expect("critic");
         assert_eq!(sha256(&blob), critic, "{algo:?} critic blob");
     }
 }

@@ -1,5 +1,5 @@
-//! Train a tiny DCP policy, export it, load the bytes in firmware-sim, run the closed loop and
-//! check the report.
+//! Train a tiny policy of every algorithm, export it, load the bytes in firmware-sim, run the
+//! closed loop and check the report.
 
 use firmware_sim::controller::{BlobPolicy, Controller};
 use firmware_sim::harness::{evaluate, EvalConfig};
@@ -7,12 +7,18 @@ use host_trainer::run_dir::{self, RunDir};
 use host_trainer::train::{self, Algo, TrainConfig, Trainer};
 
 #[test]
-fn trained_dcp_blob_runs_in_the_firmware_loop() {
-    let out = std::env::temp_dir().join(format!("e2e-{}", std::process::id()));
+fn trained_blobs_of_every_algorithm_run_in_the_firmware_loop() {
+    for algo in [Algo::Dcp, Algo::Ddpg, Algo::Ppo, Algo::Dqn] {
+        trained_blob_runs_in_the_firmware_loop(algo);
+    }
+}
+
+fn trained_blob_runs_in_the_firmware_loop(algo: Algo) {
+    let out = std::env::temp_dir().join(format!("e2e-{algo}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
     std::fs::create_dir_all(&out).expect("out dir");
 
-    let mut config = TrainConfig::smoke(Algo::Dcp, 11);
+    let mut config = TrainConfig::smoke(algo, 11);
     config.checkpoint_every = 3;
     config.eval_episodes = TrainConfig::default().eval_episodes;
     let mut trainer = Trainer::new(config).expect("trainer");
@@ -29,11 +35,28 @@ fn trained_dcp_blob_runs_in_the_firmware_loop() {
     // The firmware's policy (policy-core's runtime model over the bytes) acts exactly like the
     // trainer's own forward pass on its networks.
     let mut firmware = BlobPolicy::boot(&blob).expect("the blob boots");
-    for obs in [[4.0f32, -5.5], [0.3, 0.2], [-5.9, 5.9]] {
+    let mut greedy_differs = false;
+    let first = trainer.algorithm().greedy(&[4.0, -5.5]);
+    for obs in [
+        [4.0f32, -5.5],
+        [0.3, 0.2],
+        [-5.9, 5.9],
+        [0.0, 0.0],
+        [5.75, 1.5],
+        [-2.0, -5.75],
+        [1e6, -1e6],
+    ] {
         let mut action = [0.0f32; 2];
         firmware.act(&obs, &mut action);
-        assert_eq!(action.to_vec(), trainer.agent.greedy(&obs), "obs {obs:?}");
+        let greedy = trainer.algorithm().greedy(&obs);
+        let bits = |a: &[f32]| a.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&action), bits(&greedy), "{algo} obs {obs:?}");
+        greedy_differs |= greedy != first;
     }
+    assert!(
+        greedy_differs,
+        "{algo}: the policy depends on the observation"
+    );
 
     let scenario = train::scenario("nav-walls").expect("scenario");
     let report = evaluate(
