@@ -1,5 +1,7 @@
-//! Training updates per second: one minibatch of 64, critic step + actor step + soft target
-//! update, 4×48 actor and critic on the navigation shapes (2 observations, 2 actions).
+//! Training updates per second on the navigation shapes (2 observations, 2 actions), 4×48
+//! networks: DDPG and DCP (one minibatch of 64: critic step + actor step + soft target update),
+//! DQN (one minibatch of 64: Huber step + soft update) and PPO (the update at the end of one
+//! 2,048-step rollout: GAE and 10 epochs of 32 minibatches of 64).
 //!
 //! `cargo bench -p host-trainer --bench update`; criterion reports time per update and, as its
 //! throughput, multiply-adds per second of the update's network passes (counted in
@@ -10,10 +12,14 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use host_trainer::agent::{self, Agent};
+use host_trainer::algo::{Algo, Algorithm, Step};
 use host_trainer::dcp::{self, Dcp};
 use host_trainer::ddpg::{self, Ddpg};
+use host_trainer::dqn::Dqn;
+use host_trainer::ppo::Ppo;
 use host_trainer::replay::Transition;
 use host_trainer::seed;
+use host_trainer::train::TrainConfig;
 
 /// An agent with 10,000 random navigation transitions in its buffer.
 fn agent() -> Agent {
@@ -110,5 +116,64 @@ fn updates(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, updates);
+/// `steps` random navigation steps through an algorithm's `act` and `learn` (no plant).
+fn feed(algo: &mut dyn Algorithm, steps: usize) {
+    let mut rng = seed::stream(0, "data");
+    let mut obs = vec![0.0f32; 2];
+    algo.start_episode(0, 1);
+    for i in 0..steps {
+        let mut draw = |scale: f32| scale * (2.0 * seed::uniform(&mut rng) - 1.0);
+        if i % 200 == 0 {
+            obs = vec![draw(6.0), draw(6.0)];
+        }
+        let action = algo.act(&obs);
+        let next_obs = vec![obs[0] + action[0], obs[1] + action[1]];
+        algo.learn(&Step {
+            obs: &obs,
+            reward: -(next_obs[0].hypot(next_obs[1])) / 6.0,
+            next_obs: &next_obs,
+            terminated: false,
+            truncated: i % 200 == 199,
+            total_steps: i as u64 + 1,
+        })
+        .expect("finite");
+        obs = next_obs;
+    }
+}
+
+fn baselines(c: &mut Criterion) {
+    let mut group = c.benchmark_group("update_4x48_batch64");
+    group
+        .measurement_time(Duration::from_secs(5))
+        .sample_size(30);
+
+    // DQN: per row, the target network and the online network forward, the online backward.
+    let config = TrainConfig {
+        algo: Algo::Dqn,
+        ..TrainConfig::default()
+    };
+    let mut dqn = Dqn::new(&config, 2, &[-0.25; 2], &[0.25; 2]).expect("dqn");
+    feed(&mut dqn, 10_000);
+    let q = dqn.q.multiply_adds();
+    group.throughput(Throughput::Elements(64 * 4 * q));
+    group.bench_function("dqn", |b| b.iter(|| black_box(dqn.update())));
+
+    // PPO: per row and epoch, actor and value network forward and backward.
+    let config = TrainConfig {
+        algo: Algo::Ppo,
+        ..TrainConfig::default()
+    };
+    let rollout = config.ppo.rollout;
+    let epochs = config.ppo.epochs as u64;
+    let mut ppo = Ppo::new(&config, 2, &[-0.25; 2], &[0.25; 2]).expect("ppo");
+    feed(&mut ppo, rollout - 1); // one step short: the rollout is full but not yet learned
+    let per_row = 3 * (ppo.actor.multiply_adds() + ppo.value.multiply_adds());
+    group.throughput(Throughput::Elements(
+        epochs * (rollout as u64 - 1) * per_row,
+    ));
+    group.bench_function("ppo_rollout_2047", |b| b.iter(|| black_box(ppo.update())));
+    group.finish();
+}
+
+criterion_group!(benches, updates, baselines);
 criterion_main!(benches);

@@ -507,6 +507,23 @@ impl Agent {
             .clone()
     }
 
+    /// The training-mode actor forward on the batch `z` whose evaluation pass
+    /// ([`Agent::actor_eval`], output `eval`) was the actor's last. Without dropout the two passes
+    /// are one computation, so the evaluation tape stands in for the training one and `eval` is
+    /// returned as it is (no second pass); with dropout the pass runs with its masks.
+    pub fn actor_forward_train_after_eval(
+        &mut self,
+        z: &Matrix,
+        eval: Matrix,
+        dropout_rng: &mut Rng,
+    ) -> Matrix {
+        if self.config.dropout > 0.0 {
+            self.actor_forward_train(z, dropout_rng)
+        } else {
+            eval
+        }
+    }
+
     /// One Adam step of the actor from dL/d(output) of the last [`Agent::actor_forward_train`].
     pub fn actor_step(&mut self, grad_out: &Matrix) {
         let grads = self

@@ -148,13 +148,8 @@ impl Dcp {
         if targets.is_empty() {
             return stats;
         }
-        // Without dropout the training pass is the evaluation pass above, whose tape the actor
-        // step can use as it is (the compare step ran only the critic).
-        let p = if agent.config.dropout > 0.0 {
-            agent.actor_forward_train(&s.z, dropout_rng)
-        } else {
-            a0
-        };
+        // The compare step ran only the critic, so the actor's last pass is still `a0`'s.
+        let p = agent.actor_forward_train_after_eval(&s.z, a0, dropout_rng);
         let (loss, grad) = weighted_regression(&p, &candidates.actions, &targets);
         agent.actor_step(&grad);
         stats.loss = loss;

@@ -299,8 +299,10 @@ impl Dqn {
         }
     }
 
-    /// One Huber step toward y = r + γ(1 − terminal) max_k Q'(s', k), then the soft update.
-    fn update(&mut self) -> Result<(), &'static str> {
+    /// One Huber step toward y = r + γ(1 − terminal) max_k Q'(s', k) on a minibatch from the
+    /// replay buffer (which must hold at least one transition), then the soft update.
+    /// `Err(what)` names a non-finite loss.
+    pub fn update(&mut self) -> Result<(), &'static str> {
         let b = self
             .replay
             .sample(self.shared.batch, &mut self.streams.replay);

@@ -379,8 +379,10 @@ impl Ppo {
         v[0]
     }
 
-    /// The update at the end of a rollout: GAE, then `epochs` passes of shuffled minibatches.
-    fn update(&mut self) -> Result<(), &'static str> {
+    /// The update at the end of a rollout: GAE, then `epochs` passes of shuffled minibatches
+    /// over the stored rollout (which it leaves in place; [`Algorithm::learn`] clears it).
+    /// `Err(what)` names the first non-finite loss.
+    pub fn update(&mut self) -> Result<(), &'static str> {
         let (advantages, returns) = self
             .rollout
             .advantages(self.shared.gamma, self.config.lambda);

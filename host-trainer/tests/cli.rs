@@ -516,3 +516,43 @@ fn a_run_with_only_its_config_restarts_on_resume() {
     assert_eq!(again, finished, "the restarted run is the same run");
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+/// `train --algo ppo|dqn` runs end to end through the CLI like DCP and DDPG: a run folder, the
+/// end-of-training firmware-sim evaluation and `eval.json`, a policy blob of the right kind, no
+/// critic blob; `export` and `inspect` work on it.
+#[test]
+fn ppo_and_dqn_train_end_to_end_through_the_cli() {
+    let base = scratch("ppo-dqn-cli");
+    for (algo, kind) in [("ppo", "actor"), ("dqn", "discrete policy")] {
+        let out = train_smoke(&base, 4, &["--algo", algo]);
+        assert_ok(&out);
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(stdout.contains("5 test starts"), "{algo}: {stdout}");
+        let run = base.join(format!("nav-walls__{algo}__3"));
+        let files = entries(&run);
+        for name in [
+            "checkpoint.postcard",
+            "config.toml",
+            "eval.json",
+            "learning-curve.svg",
+            "metrics.csv",
+            "policy.postcard",
+            "scenario.toml",
+        ] {
+            assert!(files.contains(&name.to_string()), "{algo}: {files:?}");
+        }
+        assert!(!files.contains(&"critic.postcard".to_string()), "{files:?}");
+        let inspect = host_trainer(&["inspect", s(&run.join("policy.postcard"))]);
+        assert_ok(&inspect);
+        let text = String::from_utf8_lossy(&inspect.stdout);
+        assert!(text.starts_with(&format!("kind        {kind}\n")), "{text}");
+        let export = host_trainer(&["export", "--run", s(&run)]);
+        assert_ok(&export);
+        let said = String::from_utf8_lossy(&export.stdout);
+        assert!(
+            said.contains("policy.postcard") && !said.contains("critic"),
+            "{said}"
+        );
+    }
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
