@@ -72,6 +72,7 @@ pub fn runtime_blob(
     }
     let spec = Spec {
         kind,
+        encoding: policy_core::Encoding::F32,
         shape,
         activation,
         label,

@@ -48,6 +48,7 @@ pub fn check_supported(
     for kind in [ModelKind::Actor, ModelKind::Critic] {
         let spec = Spec {
             kind,
+            encoding: policy_core::Encoding::F32,
             shape,
             activation: Activation::Tanh,
             label: "",
@@ -327,6 +328,7 @@ fn write(
     }
     let spec = Spec {
         kind,
+        encoding: policy_core::Encoding::F32,
         shape,
         activation: c.activation,
         label,

@@ -101,6 +101,7 @@ mod tests {
         };
         let spec = Spec {
             kind: ModelKind::Discrete,
+            encoding: policy_core::Encoding::F32,
             shape,
             activation: Activation::Relu,
             label: "dqn",

@@ -3,10 +3,11 @@
 //!
 //! ```text
 //! blob    = header padding payload crc
-//! header  = postcard(Header)            magic "DCPB", version 2, kind, encoding, shape,
-//!                                       activation, label, payload length in bytes
+//! header  = postcard(Header)            magic "DCPB", version 2 (f32) or 3 (f16, int8), kind,
+//!                                       encoding, shape, activation, label, payload length
 //! padding = 0 to 3 zero bytes           so that the payload starts at a multiple of 4
-//! payload = every parameter             f32: 4 bytes little-endian each
+//! payload = every parameter             f32: 4 bytes little-endian each; f16 and int8 store
+//!                                       the layers' weights in 2 or 1 bytes (see [`Encoding`])
 //! crc     = u32 little-endian           CRC-32/ISO-HDLC of everything before it
 //! ```
 //!
@@ -23,10 +24,14 @@ use crate::{crc32, Activation, Error};
 
 /// The four bytes every blob starts with.
 pub const MAGIC: [u8; 4] = *b"DCPB";
-/// The format version this build writes.
+/// The format version of an f32 blob (the version this build writes for [`Encoding::F32`]).
 pub const VERSION: u16 = 2;
+/// The format version of a blob with quantised weights ([`Encoding::F16`], [`Encoding::Int8`]).
+/// An f32 blob stays version 2, byte for byte; a reader that predates quantisation reports a
+/// quantised blob as an unsupported version instead of misreading it.
+pub const VERSION_QUANTISED: u16 = 3;
 /// The format versions this build reads.
-pub const VERSIONS_READ: [u16; 2] = [1, 2];
+pub const VERSIONS_READ: [u16; 3] = [1, 2, 3];
 /// Capacity of the free-text label in the header, in bytes.
 pub const LABEL_CAPACITY: usize = 32;
 /// Bytes of the trailing checksum.
@@ -64,18 +69,104 @@ impl core::fmt::Display for ModelKind {
     }
 }
 
-/// How the payload stores each parameter. A seam for quantised encodings (f16, int8), which
-/// later versions add; this build knows one.
+/// How the payload stores the layers' weights. Everything else (normaliser, bounds, action
+/// table, biases, scales) is always f32; activations are always f32.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Encoding {
-    /// 4-byte little-endian IEEE-754 single precision.
+    /// 4-byte little-endian IEEE-754 single precision (format version 2).
     F32,
+    /// IEEE-754 half precision, 2 bytes little-endian, decoded exactly to f32
+    /// ([`crate::half::f16_to_f32`]); a layer computes what f32 computes with those weights
+    /// (format version 3).
+    F16,
+    /// Signed bytes with one f32 scale per output: `W[o, j] = scale[o] · q[j, o]`, computed as
+    /// `y[o] = b[o] + scale[o] · Σ_j q[j, o] · x[j]` (format version 3).
+    Int8,
+}
+
+impl Encoding {
+    /// Every encoding, in header order.
+    pub const ALL: [Encoding; 3] = [Encoding::F32, Encoding::F16, Encoding::Int8];
+
+    /// The format version a blob of this encoding has.
+    pub fn version(self) -> u16 {
+        match self {
+            Encoding::F32 => VERSION,
+            Encoding::F16 | Encoding::Int8 => VERSION_QUANTISED,
+        }
+    }
+
+    /// Bytes one weight takes.
+    pub fn weight_bytes(self) -> usize {
+        match self {
+            Encoding::F32 => 4,
+            Encoding::F16 => 2,
+            Encoding::Int8 => 1,
+        }
+    }
 }
 
 impl core::fmt::Display for Encoding {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(match self {
             Encoding::F32 => "f32",
+            Encoding::F16 => "f16",
+            Encoding::Int8 => "int8",
+        })
+    }
+}
+
+/// Where one dense layer's parts lie in the payload, in bytes from the payload's start:
+/// `[scales] weights [padding] bias`. Scales (int8 only) are `outputs` f32; the weights are
+/// `inputs × outputs` values of the encoding, column-major, followed by zero bytes up to a
+/// multiple of 4; the bias is `outputs` f32.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LayerLayout {
+    /// Inputs of the layer.
+    pub inputs: usize,
+    /// Outputs of the layer.
+    pub outputs: usize,
+    /// Offset of the scales (int8; equal to `weights` for the other encodings).
+    pub scales: usize,
+    /// Offset of the weights.
+    pub weights: usize,
+    /// Offset of the zero padding after the weights (equal to `bias` when there is none).
+    pub padding: usize,
+    /// Offset of the bias.
+    pub bias: usize,
+    /// Offset just past the layer.
+    pub end: usize,
+}
+
+impl LayerLayout {
+    /// The layer with `inputs` and `outputs` starting at byte `start`, or `None` on overflow.
+    ///
+    /// ```
+    /// use policy_core::blob::{Encoding, LayerLayout};
+    /// let l = LayerLayout::of(Encoding::Int8, 2, 3, 100).unwrap();
+    /// // 3 scales (12 bytes), 6 weights + 2 padding bytes, 3 biases (12 bytes)
+    /// assert_eq!((l.scales, l.weights, l.padding, l.bias, l.end), (100, 112, 118, 120, 132));
+    /// ```
+    pub fn of(encoding: Encoding, inputs: usize, outputs: usize, start: usize) -> Option<Self> {
+        let scales = match encoding {
+            Encoding::Int8 => outputs.checked_mul(4)?,
+            Encoding::F32 | Encoding::F16 => 0,
+        };
+        let weights = start.checked_add(scales)?;
+        let weight_bytes = inputs
+            .checked_mul(outputs)?
+            .checked_mul(encoding.weight_bytes())?;
+        let padding = weights.checked_add(weight_bytes)?;
+        let bias = weights.checked_add(weight_bytes.checked_next_multiple_of(4)?)?;
+        let end = bias.checked_add(outputs.checked_mul(4)?)?;
+        Some(LayerLayout {
+            inputs,
+            outputs,
+            scales: start,
+            weights,
+            padding,
+            bias,
+            end,
         })
     }
 }
@@ -261,6 +352,57 @@ impl Shape {
     pub fn payload_len(&self, kind: ModelKind) -> Option<usize> {
         self.param_count(kind)?.checked_mul(4)
     }
+
+    /// Parameters before the first layer: the normaliser (2S + 1), then the bounds (2A) of an
+    /// actor or discrete policy and the action table (K × A) of a discrete policy.
+    pub fn prefix_count(&self, kind: ModelKind) -> usize {
+        let (s, a, k) = (
+            self.observations as usize,
+            self.actions as usize,
+            self.choices as usize,
+        );
+        match kind {
+            ModelKind::Actor => 2 * s + 1 + 2 * a,
+            ModelKind::Critic => 2 * s + 1,
+            ModelKind::Discrete => 2 * s + 1 + 2 * a + k * a,
+        }
+    }
+
+    /// The `(inputs, outputs)` of layer `l` (from 0; `depth` hidden layers, then the output
+    /// layer), or `None` past the last.
+    pub fn layer(&self, kind: ModelKind, l: usize) -> Option<(usize, usize)> {
+        let (h, depth) = (self.width as usize, self.depth as usize);
+        match l {
+            0 if depth > 0 => Some((self.inputs(kind), h)),
+            l if l < depth => Some((h, h)),
+            l if l == depth => Some((h, self.outputs(kind))),
+            _ => None,
+        }
+    }
+
+    /// Bytes of the payload in `encoding`, or `None` if it does not fit in `usize`.
+    ///
+    /// ```
+    /// use policy_core::{Encoding, ModelKind, Shape};
+    /// let s = Shape { observations: 2, actions: 2, width: 48, depth: 4, choices: 0 };
+    /// assert_eq!(s.payload_len_in(ModelKind::Actor, Encoding::F32), s.payload_len(ModelKind::Actor));
+    /// // The prefix (9 floats) and biases stay f32; int8 adds a scale per output.
+    /// let int8 = s.payload_len_in(ModelKind::Actor, Encoding::Int8).unwrap();
+    /// assert_eq!(int8, 4 * 9 + (2 * 48 + 8 * 48) + 3 * (48 * 48 + 8 * 48) + (48 * 2 + 8 * 2));
+    /// ```
+    pub fn payload_len_in(&self, kind: ModelKind, encoding: Encoding) -> Option<usize> {
+        if encoding == Encoding::F32 {
+            return self.payload_len(kind);
+        }
+        self.param_count(kind)?; // the same overflow checks as f32
+        let mut end = self.prefix_count(kind).checked_mul(4)?;
+        let mut l = 0;
+        while let Some((inputs, outputs)) = self.layer(kind, l) {
+            end = LayerLayout::of(encoding, inputs, outputs, end)?.end;
+            l += 1;
+        }
+        Some(end)
+    }
 }
 
 impl core::fmt::Display for Shape {
@@ -341,14 +483,21 @@ pub fn verify(bytes: &[u8]) -> Result<Verified<'_>, Error> {
             let (v1, rest) = postcard::take_from_bytes::<HeaderV1>(bytes).map_err(header_error)?;
             (v1.into_current()?, rest)
         }
-        VERSION => postcard::take_from_bytes::<Header>(bytes).map_err(header_error)?,
+        VERSION | VERSION_QUANTISED => {
+            postcard::take_from_bytes::<Header>(bytes).map_err(header_error)?
+        }
         found => {
             return Err(Error::UnsupportedVersion {
-                supported: VERSION,
+                supported: VERSION_QUANTISED,
                 found,
             })
         }
     };
+    if header.version != 1 && header.encoding.version() != header.version {
+        return Err(Error::Malformed {
+            what: "encoding does not match the format version (f32: 2, f16 and int8: 3)",
+        });
+    }
     header.shape.check(header.kind)?;
     let payload_len = checked_payload_len(&header)?;
     let encoded_len = bytes.len() - rest.len();
@@ -452,9 +601,9 @@ impl HeaderV1 {
     }
 }
 
-/// The header's payload length, after checking it is the one its kind and shape imply.
+/// The header's payload length, after checking it is the one its kind, shape and encoding imply.
 fn checked_payload_len(header: &Header) -> Result<usize, Error> {
-    let expected = header.shape.payload_len(header.kind);
+    let expected = header.shape.payload_len_in(header.kind, header.encoding);
     if expected.is_none() {
         return Err(Error::Malformed {
             what: "shape has no hidden layer or is too large",
@@ -468,7 +617,7 @@ fn checked_payload_len(header: &Header) -> Result<usize, Error> {
     let found = usize::try_from(header.payload_len).ok();
     if expected != found {
         return Err(Error::Malformed {
-            what: "payload length does not match the shape",
+            what: "payload length does not match the shape and encoding",
         });
     }
     found.ok_or(Error::Malformed {
@@ -543,6 +692,12 @@ pub trait Compiled {
 pub fn load_into<M: Compiled>(slot: &mut M, bytes: &[u8]) -> Result<(), Error> {
     let model = crate::model::Model::from_blob(bytes)?;
     let header = model.header();
+    if header.encoding != Encoding::F32 {
+        return Err(Error::WrongEncoding {
+            expected: Encoding::F32,
+            found: header.encoding,
+        });
+    }
     if header.kind != M::KIND {
         return Err(Error::WrongKind {
             expected: M::KIND,
@@ -588,6 +743,8 @@ pub type Params<'p> = dyn FnMut(&mut dyn FnMut(&[f32])) + 'p;
 pub struct Spec<'a> {
     /// Actor, critic or discrete policy.
     pub kind: ModelKind,
+    /// How the weights are stored (the writer quantises f32 weights into it).
+    pub encoding: Encoding,
     /// Network sizes.
     pub shape: Shape,
     /// Hidden activation.
@@ -604,7 +761,7 @@ impl Spec<'_> {
         })?;
         let payload_len = self
             .shape
-            .payload_len(self.kind)
+            .payload_len_in(self.kind, self.encoding)
             .filter(|&n| n <= MAX_PAYLOAD_LEN)
             .and_then(|n| u32::try_from(n).ok())
             .ok_or(Error::Malformed {
@@ -612,9 +769,9 @@ impl Spec<'_> {
             })?;
         Ok(Header {
             magic: MAGIC,
-            version: VERSION,
+            version: self.encoding.version(),
             kind: self.kind,
-            encoding: Encoding::F32,
+            encoding: self.encoding,
             shape: self.shape,
             activation: self.activation,
             label,
@@ -626,9 +783,9 @@ impl Spec<'_> {
 /// Bytes the blob of `spec` occupies: header, padding, payload, CRC.
 ///
 /// ```
-/// use policy_core::{blob::{self, Spec}, Activation, ModelKind, Shape};
+/// use policy_core::{blob::{self, Spec}, Activation, Encoding, ModelKind, Shape};
 /// let shape = Shape { observations: 2, actions: 2, width: 48, depth: 4, choices: 0 };
-/// let spec = Spec { kind: ModelKind::Actor, shape, activation: Activation::Relu, label: "nav" };
+/// let spec = Spec { kind: ModelKind::Actor, encoding: Encoding::F32, shape, activation: Activation::Relu, label: "nav" };
 /// // 20-byte header (3-byte label; already a multiple of 4), 7307 parameters, CRC
 /// assert_eq!(blob::encoded_len(&spec).unwrap(), 20 + 4 * 7307 + 4);
 /// ```
@@ -640,7 +797,7 @@ pub fn encoded_len(spec: &Spec<'_>) -> Result<usize, Error> {
             what: "header cannot be encoded",
         })?
         .len();
-    Ok(padded_header_len(VERSION, encoded) + header.payload_len as usize + CRC_LEN)
+    Ok(padded_header_len(header.version, encoded) + header.payload_len as usize + CRC_LEN)
 }
 
 /// Writes a blob into `out` from its spec and its parameters in blob order (`params` calls its
@@ -648,9 +805,9 @@ pub fn encoded_len(spec: &Spec<'_>) -> Result<usize, Error> {
 /// number of bytes written. Only `out[..n]` is written. The runtime shape needs no compiled type.
 ///
 /// ```
-/// use policy_core::{blob::{self, Spec}, model::Model, Activation, ModelKind, Shape};
+/// use policy_core::{blob::{self, Spec}, model::Model, Activation, Encoding, ModelKind, Shape};
 /// let shape = Shape { observations: 1, actions: 1, width: 2, depth: 1, choices: 0 };
-/// let spec = Spec { kind: ModelKind::Actor, shape, activation: Activation::Tanh, label: "x" };
+/// let spec = Spec { kind: ModelKind::Actor, encoding: Encoding::F32, shape, activation: Activation::Tanh, label: "x" };
 /// // normaliser (mean, inv_std, clip), bounds (low, high), layer 1 (2 + 2), output (2 + 1)
 /// let params = [0.0, 1.0, 5.0, -1.0, 1.0, 0.5, -0.5, 0.0, 0.0, 1.0, 1.0, 0.0];
 /// let mut out = [0u8; 128];
@@ -672,11 +829,16 @@ pub fn write(spec: &Spec<'_>, params: &mut Params<'_>, out: &mut [u8]) -> Result
             what: "header cannot be encoded",
         })?
         .len();
-    let header_len = padded_header_len(VERSION, encoded);
+    let header_len = padded_header_len(header.version, encoded);
     let (body, crc) = out.split_last_chunk_mut::<CRC_LEN>().ok_or(too_small)?;
     body.get_mut(encoded..header_len)
         .unwrap_or_default()
         .fill(0);
+    if spec.encoding != Encoding::F32 {
+        quantise(spec, params, body.get_mut(header_len..).unwrap_or_default())?;
+        *crc = crc32(body).to_le_bytes();
+        return Ok(needed);
+    }
     let mut slots = body
         .get_mut(header_len..)
         .unwrap_or_default()
@@ -699,6 +861,135 @@ pub fn write(spec: &Spec<'_>, params: &mut Params<'_>, out: &mut [u8]) -> Result
     Ok(needed)
 }
 
+/// Where parameter `n` (in blob order) lies in a payload.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Slot {
+    /// An f32 at this byte offset (normaliser, bounds, table, bias).
+    F32(usize),
+    /// Weight `i` (column-major) of a layer.
+    Weight(LayerLayout, usize),
+}
+
+pub(crate) fn locate(kind: ModelKind, shape: Shape, encoding: Encoding, n: usize) -> Option<Slot> {
+    let prefix = shape.prefix_count(kind);
+    if n < prefix {
+        return Some(Slot::F32(4 * n));
+    }
+    let (mut first, mut start, mut l) = (prefix, 4 * prefix, 0);
+    while let Some((inputs, outputs)) = shape.layer(kind, l) {
+        let layout = LayerLayout::of(encoding, inputs, outputs, start)?;
+        let weights = inputs * outputs;
+        if n < first + weights {
+            return Some(Slot::Weight(layout, n - first));
+        }
+        if n < first + weights + outputs {
+            return Some(Slot::F32(layout.bias + 4 * (n - first - weights)));
+        }
+        first += weights + outputs;
+        start = layout.end;
+        l += 1;
+    }
+    None
+}
+
+/// Writes the parameters into a zeroed quantised payload: f32 where the format keeps f32, the
+/// weights converted. For int8 a first pass over the parameters finds each output's largest
+/// |weight| (stored in its scale slot), so that `scale = max / 127` (1 for an all-zero output)
+/// and `q = round(w / scale)`.
+fn quantise(spec: &Spec<'_>, params: &mut Params<'_>, payload: &mut [u8]) -> Result<(), Error> {
+    let mismatch = Error::Malformed {
+        what: "parameters do not match the declared shape",
+    };
+    let put_f32 = |payload: &mut [u8], at: usize, v: f32| {
+        if let Some(dst) = payload.get_mut(at..at + 4) {
+            dst.copy_from_slice(&v.to_le_bytes());
+        }
+    };
+    let get_f32 = |payload: &[u8], at: usize| {
+        payload
+            .get(at..at + 4)
+            .and_then(|b| <[u8; 4]>::try_from(b).ok())
+            .map_or(0.0, f32::from_le_bytes)
+    };
+    let mut failure: Option<Error> = None;
+    if spec.encoding == Encoding::Int8 {
+        let mut n = 0usize;
+        params(&mut |src| {
+            for &v in src {
+                if let Some(Slot::Weight(l, i)) = locate(spec.kind, spec.shape, spec.encoding, n) {
+                    let at = l.scales + 4 * (i % l.outputs);
+                    let largest = get_f32(payload, at).max(v.abs());
+                    put_f32(payload, at, largest);
+                }
+                n += 1;
+            }
+        });
+        // Maxima into scales, layer by layer.
+        let mut l = 0;
+        let mut start = 4 * spec.shape.prefix_count(spec.kind);
+        while let Some((inputs, outputs)) = spec.shape.layer(spec.kind, l) {
+            let layout = LayerLayout::of(spec.encoding, inputs, outputs, start).ok_or(mismatch)?;
+            for o in 0..outputs {
+                let at = layout.scales + 4 * o;
+                let largest = get_f32(payload, at);
+                if !largest.is_finite() {
+                    return Err(Error::NonFiniteParameter { index: o });
+                }
+                let scale = if largest > 0.0 { largest / 127.0 } else { 1.0 };
+                put_f32(payload, at, scale);
+            }
+            start = layout.end;
+            l += 1;
+        }
+    }
+    let mut n = 0usize;
+    params(&mut |src| {
+        for &v in src {
+            if !v.is_finite() && failure.is_none() {
+                failure = Some(Error::NonFiniteParameter { index: n });
+            }
+            match locate(spec.kind, spec.shape, spec.encoding, n) {
+                Some(Slot::F32(at)) => put_f32(payload, at, v),
+                Some(Slot::Weight(l, i)) => match spec.encoding {
+                    Encoding::F16 => {
+                        let h = crate::half::f32_to_f16(v);
+                        if !crate::half::f16_to_f32(h).is_finite() && failure.is_none() {
+                            failure = Some(Error::InvalidParameter {
+                                what: "weight beyond the f16 range (|w| > 65504)",
+                                index: n,
+                            });
+                        }
+                        let at = l.weights + 2 * i;
+                        if let Some(dst) = payload.get_mut(at..at + 2) {
+                            dst.copy_from_slice(&h.to_le_bytes());
+                        }
+                    }
+                    Encoding::Int8 | Encoding::F32 => {
+                        let scale = get_f32(payload, l.scales + 4 * (i % l.outputs));
+                        let q = libm::roundf(v / scale).clamp(-127.0, 127.0) as i8;
+                        if let Some(dst) = payload.get_mut(l.weights + i) {
+                            *dst = q as u8;
+                        }
+                    }
+                },
+                None => {
+                    if failure.is_none() {
+                        failure = Some(mismatch);
+                    }
+                }
+            }
+            n += 1;
+        }
+    });
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    if Some(n) != spec.shape.param_count(spec.kind) {
+        return Err(mismatch);
+    }
+    Ok(())
+}
+
 /// [`write()`] into a new vector (host side).
 #[cfg(feature = "std")]
 pub fn to_vec_with(spec: &Spec<'_>, params: &mut Params<'_>) -> Result<std::vec::Vec<u8>, Error> {
@@ -711,6 +1002,7 @@ pub fn to_vec_with(spec: &Spec<'_>, params: &mut Params<'_>) -> Result<std::vec:
 fn spec_of<'a, M: Compiled>(model: &M, label: &'a str) -> Spec<'a> {
     Spec {
         kind: M::KIND,
+        encoding: Encoding::F32,
         shape: M::SHAPE,
         activation: model.activation(),
         label,

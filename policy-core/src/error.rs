@@ -2,7 +2,7 @@
 
 use core::fmt;
 
-use crate::blob::{ModelKind, Shape};
+use crate::blob::{Encoding, ModelKind, Shape};
 
 /// Everything that can go wrong when loading or writing a blob.
 ///
@@ -29,6 +29,15 @@ pub enum Error {
         expected: ModelKind,
         /// The kind in the blob.
         found: ModelKind,
+    },
+    /// The blob stores its weights in an encoding the caller cannot run: the compiled types
+    /// ([`Policy`](crate::Policy), [`Critic`](crate::Critic)) hold f32 weights; the runtime
+    /// [`Model`](crate::model::Model) runs every encoding.
+    WrongEncoding {
+        /// The encoding the caller runs.
+        expected: Encoding,
+        /// The encoding in the blob.
+        found: Encoding,
     },
     /// The blob's network shape differs from the compiled one.
     ShapeMismatch {
@@ -126,6 +135,10 @@ impl fmt::Display for Error {
             Error::WrongKind { expected, found } => {
                 write!(f, "wrong model kind: expected {expected}, found {found}")
             }
+            Error::WrongEncoding { expected, found } => write!(
+                f,
+                "wrong weight encoding: this loader runs {expected} weights, the blob holds {found} (load it with the runtime Model)"
+            ),
             Error::ShapeMismatch { expected, found } => {
                 write!(
                     f,

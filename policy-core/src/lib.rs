@@ -44,6 +44,7 @@ pub mod compare;
 pub mod crc32;
 pub mod critic;
 pub mod error;
+pub mod half;
 pub mod mlp;
 pub mod model;
 pub mod normalizer;

@@ -209,6 +209,18 @@ fn accumulate_values<T>(
     for (yo, b) in y.iter_mut().zip(bias) {
         *yo = value(b);
     }
+    accumulate_columns(weights, x, y, value);
+}
+
+/// `y += W x` for weights stored as `T` (read with `value`), `x.len()` columns of `y.len()`:
+/// per output, input columns in increasing order, one multiply and one add each.
+#[inline(always)]
+fn accumulate_columns<T>(
+    weights: &[T],
+    x: &[f32],
+    y: &mut [f32],
+    value: impl Fn(&T) -> f32 + Copy,
+) {
     let column = y.len();
     if column == 0 {
         return;
@@ -228,6 +240,56 @@ fn accumulate_values<T>(
         for (yo, w) in rest.iter_mut().zip(col) {
             *yo += value(w) * xj;
         }
+    }
+}
+
+/// `y = b + W x` for a layer with f16 weights (2 bytes each, little-endian binary16, column-major
+/// like [`accumulate_bytes`]) and f32 biases: each weight is decoded exactly
+/// ([`crate::half::f16_to_f32`]) and the arithmetic is [`accumulate_bytes`]'s, in the same order,
+/// so an f16 blob computes what an f32 blob with the decoded weights computes.
+///
+/// ```
+/// use policy_core::mlp::accumulate_f16;
+/// let w: Vec<u8> = [0x3c00u16, 0x4000, 0xbc00, 0x3800].iter().flat_map(|h| h.to_le_bytes()).collect();
+/// let b: Vec<u8> = [0.5f32, -0.5].iter().flat_map(|v| v.to_le_bytes()).collect();
+/// let mut y = [0.0; 2]; // 2 outputs, 2 inputs: W = [[1, -1], [2, 0.5]]
+/// accumulate_f16(&w, &b, &[1.0, 2.0], &mut y);
+/// assert_eq!(y, [0.5 + 1.0 - 2.0, -0.5 + 2.0 + 1.0]);
+/// ```
+// Not inlined, for the reason given at `accumulate`.
+#[inline(never)]
+pub fn accumulate_f16(weights: &[u8], bias: &[u8], x: &[f32], y: &mut [f32]) {
+    for (yo, b) in y.iter_mut().zip(quads(bias)) {
+        *yo = f32::from_le_bytes(*b);
+    }
+    let pairs: &[[u8; 2]] =
+        bytemuck::try_cast_slice(weights.get(..weights.len() / 2 * 2).unwrap_or_default())
+            .unwrap_or_default();
+    accumulate_columns(pairs, x, y, |h: &[u8; 2]| {
+        crate::half::f16_to_f32(u16::from_le_bytes(*h))
+    });
+}
+
+/// `y = b + scale ⊙ (Q x)` for a layer with int8 weights: `weights` holds the signed bytes `q`
+/// column-major like [`accumulate_bytes`], `scales` and `bias` one little-endian f32 per output.
+/// Per output: `acc = 0`, then `acc += q[j] · x[j]` for the inputs in increasing order, then
+/// `y = b + scale · acc`; one multiply per weight, and the scale applied once per output.
+///
+/// ```
+/// use policy_core::mlp::accumulate_int8;
+/// let f = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+/// let q = [127i8, -64, 1, 127].map(|v| v as u8); // columns: input 0 then input 1
+/// let mut y = [0.0; 2];
+/// accumulate_int8(&f(&[0.5, 0.25]), &q, &f(&[1.0, 0.0]), &[2.0, 1.0], &mut y);
+/// assert_eq!(y, [1.0 + 0.5 * (254.0 + 1.0), 0.25 * (-128.0 + 127.0)]);
+/// ```
+// Not inlined, for the reason given at `accumulate`.
+#[inline(never)]
+pub fn accumulate_int8(scales: &[u8], weights: &[u8], bias: &[u8], x: &[f32], y: &mut [f32]) {
+    y.iter_mut().for_each(|v| *v = 0.0);
+    accumulate_columns(weights, x, y, |q: &u8| f32::from(*q as i8));
+    for ((yo, s), b) in y.iter_mut().zip(quads(scales)).zip(quads(bias)) {
+        *yo = f32::from_le_bytes(*b) + f32::from_le_bytes(*s) * *yo;
     }
 }
 

@@ -78,7 +78,7 @@ struct Layout {
     bounds: usize,
     /// Offset of the action table (discrete): `outputs` rows of `actions` values.
     table: usize,
-    /// Offset of the first layer's weights.
+    /// Offset of the first layer, in bytes (the layers' sizes depend on the encoding).
     layers: usize,
     /// The scratch width the forward pass needs (computed once, checked every call).
     scratch_width: usize,
@@ -107,7 +107,7 @@ impl Layout {
             outputs,
             bounds,
             table,
-            layers,
+            layers: 4 * layers,
             scratch_width: s.scratch_width(header.kind),
         }
     }
@@ -166,9 +166,54 @@ impl<'a> Model<'a> {
         Ok(())
     }
 
-    /// Every parameter, in blob order.
+    /// Every parameter, in blob order, decoded: an f16 weight as its exact f32 value, an int8
+    /// weight as `scale · q` (the value the layer's arithmetic stands for; it computes
+    /// `scale · Σ q x` instead), everything else as stored.
     pub fn values(&self) -> impl Iterator<Item = f32> + 'a {
-        blob::payload_values(self.payload)
+        let model = self.clone();
+        let count = if self.header.encoding == blob::Encoding::F32 {
+            0
+        } else {
+            self.header.shape.param_count(self.header.kind).unwrap_or(0)
+        };
+        let f32s = if self.header.encoding == blob::Encoding::F32 {
+            self.payload
+        } else {
+            &[]
+        };
+        blob::payload_values(f32s).chain((0..count).map(move |n| model.decoded(n)))
+    }
+
+    /// Parameter `n` of a quantised blob, decoded (see [`Model::values`]).
+    fn decoded(&self, n: usize) -> f32 {
+        let h = &self.header;
+        match blob::locate(h.kind, h.shape, h.encoding, n) {
+            Some(blob::Slot::F32(at)) => self.f32_at(at),
+            Some(blob::Slot::Weight(l, i)) => match h.encoding {
+                blob::Encoding::F32 => self.f32_at(l.weights + 4 * i),
+                blob::Encoding::F16 => crate::half::f16_to_f32(u16::from_le_bytes([
+                    self.byte_at(l.weights + 2 * i),
+                    self.byte_at(l.weights + 2 * i + 1),
+                ])),
+                blob::Encoding::Int8 => {
+                    let scale = self.f32_at(l.scales + 4 * (i % l.outputs.max(1)));
+                    scale * f32::from(self.byte_at(l.weights + i) as i8)
+                }
+            },
+            None => 0.0,
+        }
+    }
+
+    /// The f32 at byte `at` of the payload (0.0 past the end, which verified layouts never reach).
+    fn f32_at(&self, at: usize) -> f32 {
+        self.payload
+            .get(at..at + 4)
+            .and_then(|b| <[u8; 4]>::try_from(b).ok())
+            .map_or(0.0, f32::from_le_bytes)
+    }
+
+    fn byte_at(&self, at: usize) -> u8 {
+        self.payload.get(at).copied().unwrap_or(0)
     }
 
     /// The action for an observation (actor and discrete policy): finite and inside the bounds
@@ -350,23 +395,27 @@ impl<'a> Model<'a> {
         y.get(..l.outputs).unwrap_or_default()
     }
 
-    /// `y[..outputs] = b + W x[..inputs]` for the layer at `offset`; returns the next offset.
-    fn dense(
-        &self,
-        offset: usize,
-        inputs: usize,
-        outputs: usize,
-        x: &[f32],
-        y: &mut [f32],
-    ) -> usize {
-        let weights = self.bytes(offset, inputs * outputs);
-        let bias = self.bytes(offset + inputs * outputs, outputs);
+    /// `y[..outputs] = b + W x[..inputs]` for the layer at byte `at`; returns the byte offset
+    /// of the next layer.
+    fn dense(&self, at: usize, inputs: usize, outputs: usize, x: &[f32], y: &mut [f32]) -> usize {
+        let encoding = self.header.encoding;
+        let Some(l) = blob::LayerLayout::of(encoding, inputs, outputs, at) else {
+            return at; // verified layouts never overflow
+        };
+        let part = |from: usize, to: usize| self.payload.get(from..to).unwrap_or_default();
+        let (weights, bias) = (part(l.weights, l.padding), part(l.bias, l.end));
         let (x, y) = (
             x.get(..inputs).unwrap_or_default(),
             y.get_mut(..outputs).unwrap_or_default(),
         );
-        crate::mlp::accumulate_bytes(weights, bias, x, y);
-        offset + inputs * outputs + outputs
+        match encoding {
+            blob::Encoding::F32 => crate::mlp::accumulate_bytes(weights, bias, x, y),
+            blob::Encoding::F16 => crate::mlp::accumulate_f16(weights, bias, x, y),
+            blob::Encoding::Int8 => {
+                crate::mlp::accumulate_int8(part(l.scales, l.weights), weights, bias, x, y)
+            }
+        }
+        l.end
     }
 
     /// The parameter rules, checked once at load: finite values, then the normaliser's and the
@@ -375,6 +424,9 @@ impl<'a> Model<'a> {
     fn check_parameters(&self) -> Result<(), Error> {
         if let Some(index) = self.values().position(|v| !v.is_finite()) {
             return Err(Error::NonFiniteParameter { index });
+        }
+        if self.header.encoding != blob::Encoding::F32 {
+            self.check_quantised_layers()?;
         }
         let l = self.layout;
         let s = l.observations;
@@ -392,6 +444,44 @@ impl<'a> Model<'a> {
         )?;
         if self.header.kind == ModelKind::Discrete {
             self.check_table()?;
+        }
+        Ok(())
+    }
+
+    /// A quantised blob's own rules: every int8 scale positive (zero would silence an output,
+    /// a negative one flip it; non-finite scales fail the finite check above), and the padding
+    /// after each layer's weights zero, so that one model has one encoding.
+    fn check_quantised_layers(&self) -> Result<(), Error> {
+        let h = &self.header;
+        let mut at = self.layout.layers;
+        let mut l = 0;
+        while let Some((inputs, outputs)) = h.shape.layer(h.kind, l) {
+            let layer =
+                blob::LayerLayout::of(h.encoding, inputs, outputs, at).ok_or(Error::Malformed {
+                    what: "layer does not fit in memory",
+                })?;
+            if h.encoding == blob::Encoding::Int8 {
+                for o in 0..outputs {
+                    let scale = self.f32_at(layer.scales + 4 * o);
+                    if scale.is_nan() || scale <= 0.0 {
+                        return Err(Error::InvalidParameter {
+                            what: "int8 scale that is not a positive number",
+                            index: o,
+                        });
+                    }
+                }
+            }
+            let padding = self
+                .payload
+                .get(layer.padding..layer.bias)
+                .unwrap_or_default();
+            if padding.iter().any(|&b| b != 0) {
+                return Err(Error::Malformed {
+                    what: "padding after a layer's weights is not zero",
+                });
+            }
+            at = layer.end;
+            l += 1;
         }
         Ok(())
     }

@@ -79,13 +79,25 @@ fn wrong_magic() {
 
 #[test]
 fn unsupported_version() {
-    let b = with_header(|h| h.version = 3);
+    let b = with_header(|h| h.version = 4);
     assert_eq!(
         load_error(&b),
         Error::UnsupportedVersion {
-            supported: 2,
-            found: 3
+            supported: 3,
+            found: 4
         }
+    );
+}
+
+/// An f32 blob is version 2 and a quantised one version 3: a header that pairs them otherwise
+/// is malformed (one encoding, one byte form).
+#[test]
+fn encoding_and_version_must_agree() {
+    let b = with_header(|h| h.version = 3);
+    assert!(
+        matches!(load_error(&b), Error::Malformed { what } if what.contains("encoding")),
+        "{:?}",
+        load_error(&b)
     );
 }
 

@@ -152,6 +152,7 @@ fn ties_go_to_the_lowest_index() {
     p[n - 4..].copy_from_slice(&[0.0, 1.0, 1.0, 0.0]);
     let spec = Spec {
         kind: ModelKind::Discrete,
+        encoding: policy_core::Encoding::F32,
         shape,
         activation: Activation::Relu,
         label: "",
@@ -174,6 +175,7 @@ fn bad_action_tables_are_typed_errors() {
     let write = |p: &[f32], shape: Shape| {
         let spec = Spec {
             kind: ModelKind::Discrete,
+            encoding: policy_core::Encoding::F32,
             shape,
             activation: Activation::Relu,
             label: "",
@@ -291,6 +293,7 @@ fn shapes_beyond_the_limits_are_refused_by_writer_and_reader() {
     ] {
         let spec = Spec {
             kind: ModelKind::Actor,
+            encoding: policy_core::Encoding::F32,
             shape,
             activation: Activation::Relu,
             label: "",

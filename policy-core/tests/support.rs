@@ -246,6 +246,7 @@ pub fn runtime_blob(kind: ModelKind, shape: Shape, activation: Activation, seed:
     let params = runtime_params(kind, shape, &mut SplitMix64(seed));
     let spec = blob::Spec {
         kind,
+        encoding: policy_core::Encoding::F32,
         shape,
         activation,
         label: "runtime",

@@ -17,6 +17,8 @@ mod roundtrip;
 mod robustness;
 // Actions are finite and in bounds for every observation, finite or not.
 mod act_bounds;
+// f16 and int8 blobs: stored, computed and refused as documented.
+mod quantised;
 // The vectorisable tanhf is bit-identical to libm::tanhf.
 mod tanh;
 // The device-side compare step never returns a worse action under Q.

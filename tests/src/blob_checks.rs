@@ -124,6 +124,7 @@ fn check_model(model: &Model<'_>, v: &Verified<'_>) {
     let h = model.header();
     let spec = Spec {
         kind: h.kind,
+        encoding: policy_core::Encoding::F32,
         shape: h.shape,
         activation: h.activation,
         label: h.label.as_str(),

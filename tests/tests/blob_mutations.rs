@@ -34,6 +34,7 @@ fn discrete() -> Vec<u8> {
     }
     let spec = Spec {
         kind: ModelKind::Discrete,
+        encoding: policy_core::Encoding::F32,
         shape,
         activation: Activation::Relu,
         label: "dqn",

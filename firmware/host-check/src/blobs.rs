@@ -129,6 +129,7 @@ pub fn generate(shape: Shape, seed: u64, activation: Activation) -> Result<Vec<u
     let label = format!("host-check {}x{} {activation} seed {seed}", depth, w);
     let spec = Spec {
         kind: ModelKind::Actor,
+        encoding: policy_core::Encoding::F32,
         shape,
         activation,
         label: &label,
