@@ -29,6 +29,7 @@ use host_trainer::noise::Noise;
 use host_trainer::run_dir::{self, RunDir};
 use host_trainer::sweep::{self, Seeds};
 use host_trainer::train::{self, Algo, Outcome, RewardKind, TrainConfig, Trainer};
+use policy_core::Encoding;
 
 #[derive(Debug, Parser)]
 #[command(
@@ -50,7 +51,8 @@ enum Command {
     Train(TrainArgs),
     /// Evaluate a policy blob in firmware-sim on test starts.
     Eval(EvalArgs),
-    /// Export policy.postcard (and, for DCP and DDPG, critic.postcard) from a run's checkpoint.
+    /// Export policy.postcard (and, for DCP and DDPG, critic.postcard) from a run's checkpoint;
+    /// with --encoding f16|int8, policy-f16.postcard or policy-int8.postcard.
     Export(ExportArgs),
     /// Print what a blob holds: kind, shape, label, sizes, CRC, normaliser, bounds or table.
     Inspect(InspectArgs),
@@ -155,12 +157,27 @@ struct ExportArgs {
     /// The run folder holding checkpoint.postcard.
     #[arg(long)]
     run: PathBuf,
+    /// How the policy's weights are stored: f32 (policy.postcard and the critic), f16 or int8
+    /// (policy-f16.postcard, policy-int8.postcard; weights only, everything else stays f32).
+    #[arg(long, default_value = "f32", value_parser = parse_encoding)]
+    encoding: Encoding,
 }
 
 #[derive(Debug, Args)]
 struct InspectArgs {
     /// The blob file (policy.postcard, critic.postcard, ...).
     blob: PathBuf,
+    /// An f32 blob the inspected (quantised) blob was made from: prints each layer's largest
+    /// weight error against it.
+    #[arg(long)]
+    against: Option<PathBuf>,
+}
+
+fn parse_encoding(s: &str) -> Result<Encoding, String> {
+    Encoding::ALL
+        .into_iter()
+        .find(|e| e.to_string() == s)
+        .ok_or_else(|| format!("expected f32, f16 or int8, found {s:?}"))
 }
 
 fn main() -> ExitCode {
@@ -482,6 +499,20 @@ fn eval_command(args: EvalArgs) -> Result<()> {
 
 fn export_command(args: ExportArgs) -> Result<()> {
     let (trainer, run) = resume(&args.run, None)?;
+    if args.encoding != Encoding::F32 {
+        let f32 = trainer.policy_blob(&trainer.config.blob_label())?;
+        let bytes = host_trainer::export::encode(&f32, args.encoding)?;
+        let name = run_dir::policy_file(args.encoding);
+        run.write(&name, &bytes)?;
+        println!(
+            "wrote {} ({} bytes, {} weights; episode {})",
+            run.file(&name).display(),
+            bytes.len(),
+            args.encoding,
+            trainer.episode
+        );
+        return Ok(());
+    }
     trainer.export(&run)?;
     let critic_file = run.file(run_dir::CRITIC);
     let critic = if critic_file.is_file() {
@@ -502,6 +533,14 @@ fn inspect_command(args: &InspectArgs) -> Result<()> {
     let bytes = files::read_blob(&args.blob).with_context(|| format!("cannot read blob {path}"))?;
     let text = inspect::describe(&bytes).with_context(|| format!("{path} is not a valid blob"))?;
     print!("{text}");
+    if let Some(reference) = &args.against {
+        let other = reference.display();
+        let f32 =
+            files::read_blob(reference).with_context(|| format!("cannot read blob {other}"))?;
+        let errors = inspect::describe_errors(&bytes, &f32)
+            .with_context(|| format!("cannot compare {path} with {other}"))?;
+        print!("{errors}");
+    }
     Ok(())
 }
 

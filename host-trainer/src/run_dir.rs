@@ -32,6 +32,15 @@ pub const CHECKPOINT: &str = "checkpoint.postcard";
 pub const POLICY: &str = "policy.postcard";
 /// The exported critic blob (for on-device compare steps).
 pub const CRITIC: &str = "critic.postcard";
+
+/// The policy blob's file name in an encoding: `policy.postcard` for f32 (what `train` writes),
+/// `policy-f16.postcard` and `policy-int8.postcard` for the quantised exports.
+pub fn policy_file(encoding: policy_core::Encoding) -> String {
+    match encoding {
+        policy_core::Encoding::F32 => POLICY.to_string(),
+        other => format!("policy-{other}.postcard"),
+    }
+}
 /// The firmware-sim evaluation of the exported policy.
 pub const EVAL: &str = "eval.json";
 
