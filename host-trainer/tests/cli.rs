@@ -556,3 +556,40 @@ fn ppo_and_dqn_train_end_to_end_through_the_cli() {
     }
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+/// `export --encoding f16|int8` writes the quantised policy beside the f32 one; it boots in
+/// firmware-sim (`eval`), `inspect` names its encoding and, `--against` the f32 blob, each
+/// layer's largest weight error; an unknown encoding is a one-line error that writes nothing.
+#[test]
+fn quantised_exports_inspect_and_evaluate() {
+    let base = scratch("quantised-export");
+    assert_ok(&train_smoke(&base, 2, &[]));
+    let run = base.join("nav-walls__dcp__3");
+    let f32 = run.join("policy.postcard");
+    for (encoding, version) in [("f16", "3"), ("int8", "3")] {
+        let out = host_trainer(&["export", "--run", s(&run), "--encoding", encoding]);
+        assert_ok(&out);
+        let file = run.join(format!("policy-{encoding}.postcard"));
+        assert!(file.is_file(), "{encoding}: {:?}", entries(&run));
+        let inspect = host_trainer(&["inspect", s(&file), "--against", s(&f32)]);
+        assert_ok(&inspect);
+        let text = String::from_utf8_lossy(&inspect.stdout);
+        assert!(
+            text.contains(&format!("encoding    {encoding}\n")),
+            "{text}"
+        );
+        assert!(text.contains(&format!("version     {version}\n")), "{text}");
+        assert_eq!(
+            text.matches("largest weight error").count(),
+            3,
+            "2x32: 3 layers\n{text}"
+        );
+        let eval = host_trainer(&["eval", "--blob", s(&file), "--episodes", "3"]);
+        assert_ok(&eval);
+    }
+    let before = entries(&run);
+    let bad = host_trainer(&["export", "--run", s(&run), "--encoding", "int4"]);
+    assert_one_line_error(&bad, &["int4"]);
+    assert_eq!(entries(&run), before, "nothing written");
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}

@@ -20,7 +20,7 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use policy_core::model::{Model, Scratch};
-use policy_core::{blob, ActionBounds, Activation, Dense, Policy};
+use policy_core::{blob, ActionBounds, Activation, Dense, Encoding, Policy};
 
 /// SplitMix64 in `[-1, 1)`: the benchmark's weights only need to be non-trivial and fixed.
 struct Uniform(u64);
@@ -100,6 +100,38 @@ fn bench_shape<const H: usize, const L: usize>(c: &mut Criterion, name: &str) {
             })
         });
         group.finish();
+        // The same network with quantised weights (ReLU only: the per-weight cost is the point;
+        // with tanh the activation dominates).
+        if activation == Activation::Relu {
+            for encoding in [Encoding::F16, Encoding::Int8] {
+                let values: Vec<f32> = model.values().collect();
+                let spec = blob::Spec {
+                    kind: policy_core::ModelKind::Actor,
+                    encoding,
+                    shape: model.header().shape,
+                    activation,
+                    label: "bench",
+                };
+                let mut q = vec![0u8; blob::encoded_len(&spec).expect("length")];
+                blob::write(&spec, &mut |sink| sink(&values), &mut q).expect("blob");
+                let quantised = Model::from_blob(&q).expect("model");
+                let mut group = c.benchmark_group(format!("model-{encoding}/{activation}"));
+                group.throughput(Throughput::Elements(macs));
+                group.bench_function(name, |b| {
+                    b.iter(|| {
+                        i = (i + 1) % observations.len();
+                        let mut a = [0.0f32; 2];
+                        let _ = black_box(&quantised).act(
+                            black_box(&observations[i]),
+                            &mut scratch,
+                            &mut a,
+                        );
+                        a
+                    })
+                });
+                group.finish();
+            }
+        }
         // The same blob one byte off a 4-byte boundary: the payload cannot be viewed as `f32`
         // words, so every weight is decoded with `f32::from_le_bytes` (the other read path).
         let mut shifted = vec![0u8; bytes.len() + 1];

@@ -156,10 +156,19 @@ fn crc32_test_vectors() {
 
 /// The hex dump in `docs/blob-format.md` (between the `tiny-blob` markers), parsed.
 fn doc_hex() -> Vec<u8> {
+    doc_hex_of("tiny-blob")
+}
+
+/// The hex dump between the `<!-- NAME:begin -->` and `<!-- NAME:end -->` markers, parsed.
+fn doc_hex_of(name: &str) -> Vec<u8> {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/blob-format.md");
     let doc = std::fs::read_to_string(path).expect("docs/blob-format.md");
-    let start = doc.find("<!-- tiny-blob:begin -->").expect("begin marker");
-    let end = doc.find("<!-- tiny-blob:end -->").expect("end marker");
+    let start = doc
+        .find(&format!("<!-- {name}:begin -->"))
+        .expect("begin marker");
+    let end = doc
+        .find(&format!("<!-- {name}:end -->"))
+        .expect("end marker");
     let mut bytes = Vec::new();
     for line in doc[start..end].lines().filter(|l| l.contains('|')) {
         let hexes = line.split('|').next().unwrap_or("");
@@ -196,4 +205,43 @@ fn spec_worked_example_is_what_the_writer_writes() {
     let p = Policy::<1, 2, 0, 1>::from_blob(&blob).expect("tiny blob loads");
     let a = p.act(&[1.0])[0];
     assert!((a - 0.182_33).abs() < 1e-5, "{a}");
+}
+
+/// The worked examples of the quantised encodings: the tiny actor written in f16 and in int8 is
+/// byte for byte the dump in the document, and evaluates to the digits it prints.
+#[test]
+fn quantised_worked_examples_are_what_the_writer_writes() {
+    use policy_core::model::{Model, Scratch};
+    use policy_core::{Encoding, ModelKind};
+    let tiny = tiny_policy();
+    let mut params = Vec::new();
+    tiny.params(&mut |p| params.extend_from_slice(p));
+    for (encoding, name, action) in [
+        (Encoding::F16, "tiny-blob-f16", 0.182_33f32),
+        (Encoding::Int8, "tiny-blob-int8", 0.182_43),
+    ] {
+        let spec = blob::Spec {
+            kind: ModelKind::Actor,
+            encoding,
+            shape: <policy_core::Policy<1, 2, 0, 1> as Compiled>::SHAPE,
+            activation: tiny.activation(),
+            label: TINY_LABEL,
+        };
+        let bytes = crate::support::write_vec(&spec, &params).expect("quantised tiny blob");
+        if std::env::var_os("PRINT_TINY").is_some() {
+            let hex: Vec<String> = bytes.iter().map(|b| format!("{b:02x}")).collect();
+            eprintln!("{encoding}: {}", hex.join(" "));
+        }
+        assert_eq!(
+            doc_hex_of(name),
+            bytes,
+            "docs/blob-format.md's {encoding} dump is out of date"
+        );
+        let model = Model::from_blob(&bytes).expect("loads");
+        let mut a = [0.0f32];
+        model
+            .act(&[1.0], &mut Scratch::<2>::new(), &mut a)
+            .expect("act");
+        assert!((a[0] - action).abs() < 1e-5, "{encoding}: {}", a[0]);
+    }
 }

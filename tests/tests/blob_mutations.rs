@@ -214,8 +214,63 @@ fn base() -> impl Strategy<Value = Vec<u8>> {
     ]
 }
 
+/// One of [`quantised_bases`].
+fn quantised_base() -> impl Strategy<Value = Vec<u8>> {
+    prop::sample::select(quantised_bases())
+}
+
+/// The f32 bases in f16 and in int8 (format version 3).
+fn quantised_bases() -> Vec<Vec<u8>> {
+    let encode = |bytes: &[u8], encoding: policy_core::Encoding| {
+        let model = policy_core::model::Model::from_blob(bytes).expect("a base loads");
+        let h = model.header();
+        let values: Vec<f32> = model.values().collect();
+        let spec = Spec {
+            kind: h.kind,
+            encoding,
+            shape: h.shape,
+            activation: h.activation,
+            label: h.label.as_str(),
+        };
+        blob::to_vec_with(&spec, &mut |sink| sink(&values)).expect("a quantised base writes")
+    };
+    let mut all = Vec::new();
+    for base in [
+        ACTOR_2X32.to_vec(),
+        CRITIC_2X32.to_vec(),
+        tiny_actor(),
+        discrete(),
+    ] {
+        for encoding in [policy_core::Encoding::F16, policy_core::Encoding::Int8] {
+            all.push(encode(&base, encoding));
+        }
+    }
+    all
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(384))]
+
+    /// Quantised blobs with bytes overwritten anywhere (header, scales, weights, padding, biases),
+    /// the CRC usually fixed so the parameter checks are reached: every loader keeps its
+    /// properties.
+    #[test]
+    fn mutated_quantised_blobs_keep_the_loader_properties(
+        base in quantised_base(),
+        edits in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 1..4),
+        fix_crc in prop::bool::weighted(0.8),
+    ) {
+        let mut bytes = base;
+        let body = bytes.len() - 4;
+        for (at, value) in edits {
+            bytes[at.index(body)] = value;
+        }
+        if fix_crc {
+            let crc = policy_core::crc32(&bytes[..body]);
+            bytes[body..].copy_from_slice(&crc.to_le_bytes());
+        }
+        blob_checks::check(&bytes);
+    }
 
     #[test]
     fn mutated_blobs_keep_the_loader_properties(
@@ -248,6 +303,13 @@ fn unmutated_bases_load() {
     assert_eq!(mutate(Parts::of(&discrete()), &[], false), discrete());
     blob_checks::check(ACTOR_2X32);
     blob_checks::check(&discrete());
+    // Quantised bases load in the runtime (and only there), and their truncations are refused.
+    for mut quantised in quantised_bases() {
+        blob_checks::check(&quantised);
+        assert!(policy_core::model::Model::from_blob(&quantised).is_ok());
+        quantised.truncate(quantised.len() - 1);
+        blob_checks::check(&quantised);
+    }
     // Version 1 still loads, through every loader.
     assert_eq!(blob::verify(ACTOR_V1).expect("v1").header.version, 1);
     blob_checks::check(ACTOR_V1);
