@@ -209,8 +209,13 @@ impl Controller for BlobPolicy<'_> {
             ModelKind::Discrete => format!(" discrete x{}", h.shape.choices),
             ModelKind::Actor | ModelKind::Critic => String::new(),
         };
+        // The weight encoding, where it is not the default f32.
+        let encoding = match h.encoding {
+            policy_core::Encoding::F32 => String::new(),
+            other => format!(" {other}"),
+        };
         format!(
-            "blob {:?} {}x{} {}{kind}",
+            "blob {:?} {}x{} {}{encoding}{kind}",
             h.label.as_str(),
             h.shape.depth,
             h.shape.width,

@@ -13,7 +13,7 @@
 //! int8 run stays within 0.02 of f32 success and 0.05 of its settled error.
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use firmware_sim::harness::{evaluate, EvalConfig};
@@ -26,7 +26,10 @@ use policy_core::Encoding;
 /// Success rate, settled error and stuck rate of one blob.
 type Outcome = [f64; 3];
 
-fn run_one(dir: &PathBuf) -> Result<(String, Vec<(Encoding, Outcome, usize)>), String> {
+/// One run: its folder name and, per encoding, the outcome and the blob's size in bytes.
+type RunResults = (String, Vec<(Encoding, Outcome, usize)>);
+
+fn run_one(dir: &Path) -> Result<RunResults, String> {
     let name = dir
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())

@@ -84,6 +84,70 @@ pub fn describe(bytes: &[u8]) -> Result<String, policy_core::Error> {
     Ok(out)
 }
 
+/// Per layer of a quantised blob, how far its weights (decoded: an f16 weight exactly, an int8
+/// weight as `scale · q`) lie from those of the f32 blob it was made from: `(inputs, outputs,
+/// largest |error|, largest |f32 weight|)`. Both blobs must hold the same kind and shape.
+///
+/// ```
+/// use host_trainer::{export::encode, inspect::weight_errors};
+/// use policy_core::Encoding;
+/// static F32: &[u8] = include_bytes!("../../policy-core/tests/golden/actor_2x32.postcard");
+/// let int8 = encode(F32, Encoding::Int8).unwrap();
+/// for (_, _, error, largest) in weight_errors(&int8, F32).unwrap() {
+///     assert!(error <= largest / 127.0 / 2.0 * 1.001); // half a quantisation step at most
+/// }
+/// ```
+pub fn weight_errors(
+    quantised: &[u8],
+    reference: &[u8],
+) -> Result<Vec<(usize, usize, f32, f32)>, policy_core::Error> {
+    let (q, r) = (Model::from_blob(quantised)?, Model::from_blob(reference)?);
+    let (hq, hr) = (q.header(), r.header());
+    if hq.kind != hr.kind {
+        return Err(policy_core::Error::WrongKind {
+            expected: hr.kind,
+            found: hq.kind,
+        });
+    }
+    if hq.shape != hr.shape {
+        return Err(policy_core::Error::ShapeMismatch {
+            expected: hr.shape,
+            found: hq.shape,
+        });
+    }
+    let (vq, vr): (Vec<f32>, Vec<f32>) = (q.values().collect(), r.values().collect());
+    let mut first = hq.shape.prefix_count(hq.kind);
+    let mut out = Vec::new();
+    let mut l = 0;
+    while let Some((inputs, outputs)) = hq.shape.layer(hq.kind, l) {
+        let range = first..first + inputs * outputs;
+        let error = vq[range.clone()]
+            .iter()
+            .zip(&vr[range.clone()])
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        let largest = vr[range].iter().map(|w| w.abs()).fold(0.0f32, f32::max);
+        out.push((inputs, outputs, error, largest));
+        first += inputs * outputs + outputs;
+        l += 1;
+    }
+    Ok(out)
+}
+
+/// [`weight_errors`] as the lines `inspect --against` prints.
+pub fn describe_errors(quantised: &[u8], reference: &[u8]) -> Result<String, policy_core::Error> {
+    let mut out = String::new();
+    for (l, (inputs, outputs, error, largest)) in
+        weight_errors(quantised, reference)?.into_iter().enumerate()
+    {
+        let _ = writeln!(
+            out,
+            "layer {l}     {inputs}x{outputs}: largest weight error {error:.3e} (largest |weight| {largest:.3e})"
+        );
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -153,68 +217,4 @@ mod tests {
         let err = describe(&bytes).expect_err("corrupt");
         assert!(err.to_string().contains("checksum"), "{err}");
     }
-}
-
-/// Per layer of a quantised blob, how far its weights (decoded: an f16 weight exactly, an int8
-/// weight as `scale · q`) lie from those of the f32 blob it was made from: `(inputs, outputs,
-/// largest |error|, largest |f32 weight|)`. Both blobs must hold the same kind and shape.
-///
-/// ```
-/// use host_trainer::{export::encode, inspect::weight_errors};
-/// use policy_core::Encoding;
-/// static F32: &[u8] = include_bytes!("../../policy-core/tests/golden/actor_2x32.postcard");
-/// let int8 = encode(F32, Encoding::Int8).unwrap();
-/// for (_, _, error, largest) in weight_errors(&int8, F32).unwrap() {
-///     assert!(error <= largest / 127.0 / 2.0 * 1.001); // half a quantisation step at most
-/// }
-/// ```
-pub fn weight_errors(
-    quantised: &[u8],
-    reference: &[u8],
-) -> Result<Vec<(usize, usize, f32, f32)>, policy_core::Error> {
-    let (q, r) = (Model::from_blob(quantised)?, Model::from_blob(reference)?);
-    let (hq, hr) = (q.header(), r.header());
-    if hq.kind != hr.kind {
-        return Err(policy_core::Error::WrongKind {
-            expected: hr.kind,
-            found: hq.kind,
-        });
-    }
-    if hq.shape != hr.shape {
-        return Err(policy_core::Error::ShapeMismatch {
-            expected: hr.shape,
-            found: hq.shape,
-        });
-    }
-    let (vq, vr): (Vec<f32>, Vec<f32>) = (q.values().collect(), r.values().collect());
-    let mut first = hq.shape.prefix_count(hq.kind);
-    let mut out = Vec::new();
-    let mut l = 0;
-    while let Some((inputs, outputs)) = hq.shape.layer(hq.kind, l) {
-        let range = first..first + inputs * outputs;
-        let error = vq[range.clone()]
-            .iter()
-            .zip(&vr[range.clone()])
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0f32, f32::max);
-        let largest = vr[range].iter().map(|w| w.abs()).fold(0.0f32, f32::max);
-        out.push((inputs, outputs, error, largest));
-        first += inputs * outputs + outputs;
-        l += 1;
-    }
-    Ok(out)
-}
-
-/// [`weight_errors`] as the lines `inspect --against` prints.
-pub fn describe_errors(quantised: &[u8], reference: &[u8]) -> Result<String, policy_core::Error> {
-    let mut out = String::new();
-    for (l, (inputs, outputs, error, largest)) in
-        weight_errors(quantised, reference)?.into_iter().enumerate()
-    {
-        let _ = writeln!(
-            out,
-            "layer {l}     {inputs}x{outputs}: largest weight error {error:.3e} (largest |weight| {largest:.3e})"
-        );
-    }
-    Ok(out)
 }

@@ -140,7 +140,7 @@ fn f16_blob_equals_f32_blob_of_the_rounded_weights() {
         );
         let scratch = Scratch::<64>::new();
         for obs in observations(&mut SplitMix64(7)) {
-            let out = |m: &Model| -> Vec<u32> {
+            let out = |m: &Model<'_>| -> Vec<u32> {
                 let mut s = scratch.clone();
                 match kind {
                     ModelKind::Critic => {
