@@ -148,20 +148,6 @@ pub fn huber(e: f32, delta: f32) -> (f32, f32) {
     }
 }
 
-/// The index of the largest value, with policy-core's rule (`Model::choose`): the first
-/// strictly larger value wins, so ties go to the lowest index; NaN never wins; all NaN: 0.
-pub fn argmax(q: &[f32]) -> usize {
-    let mut best: Option<(usize, f32)> = None;
-    for (k, &v) in q.iter().enumerate() {
-        match best {
-            _ if v.is_nan() => {}
-            Some((_, b)) if v <= b => {}
-            _ => best = Some((k, v)),
-        }
-    }
-    best.map_or(0, |(k, _)| k)
-}
-
 /// Columns of `metrics.csv`: ε of the episode and the mean Huber loss of its updates.
 const STATS: &[&str] = &["epsilon", "q_loss"];
 
@@ -287,7 +273,7 @@ impl Dqn {
         self.norm.normalize(obs, &mut z);
         let mut q = vec![0.0; self.q.config.outputs];
         self.q.forward_one(&z, &mut q);
-        argmax(&q)
+        policy_core::model::argmax(&q)
     }
 
     fn updates_due(&self, total_steps: u64) -> usize {
@@ -456,13 +442,5 @@ mod tests {
             let want = n as f32 * std::f32::consts::FRAC_PI_4;
             assert!((angle - want).abs() < 1e-5, "move {n} at {angle}");
         }
-    }
-
-    #[test]
-    fn argmax_follows_policy_core() {
-        assert_eq!(argmax(&[1.0, 3.0, 3.0, 2.0]), 1, "ties: the lowest index");
-        assert_eq!(argmax(&[f32::NAN, 0.5, f32::NAN]), 1, "NaN never wins");
-        assert_eq!(argmax(&[f32::NAN, f32::NAN]), 0);
-        assert_eq!(argmax(&[-1.0, f32::NEG_INFINITY]), 0);
     }
 }

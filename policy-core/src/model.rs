@@ -297,17 +297,7 @@ impl<'a> Model<'a> {
         self.check_io(obs.len(), self.layout.actions, W)?;
         let (x, y) = (&mut scratch.a[..], &mut scratch.b[..]);
         self.normalize(obs, x);
-        let q = self.forward(x, y);
-        // The first strictly larger value wins, so ties go to the lowest index; NaN never wins.
-        let mut best: Option<(usize, f32)> = None;
-        for (k, &v) in q.iter().enumerate() {
-            match best {
-                _ if v.is_nan() => {}
-                Some((_, b)) if v <= b => {}
-                _ => best = Some((k, v)),
-            }
-        }
-        Ok(best.map_or(0, |(k, _)| k))
+        Ok(argmax(self.forward(x, y)))
     }
 
     fn wrong_kind(&self, expected: ModelKind) -> Error {
@@ -505,6 +495,28 @@ impl<'a> Model<'a> {
         }
         Ok(())
     }
+}
+
+/// The index of the largest value, the rule a discrete policy chooses by: the first strictly
+/// larger value wins, so ties go to the lowest index; NaN never wins; all NaN (or none): 0. The
+/// trainer's greedy DQN action uses this same function.
+///
+/// ```
+/// use policy_core::model::argmax;
+/// assert_eq!(argmax(&[1.0, 3.0, 3.0, 2.0]), 1);
+/// assert_eq!(argmax(&[f32::NAN, 0.5, f32::NAN]), 1);
+/// assert_eq!(argmax(&[f32::NAN, f32::NAN]), 0);
+/// ```
+pub fn argmax(q: &[f32]) -> usize {
+    let mut best: Option<(usize, f32)> = None;
+    for (k, &v) in q.iter().enumerate() {
+        match best {
+            _ if v.is_nan() => {}
+            Some((_, b)) if v <= b => {}
+            _ => best = Some((k, v)),
+        }
+    }
+    best.map_or(0, |(k, _)| k)
 }
 
 /// A run of little-endian `f32`s in the payload.
