@@ -33,6 +33,28 @@ pub fn f16_to_f32(h: u16) -> f32 {
     f32::from_bits(bits)
 }
 
+/// [`f16_to_f32`] for a *finite* binary16, without branches: the magnitude's bits moved into
+/// the f32 exponent and mantissa fields, scaled by 2^112 (an exact multiply: it only rebiases the
+/// exponent, and turns an f16 subnormal, which lands among the f32 subnormals, into the right
+/// normal number), then the sign. Equal to [`f16_to_f32`] bit for bit on every finite input (the
+/// tests check all of them); an infinity or NaN decodes to a finite number, which is why the
+/// loader checks every weight with [`f16_to_f32`] first. The layers' inner loop uses this one:
+/// on a Cortex-M4F it costs a few integer instructions and one multiply instead of a branch.
+///
+/// ```
+/// use policy_core::half::{f16_to_f32, f16_to_f32_finite};
+/// for h in [0x3c00u16, 0xc000, 0x0001, 0x7bff, 0x8000] {
+///     assert_eq!(f16_to_f32_finite(h).to_bits(), f16_to_f32(h).to_bits());
+/// }
+/// ```
+#[inline(always)]
+pub fn f16_to_f32_finite(h: u16) -> f32 {
+    const TWO_POW_112: f32 = f32::from_bits((112 + 127) << 23);
+    let h = u32::from(h);
+    let magnitude = f32::from_bits((h & 0x7fff) << 13) * TWO_POW_112;
+    f32::from_bits(magnitude.to_bits() | ((h & 0x8000) << 16))
+}
+
 /// The binary16 nearest to `x` (ties to even); beyond the range, infinity; NaN stays NaN.
 ///
 /// ```
@@ -91,6 +113,17 @@ mod tests {
                 assert!(f16_to_f32(f32_to_f16(x)).is_nan(), "{h:#06x}");
             } else {
                 assert_eq!(f32_to_f16(x), h, "{h:#06x} = {x}");
+            }
+        }
+    }
+
+    /// The branch-free decoder agrees with the exact one on every finite binary16.
+    #[test]
+    fn the_fast_decoder_agrees_on_every_finite_value() {
+        for h in 0..=u16::MAX {
+            let exact = f16_to_f32(h);
+            if exact.is_finite() {
+                assert_eq!(f16_to_f32_finite(h).to_bits(), exact.to_bits(), "{h:#06x}");
             }
         }
     }

@@ -246,7 +246,9 @@ fn accumulate_columns<T>(
 /// `y = b + W x` for a layer with f16 weights (2 bytes each, little-endian binary16, column-major
 /// like [`accumulate_bytes`]) and f32 biases: each weight is decoded exactly
 /// ([`crate::half::f16_to_f32`]) and the arithmetic is [`accumulate_bytes`]'s, in the same order,
-/// so an f16 blob computes what an f32 blob with the decoded weights computes.
+/// so an f16 blob computes what an f32 blob with the decoded weights computes. The weights must
+/// be finite (the loader checks); an infinity or NaN reads as some finite value
+/// ([`crate::half::f16_to_f32_finite`]).
 ///
 /// ```
 /// use policy_core::mlp::accumulate_f16;
@@ -265,8 +267,9 @@ pub fn accumulate_f16(weights: &[u8], bias: &[u8], x: &[f32], y: &mut [f32]) {
     let pairs: &[[u8; 2]] =
         bytemuck::try_cast_slice(weights.get(..weights.len() / 2 * 2).unwrap_or_default())
             .unwrap_or_default();
+    // The loader has checked every weight is finite, so the branch-free decoder is exact here.
     accumulate_columns(pairs, x, y, |h: &[u8; 2]| {
-        crate::half::f16_to_f32(u16::from_le_bytes(*h))
+        crate::half::f16_to_f32_finite(u16::from_le_bytes(*h))
     });
 }
 

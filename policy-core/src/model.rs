@@ -170,38 +170,28 @@ impl<'a> Model<'a> {
     /// weight as `scale · q` (the value the layer's arithmetic stands for; it computes
     /// `scale · Σ q x` instead), everything else as stored.
     pub fn values(&self) -> impl Iterator<Item = f32> + 'a {
-        let model = self.clone();
-        let count = if self.header.encoding == blob::Encoding::F32 {
+        let (kind, shape, encoding) = (self.header.kind, self.header.shape, self.header.encoding);
+        let payload = self.payload;
+        let quantised = encoding != blob::Encoding::F32;
+        let prefix = 4 * shape.prefix_count(kind);
+        // f32: the payload as it is. Quantised: the f32 prefix, then layer by layer.
+        let head = if quantised {
+            payload.get(..prefix).unwrap_or_default()
+        } else {
+            payload
+        };
+        let layers = if quantised {
+            shape.depth as usize + 1
+        } else {
             0
-        } else {
-            self.header.shape.param_count(self.header.kind).unwrap_or(0)
         };
-        let f32s = if self.header.encoding == blob::Encoding::F32 {
-            self.payload
-        } else {
-            &[]
-        };
-        blob::payload_values(f32s).chain((0..count).map(move |n| model.decoded(n)))
-    }
-
-    /// Parameter `n` of a quantised blob, decoded (see [`Model::values`]).
-    fn decoded(&self, n: usize) -> f32 {
-        let h = &self.header;
-        match blob::locate(h.kind, h.shape, h.encoding, n) {
-            Some(blob::Slot::F32(at)) => self.f32_at(at),
-            Some(blob::Slot::Weight(l, i)) => match h.encoding {
-                blob::Encoding::F32 => self.f32_at(l.weights + 4 * i),
-                blob::Encoding::F16 => crate::half::f16_to_f32(u16::from_le_bytes([
-                    self.byte_at(l.weights + 2 * i),
-                    self.byte_at(l.weights + 2 * i + 1),
-                ])),
-                blob::Encoding::Int8 => {
-                    let scale = self.f32_at(l.scales + 4 * (i % l.outputs.max(1)));
-                    scale * f32::from(self.byte_at(l.weights + i) as i8)
-                }
-            },
-            None => 0.0,
-        }
+        let mut start = prefix;
+        blob::payload_values(head).chain((0..layers).flat_map(move |l| {
+            let (inputs, outputs) = shape.layer(kind, l).unwrap_or((0, 0));
+            let layer = blob::LayerLayout::of(encoding, inputs, outputs, start);
+            start = layer.map_or(start, |x| x.end);
+            layer_values(payload, encoding, layer)
+        }))
     }
 
     /// The f32 at byte `at` of the payload (0.0 past the end, which verified layouts never reach).
@@ -210,10 +200,6 @@ impl<'a> Model<'a> {
             .get(at..at + 4)
             .and_then(|b| <[u8; 4]>::try_from(b).ok())
             .map_or(0.0, f32::from_le_bytes)
-    }
-
-    fn byte_at(&self, at: usize) -> u8 {
-        self.payload.get(at).copied().unwrap_or(0)
     }
 
     /// The action for an observation (actor and discrete policy): finite and inside the bounds
@@ -517,6 +503,35 @@ pub fn argmax(q: &[f32]) -> usize {
         }
     }
     best.map_or(0, |(k, _)| k)
+}
+
+/// One layer's parameters decoded, in blob order (weights, then biases); nothing for a layer
+/// that does not fit (verified blobs always fit).
+fn layer_values<'a>(
+    payload: &'a [u8],
+    encoding: blob::Encoding,
+    layer: Option<blob::LayerLayout>,
+) -> impl Iterator<Item = f32> + 'a {
+    let (weights, outputs, l) = match layer {
+        Some(l) => (l.inputs * l.outputs, l.outputs.max(1), Some(l)),
+        None => (0, 1, None),
+    };
+    let byte = move |at: usize| payload.get(at).copied().unwrap_or(0);
+    let word =
+        move |at: usize| f32::from_le_bytes([byte(at), byte(at + 1), byte(at + 2), byte(at + 3)]);
+    let (w0, s0, bias, end) = l.map_or((0, 0, 0, 0), |l| (l.weights, l.scales, l.bias, l.end));
+    (0..weights)
+        .map(move |i| match encoding {
+            blob::Encoding::F32 => word(w0 + 4 * i),
+            blob::Encoding::F16 => crate::half::f16_to_f32(u16::from_le_bytes([
+                byte(w0 + 2 * i),
+                byte(w0 + 2 * i + 1),
+            ])),
+            blob::Encoding::Int8 => word(s0 + 4 * (i % outputs)) * f32::from(byte(w0 + i) as i8),
+        })
+        .chain(blob::payload_values(
+            payload.get(bias..end).unwrap_or_default(),
+        ))
 }
 
 /// A run of little-endian `f32`s in the payload.
