@@ -6,16 +6,23 @@
 # One firmware runs a blob of any shape straight from flash (policy_core::model::Model, a 512 B
 # activation scratch in RAM); a variant is a target and a blob, and each build only relinks the
 # firmware around another `include_bytes!`. The blobs: the given --blob ("trained"), and
-# deterministic ones from `host-check gen`: tanh 2x32, 4x48 and 6x64, and a ReLU 3x40.
+# deterministic ones from `host-check gen`: tanh 2x32, 4x48 and 6x64, and a ReLU 3x40, all f32;
+# ReLU 2x32, 4x48 and 6x64 with f16 and int8 weights (`gen --encoding`; the same f32 weights,
+# quantised by policy-core's writer), and the trained blob re-encoded in f16 and int8
+# (`host-check encode`). Every variant is built with the release profile (opt-level 3) except
+# m4f-4x48-relu-int8-size, the same firmware optimised for size (profile release-size in
+# firmware/Cargo.toml, opt-level "z"; SIZE_OPT_LEVEL=s builds it at "s"), so that the report has
+# the int8 4x48 at both: the fewest instructions (3) and the least flash (z).
 #
 # Usage: bash scripts/cortex-m.sh [--blob FILE] [--out FILE] [--install-only]
 #   --blob FILE     a trained policy blob (e.g. from host-trainer; 2 observations, 2 actions, any
-#                   shape up to 64 wide), run by the *-trained variants (skipped without it).
+#                   shape up to 64 wide), run by the *-trained* variants (skipped without it).
 #   --out FILE      JSON report path (default: <target dir>/cortex-m-report.json).
 #   --install-only  install the toolchain and QEMU, then stop.
 # Environment: PREFIX (private compiler prefix, default /opt/rust-web), RUST_WEB_VERSION (pin a
 # Debian rustc-web version), VARIANTS (space-separated subset of the names below), EXTRA_FEATURES
-# (firmware features, if any), QEMU_TIMEOUT (seconds, default 60),
+# (firmware features, if any), QEMU_TIMEOUT (seconds, default 60), SIZE_OPT_LEVEL (opt-level of
+# the release-size profile: z (default) or s),
 # CARGO_TARGET_DIR (everything this script builds goes under <it or target/>/cortex-m).
 #
 # Works as root (or with sudo) on a fresh Debian 12 x86_64 machine whose rustup toolchain has only
@@ -39,19 +46,44 @@ OUT=$BASE/cortex-m-report.json
 BLOB=
 INSTALL_ONLY=0
 QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
-# name:target:qemu machine:qemu cpu:blob (trained = --blob; DEPTHxWIDTH-ACTIVATION = host-check gen)
+# name:target:qemu machine:qemu cpu:blob[:profile]. blob: trained (= --blob) or
+# DEPTHxWIDTH-ACTIVATION (host-check gen), either with an optional -f16 or -int8 (re-encoded;
+# default f32). profile: a cargo profile of firmware/Cargo.toml, default release.
+M4F=thumbv7em-none-eabihf:mps2-an386:cortex-m4
+M3=thumbv7m-none-eabi:mps2-an385:cortex-m3
 ALL_VARIANTS=(
-  m4f-trained:thumbv7em-none-eabihf:mps2-an386:cortex-m4:trained
-  m4f-2x32:thumbv7em-none-eabihf:mps2-an386:cortex-m4:2x32-tanh
-  m4f-3x40:thumbv7em-none-eabihf:mps2-an386:cortex-m4:3x40-relu
-  m4f-4x48:thumbv7em-none-eabihf:mps2-an386:cortex-m4:4x48-tanh
-  m4f-6x64:thumbv7em-none-eabihf:mps2-an386:cortex-m4:6x64-tanh
-  m3-trained:thumbv7m-none-eabi:mps2-an385:cortex-m3:trained
-  m3-2x32:thumbv7m-none-eabi:mps2-an385:cortex-m3:2x32-tanh
-  m3-3x40:thumbv7m-none-eabi:mps2-an385:cortex-m3:3x40-relu
-  m3-4x48:thumbv7m-none-eabi:mps2-an385:cortex-m3:4x48-tanh
-  m3-6x64:thumbv7m-none-eabi:mps2-an385:cortex-m3:6x64-tanh
+  m4f-trained:$M4F:trained
+  m4f-trained-f16:$M4F:trained-f16
+  m4f-trained-int8:$M4F:trained-int8
+  m4f-2x32:$M4F:2x32-tanh
+  m4f-3x40:$M4F:3x40-relu
+  m4f-4x48:$M4F:4x48-tanh
+  m4f-6x64:$M4F:6x64-tanh
+  m4f-2x32-relu-f16:$M4F:2x32-relu-f16
+  m4f-2x32-relu-int8:$M4F:2x32-relu-int8
+  m4f-4x48-relu-f16:$M4F:4x48-relu-f16
+  m4f-4x48-relu-int8:$M4F:4x48-relu-int8
+  m4f-6x64-relu-f16:$M4F:6x64-relu-f16
+  m4f-6x64-relu-int8:$M4F:6x64-relu-int8
+  m3-trained:$M3:trained
+  m3-2x32:$M3:2x32-tanh
+  m3-3x40:$M3:3x40-relu
+  m3-4x48:$M3:4x48-tanh
+  m3-6x64:$M3:6x64-tanh
+  m3-2x32-relu-f16:$M3:2x32-relu-f16
+  m3-2x32-relu-int8:$M3:2x32-relu-int8
+  m3-4x48-relu-f16:$M3:4x48-relu-f16
+  m3-4x48-relu-int8:$M3:4x48-relu-int8
+  m3-6x64-relu-f16:$M3:6x64-relu-f16
+  m3-6x64-relu-int8:$M3:6x64-relu-int8
+  m4f-4x48-relu-int8-size:$M4F:4x48-relu-int8:release-size
 )
+# The opt-level of each profile the variants use (firmware/Cargo.toml; release-size's is set
+# here, through cargo's CARGO_PROFILE_RELEASE_SIZE_OPT_LEVEL), for the report.
+SIZE_OPT_LEVEL_SET=${SIZE_OPT_LEVEL:-}
+SIZE_OPT_LEVEL=${SIZE_OPT_LEVEL:-z}
+case $SIZE_OPT_LEVEL in 0|1|2|3|s|z) ;; *) echo "cortex-m.sh: error: SIZE_OPT_LEVEL=$SIZE_OPT_LEVEL: expected 0-3, s or z" >&2; exit 1 ;; esac
+declare -A OPT_LEVEL=([release]=3 [release-size]=$SIZE_OPT_LEVEL)
 
 T_START=$SECONDS; T_LAST=$SECONDS; TIMINGS=()
 step() {
@@ -66,7 +98,7 @@ while [ $# -gt 0 ]; do
     --blob) [ $# -ge 2 ] || die "--blob needs a file"; BLOB=$(realpath "$2"); shift 2 ;;
     --out) [ $# -ge 2 ] || die "--out needs a file"; OUT=$(realpath -m "$2"); shift 2 ;;
     --install-only) INSTALL_ONLY=1; shift ;;
-    -h|--help) sed -n '2,19p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,26p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) die "unknown argument $1 (see --help)" ;;
   esac
 done
@@ -176,37 +208,46 @@ fi
 
 if [ -n "$BLOB" ]; then
   BLOB_INFO=$("$HC" info "$BLOB") || die "--blob $BLOB is not a blob the firmware can run"
-  echo "--blob $BLOB holds a $BLOB_INFO: run by the *-trained variants"
+  echo "--blob $BLOB holds a $BLOB_INFO: run by the *-trained* variants"
 fi
 mkdir -p "$WORK/blobs"
-blob_for() { # trained | DEPTHxWIDTH-ACTIVATION -> blob path (the given one, or a generated one)
-  if [ "$1" = trained ]; then echo "$BLOB"; return; fi
-  "$HC" gen "${1%-*}" "$WORK/blobs/actor_$1.postcard" --activation "${1##*-}" >&2
-  echo "$WORK/blobs/actor_$1.postcard"
+blob_for() { # trained[-ENC] | DEPTHxWIDTH-ACTIVATION[-ENC] -> blob path (given, re-encoded or generated)
+  local which=$1 enc=f32
+  case $which in *-f16|*-int8) enc=${which##*-}; which=${which%-*} ;; esac
+  local out=$WORK/blobs/actor_$which-$enc.postcard
+  if [ "$which" = trained ]; then
+    [ "$enc" = f32 ] && { echo "$BLOB"; return; }
+    "$HC" encode "$BLOB" "$out" --encoding "$enc" >&2
+  else
+    "$HC" gen "${which%-*}" "$out" --activation "${which##*-}" --encoding "$enc" >&2
+  fi
+  echo "$out"
 }
 
 #--------------------------------------------------------------------------------------------------
 # Variants: build (one shared target dir: `core`, nalgebra and policy-core are built once per
 # target; another blob only relinks the firmware), run under QEMU with a timeout, compare with the
 # host, measure.
-FW_ENV=(env -u RUSTFLAGS -u CARGO_ENCODED_RUSTFLAGS -u CARGO_BUILD_RUSTFLAGS RUSTC="$RUSTC_X" RUSTC_BOOTSTRAP=1 CARGO_TARGET_DIR="$WORK/fw")
+FW_ENV=(env -u RUSTFLAGS -u CARGO_ENCODED_RUSTFLAGS -u CARGO_BUILD_RUSTFLAGS RUSTC="$RUSTC_X" RUSTC_BOOTSTRAP=1 CARGO_TARGET_DIR="$WORK/fw"
+  CARGO_PROFILE_RELEASE_SIZE_OPT_LEVEL="$SIZE_OPT_LEVEL")
 QEMU_BASE=(qemu-system-arm -nographic -semihosting-config enable=on,target=native -icount shift=0)
 SELECTED=(${VARIANTS:-$(printf '%s\n' "${ALL_VARIANTS[@]}" | cut -d: -f1)})
 FAILED=(); JSONS=()
 for spec in "${ALL_VARIANTS[@]}"; do
-  IFS=: read -r name target machine cpu which <<<"$spec"
+  IFS=: read -r name target machine cpu which profile <<<"$spec"
+  profile=${profile:-release}
   printf '%s\n' "${SELECTED[@]}" | grep -qx "$name" || continue
-  [ "$which" != trained ] || [ -n "$BLOB" ] || { echo "=== $name: skipped (no --blob)"; continue; }
+  case $which in trained|trained-*) [ -n "$BLOB" ] || { echo "=== $name: skipped (no --blob)"; continue; } ;; esac
   dir=$WORK/variants/$name; mkdir -p "$dir"; rm -f "$dir"/*.log "$dir/resources.json"
   blob=$(blob_for "$which")
 
-  step "$name: build ($target, blob $(basename "$blob"))"
-  if ! (cd "$ROOT/firmware" && POLICY_BLOB="$blob" "${FW_ENV[@]}" cargo build --release --locked -Zbuild-std=core \
+  step "$name: build ($target, profile $profile, blob $(basename "$blob"))"
+  if ! (cd "$ROOT/firmware" && POLICY_BLOB="$blob" "${FW_ENV[@]}" cargo build --profile "$profile" --locked -Zbuild-std=core \
         --target "$target" ${EXTRA_FEATURES:+--features "$EXTRA_FEATURES"} 2>&1 \
         | { grep -vE '^ +(Compiling|Downloaded|Downloading|Locking|Adding|Updating|Finished)' || true; } ); then
     FAILED+=("$name: build"); continue
   fi
-  elf=$WORK/fw/$target/release/policy-firmware
+  elf=$WORK/fw/$target/$profile/policy-firmware
   [ -f "$elf" ] || { FAILED+=("$name: build produced no ELF"); continue; }
   cp "$elf" "$dir/firmware.elf"
   size -A "$dir/firmware.elf" > "$dir/sizes.txt"
@@ -232,7 +273,7 @@ for spec in "${ALL_VARIANTS[@]}"; do
   step "$name: compare with policy-core on the host (bit-exact) and measure"
   if ! "$HC" check "$blob" "$dir/firmware.log"; then FAILED+=("$name: actions differ from the host"); continue; fi
   if ! "$HC" measure --variant "$name" --target "$target" --machine "$machine" --cpu "$cpu" --blob "$blob" \
-        --sizes "$dir/sizes.txt" --fw-log "$dir/firmware.log" "${plugin_log[@]}" --out "$dir/resources.json"; then
+        --profile "$profile" --opt-level "${OPT_LEVEL[$profile]}" --sizes "$dir/sizes.txt" --fw-log "$dir/firmware.log" "${plugin_log[@]}" --out "$dir/resources.json"; then
     FAILED+=("$name: measurement"); continue
   fi
   JSONS+=("$dir/resources.json")
@@ -245,9 +286,9 @@ mkdir -p "$(dirname "$OUT")"
 "$HC" report --out "$OUT" \
   --meta "rustc=$("$RUSTC_X" -V)" --meta "cargo=$(cargo -V)" \
   --meta "qemu=$(qemu-system-arm --version | head -1)" \
-  --meta "profile=release: opt-level 3, fat LTO, codegen-units 1, panic abort, -Zbuild-std=core" \
+  --meta "profile=release: opt-level 3, fat LTO, codegen-units 1, panic abort, -Zbuild-std=core; release-size: the same at opt-level $SIZE_OPT_LEVEL (per variant: the profile column)" \
   --meta "instructions=exact counts from a TCG plugin between fw_mark calls (mark cost subtracted)" \
-  --meta "command=${VARIANTS:+VARIANTS=\"$VARIANTS\" }${EXTRA_FEATURES:+EXTRA_FEATURES=$EXTRA_FEATURES }bash scripts/cortex-m.sh${BLOB:+ --blob $BLOB}" \
+  --meta "command=${VARIANTS:+VARIANTS=\"$VARIANTS\" }${SIZE_OPT_LEVEL_SET:+SIZE_OPT_LEVEL=$SIZE_OPT_LEVEL }${EXTRA_FEATURES:+EXTRA_FEATURES=$EXTRA_FEATURES }bash scripts/cortex-m.sh${BLOB:+ --blob $BLOB}" \
   "${JSONS[@]}"
 step done
 echo "report: $OUT (table: ${OUT%.json}.md)"

@@ -7,7 +7,7 @@
 use anyhow::{bail, Context, Result};
 use policy_core::blob::{self, Spec, MAX_WIDTH};
 use policy_core::model::{Model, Scratch};
-use policy_core::{Activation, ModelKind, Shape};
+use policy_core::{Activation, Encoding, ModelKind, Shape};
 use rand_chacha::ChaCha8Rng;
 use rand_core::{Rng, SeedableRng};
 
@@ -25,6 +25,8 @@ pub struct BlobInfo {
     pub shape: Shape,
     /// Hidden activation.
     pub activation: Activation,
+    /// How the weights are stored (f32, f16 or int8).
+    pub encoding: Encoding,
     /// Blob format version.
     pub version: u16,
 }
@@ -42,6 +44,7 @@ impl BlobInfo {
             kind: h.kind,
             shape: h.shape,
             activation: h.activation,
+            encoding: h.encoding,
             version: h.version,
         })
     }
@@ -72,6 +75,40 @@ impl BlobInfo {
         };
         hidden + squash
     }
+}
+
+/// Parses an encoding name as policy-core prints it: `f32`, `f16` or `int8`.
+pub fn parse_encoding(text: &str) -> Result<Encoding> {
+    Encoding::ALL
+        .into_iter()
+        .find(|e| e.to_string() == text)
+        .with_context(|| format!("encoding {text:?}: expected f32, f16 or int8"))
+}
+
+/// Re-encodes an f32 blob (any format version policy-core reads) into `encoding`, as
+/// host-trainer's `export::encode` does: the runtime model decodes the f32 parameters in blob
+/// order and policy-core's writer quantises the weights (f16: nearest; int8: one scale per
+/// output). Header fields and label are kept; the result is verified before it is returned.
+pub fn encode(bytes: &[u8], encoding: Encoding) -> Result<Vec<u8>> {
+    let model = Model::from_blob(bytes)?;
+    let h = model.header();
+    if h.encoding != Encoding::F32 {
+        bail!(
+            "the blob holds {} weights: only an f32 blob is re-encoded (quantising twice would compound the rounding)",
+            h.encoding
+        );
+    }
+    let params: Vec<f32> = model.values().collect();
+    let spec = Spec {
+        kind: h.kind,
+        encoding,
+        shape: h.shape,
+        activation: h.activation,
+        label: h.label.as_str(),
+    };
+    let out = blob::to_vec_with(&spec, &mut |sink| sink(&params))?;
+    Model::from_blob(&out).context("the re-encoded blob does not verify")?;
+    Ok(out)
 }
 
 /// Parses `DEPTHxWIDTH` (any sizes within the blob format's limits).
@@ -112,11 +149,18 @@ pub fn actions(bytes: &[u8], observations: &[[f32; S]]) -> Result<Vec<[f32; A]>>
 
 /// An actor blob of `shape` with the given hidden activation and deterministic random weights:
 /// one ChaCha8 stream per shape, derived from `seed`, so the same seed gives the same bytes on
-/// every machine. Written with policy-core's runtime writer: no compiled type is involved.
+/// every machine. Written with policy-core's runtime writer: no compiled type is involved. The
+/// f32 weights are drawn first and then quantised by [`encode`], so the f16 and int8 blobs of a
+/// seed are the f32 blob re-encoded.
 ///
 /// The normaliser and bounds are those of a realistic navigation actor (positions in metres, mean
 /// off zero, clip 5; actions within ±0.25), so the observations exercise clipping both ways.
-pub fn generate(shape: Shape, seed: u64, activation: Activation) -> Result<Vec<u8>> {
+pub fn generate(
+    shape: Shape,
+    seed: u64,
+    activation: Activation,
+    encoding: Encoding,
+) -> Result<Vec<u8>> {
     let mut rng =
         ChaCha8Rng::seed_from_u64(seed ^ (u64::from(shape.depth) << 32 | u64::from(shape.width)));
     let (w, depth) = (shape.width as usize, shape.depth as usize);
@@ -136,14 +180,18 @@ pub fn generate(shape: Shape, seed: u64, activation: Activation) -> Result<Vec<u
     };
     let normalizer = [1.5, -0.7, 1.0 / 2.3, 1.0 / 1.7, 5.0]; // mean, inverse std, clip
     let bounds = [-0.25, -0.25, 0.25, 0.25]; // low, high
-    Ok(blob::to_vec_with(&spec, &mut |sink| {
+    let f32_blob = blob::to_vec_with(&spec, &mut |sink| {
         sink(&normalizer);
         sink(&bounds);
         for (weights, biases) in &layers {
             sink(weights);
             sink(biases);
         }
-    })?)
+    })?;
+    match encoding {
+        Encoding::F32 => Ok(f32_blob),
+        Encoding::F16 | Encoding::Int8 => encode(&f32_blob, encoding),
+    }
 }
 
 /// Glorot-uniform weights (limit `sqrt(6 / (in + out))`, column-major: `inputs` columns of
@@ -170,9 +218,15 @@ mod tests {
     #[test]
     fn same_seed_same_bytes_and_the_shape_round_trips() {
         let shape = parse_shape("3x40").unwrap();
-        let a = generate(shape, 7, Activation::Relu).unwrap();
-        assert_eq!(a, generate(shape, 7, Activation::Relu).unwrap());
-        assert_ne!(a, generate(shape, 8, Activation::Relu).unwrap());
+        let a = generate(shape, 7, Activation::Relu, Encoding::F32).unwrap();
+        assert_eq!(
+            a,
+            generate(shape, 7, Activation::Relu, Encoding::F32).unwrap()
+        );
+        assert_ne!(
+            a,
+            generate(shape, 8, Activation::Relu, Encoding::F32).unwrap()
+        );
         let info = BlobInfo::of(&a).unwrap();
         assert_eq!((info.name(), info.kind), ("3x40".into(), ModelKind::Actor));
         assert!(parse_shape("4x").is_err() && parse_shape("0x48").is_err());
@@ -180,9 +234,16 @@ mod tests {
 
     #[test]
     fn macs_count_every_weight_once() {
-        let info =
-            BlobInfo::of(&generate(parse_shape("4x48").unwrap(), 4, Activation::Tanh).unwrap())
-                .unwrap();
+        let info = BlobInfo::of(
+            &generate(
+                parse_shape("4x48").unwrap(),
+                4,
+                Activation::Tanh,
+                Encoding::F32,
+            )
+            .unwrap(),
+        )
+        .unwrap();
         // 2*48 + 3*48*48 + 48*2 = 7104 (the payload minus normaliser, bounds and biases).
         assert_eq!(info.macs(), 7104);
         assert_eq!(info.tanh_calls(), 194);
@@ -193,10 +254,48 @@ mod tests {
         assert_eq!(relu.tanh_calls(), 2);
     }
 
+    #[test]
+    fn quantised_blobs_are_the_f32_blob_re_encoded() {
+        let shape = parse_shape("4x48").unwrap();
+        let f32_blob = generate(shape, 4, Activation::Relu, Encoding::F32).unwrap();
+        let exact = actions(&f32_blob, &crate::observations::OBSERVATIONS).unwrap();
+        for encoding in [Encoding::F16, Encoding::Int8] {
+            let q = generate(shape, 4, Activation::Relu, encoding).unwrap();
+            assert_eq!(q, encode(&f32_blob, encoding).unwrap());
+            let info = BlobInfo::of(&q).unwrap();
+            assert_eq!(
+                (info.encoding, info.version, info.macs()),
+                (encoding, 3, 7104)
+            );
+            assert!(
+                q.len() < f32_blob.len() / 2 + 1024,
+                "{encoding}: {} B",
+                q.len()
+            );
+            let acts = actions(&q, &crate::observations::OBSERVATIONS).unwrap();
+            for (a, e) in acts.iter().flatten().zip(exact.iter().flatten()) {
+                assert!(
+                    a.abs() <= 0.25 && (a - e).abs() < 0.02,
+                    "{encoding}: {a} vs {e}"
+                );
+            }
+            // Only f32 is re-encoded.
+            assert!(encode(&q, Encoding::Int8).is_err());
+        }
+        assert_eq!(parse_encoding("int8").unwrap(), Encoding::Int8);
+        assert!(parse_encoding("f64").is_err());
+    }
+
     // The runtime model and the compiled type must agree on a generated blob, bit for bit.
     #[test]
     fn generated_actions_are_in_bounds_and_match_the_compiled_policy() {
-        let blob = generate(parse_shape("4x48").unwrap(), 4, Activation::Tanh).unwrap();
+        let blob = generate(
+            parse_shape("4x48").unwrap(),
+            4,
+            Activation::Tanh,
+            Encoding::F32,
+        )
+        .unwrap();
         let acts = actions(&blob, &crate::observations::OBSERVATIONS).unwrap();
         assert!(acts
             .iter()

@@ -92,10 +92,32 @@ mod tests {
             parse_shape("2x32").unwrap(),
             1,
             policy_core::Activation::Tanh,
+            policy_core::Encoding::F32,
         )
         .unwrap();
         let log = FirmwareLog::parse(&firmware_output(&blob, None)).unwrap();
         assert_eq!(compare(&blob, &log, false).unwrap().max_abs_diff, 0.0);
+    }
+
+    #[test]
+    fn quantised_blobs_are_checked_from_their_own_bytes() {
+        for encoding in [policy_core::Encoding::F16, policy_core::Encoding::Int8] {
+            let blob = generate(
+                parse_shape("2x32").unwrap(),
+                1,
+                policy_core::Activation::Relu,
+                encoding,
+            )
+            .unwrap();
+            let log = FirmwareLog::parse(&firmware_output(&blob, None)).unwrap();
+            assert_eq!(compare(&blob, &log, false).unwrap().cases, 10);
+            assert!(compare(
+                &blob,
+                &FirmwareLog::parse(&firmware_output(&blob, Some(3))).unwrap(),
+                false
+            )
+            .is_err());
+        }
     }
 
     #[test]
@@ -104,6 +126,7 @@ mod tests {
             parse_shape("2x32").unwrap(),
             1,
             policy_core::Activation::Tanh,
+            policy_core::Encoding::F32,
         )
         .unwrap();
         let log = FirmwareLog::parse(&firmware_output(&blob, Some(3))).unwrap();

@@ -1,12 +1,15 @@
 //! host-check: the host half of scripts/cortex-m.sh.
 //!
 //! ```text
-//! host-check gen DEPTHxWIDTH OUT [--seed N] [--activation tanh|relu]
+//! host-check gen DEPTHxWIDTH OUT [--seed N] [--activation tanh|relu] [--encoding f32|f16|int8]
 //!                                          write a deterministic actor blob of any shape
-//! host-check info BLOB                     print what the blob holds ("4x48 actor relu v1")
+//! host-check encode IN OUT --encoding f32|f16|int8
+//!                                          re-encode an f32 blob (e.g. a trained one)
+//! host-check info BLOB                     print what the blob holds ("4x48 actor relu f32 v1")
 //! host-check check BLOB FW_LOG             recompute the firmware's actions; bit-exact or exit 1
 //! host-check measure --variant NAME --target T --machine M --cpu C --blob BLOB
-//!                    --sizes SIZE_A_TXT --fw-log LOG [--plugin-log LOG] --out JSON
+//!                    --profile PROFILE --opt-level LEVEL --sizes SIZE_A_TXT --fw-log LOG
+//!                    [--plugin-log LOG] --out JSON
 //! host-check report --out JSON [--meta KEY=VALUE]... VARIANT_JSON...
 //! ```
 //! Errors are one line on stderr and exit status 1.
@@ -49,13 +52,21 @@ fn run(args: &[String]) -> Result<()> {
     let (flags, positional) = split_flags(rest)?;
     match (cmd.as_str(), positional.as_slice()) {
         ("gen", [shape, out]) => gen(shape, Path::new(out), &flags),
+        ("encode", [input, out]) => {
+            let encoding = blobs::parse_encoding(flag(&flags, "encoding")?)?;
+            let bytes = blobs::encode(&read(input)?, encoding)?;
+            write_if_changed(Path::new(out), &bytes)?;
+            println!("{out} ({} bytes, {input} as {encoding})", bytes.len());
+            Ok(())
+        }
         ("info", [blob]) => {
             let info = BlobInfo::of(&read(blob)?)?;
             println!(
-                "{} {} {} v{}",
+                "{} {} {} {} v{}",
                 info.name(),
                 info.kind,
                 info.activation,
+                info.encoding,
                 info.version
             );
             Ok(())
@@ -112,8 +123,15 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
 }
 
-/// Writes the blob only if its bytes changed, so cargo's rerun-if-changed does not rebuild the
+/// Writes a blob only if its bytes changed, so cargo's rerun-if-changed does not rebuild the
 /// firmware on every run of the script.
+fn write_if_changed(out: &Path, bytes: &[u8]) -> Result<()> {
+    if std::fs::read(out).ok().as_deref() != Some(bytes) {
+        write_atomic(out, bytes)?;
+    }
+    Ok(())
+}
+
 fn gen(shape: &str, out: &Path, flags: &BTreeMap<String, String>) -> Result<()> {
     let activation = match flags.get("activation").map(String::as_str) {
         None | Some("tanh") => policy_core::Activation::Tanh,
@@ -126,12 +144,14 @@ fn gen(shape: &str, out: &Path, flags: &BTreeMap<String, String>) -> Result<()> 
             .with_context(|| format!("--seed {s:?} is not an integer"))?,
         None => DEFAULT_SEED,
     };
-    let bytes = blobs::generate(blobs::parse_shape(shape)?, seed, activation)?;
-    if std::fs::read(out).ok().as_deref() != Some(bytes.as_slice()) {
-        write_atomic(out, &bytes)?;
-    }
+    let encoding = match flags.get("encoding") {
+        Some(e) => blobs::parse_encoding(e)?,
+        None => policy_core::Encoding::F32,
+    };
+    let bytes = blobs::generate(blobs::parse_shape(shape)?, seed, activation, encoding)?;
+    write_if_changed(out, &bytes)?;
     println!(
-        "{} ({} bytes, {shape} {activation}, seed {seed})",
+        "{} ({} bytes, {shape} {activation} {encoding}, seed {seed})",
         out.display(),
         bytes.len()
     );
@@ -151,6 +171,8 @@ fn measure(flags: &BTreeMap<String, String>) -> Result<()> {
         target: flag(flags, "target")?.into(),
         machine: flag(flags, "machine")?.into(),
         cpu: flag(flags, "cpu")?.into(),
+        profile: flag(flags, "profile")?.into(),
+        opt_level: flag(flags, "opt-level")?.into(),
         blob_path: blob_path.into(),
     };
     let value = measure::measure(
@@ -192,24 +214,29 @@ fn report(
     write_atomic(out, serde_json::to_string_pretty(&doc)?.as_bytes())?;
     write_atomic(&out.with_extension("md"), table.as_bytes())?;
     print!("{table}");
-    for aim in doc["aims_m4f_4x48"]["aims"]
-        .as_array()
-        .into_iter()
-        .flatten()
-    {
-        let met = if aim["met"] == true { "met" } else { "MISSED" };
-        let num = |k: &str| aim[k].as_f64().unwrap_or(f64::NAN);
-        println!(
-            "aim ({} 4x48): {} -> {:.3} ({met}, over by {:.3})",
-            doc["aims_m4f_4x48"]["variant"].as_str().unwrap_or("?"),
-            aim["aim"].as_str().unwrap_or("?"),
-            num("value"),
-            num("over_by")
-        );
+    let aims = &doc["aims"];
+    for list in ["per_mac_m4f", "int8_4x48_memory_m4f"] {
+        for aim in aims[list].as_array().into_iter().flatten() {
+            let met = if aim["met"] == true { "met" } else { "MISSED" };
+            let num = |k: &str| aim[k].as_f64().unwrap_or(f64::NAN);
+            println!(
+                "aim ({}, {} opt {}): {} -> {} ({met}{})",
+                aim["variant"].as_str().unwrap_or("?"),
+                aim["profile"].as_str().unwrap_or("?"),
+                aim["opt_level"].as_str().unwrap_or("?"),
+                aim["aim"].as_str().unwrap_or("?"),
+                num("value"),
+                if aim["met"] == true {
+                    String::new()
+                } else {
+                    format!(", over by {:.3}", num("over_by"))
+                }
+            );
+        }
     }
     println!(
-        "variants under 32 KiB flash: {}",
-        doc["aims_m4f_4x48"]["variants_under_32KiB_flash"]
+        "variants within 32 KiB of flash: {}",
+        aims["variants_within_32KiB_flash"]
     );
     Ok(())
 }

@@ -20,6 +20,10 @@ pub struct Variant {
     pub machine: String,
     /// QEMU CPU.
     pub cpu: String,
+    /// Cargo profile the firmware was built with (`release` or `release-s`).
+    pub profile: String,
+    /// That profile's `opt-level` (`3` or `s`).
+    pub opt_level: String,
     /// Path of the blob embedded in the firmware.
     pub blob_path: String,
 }
@@ -107,9 +111,12 @@ pub fn measure(
 
     Ok(json!({
         "variant": v.name, "target": v.target, "qemu_machine": v.machine, "qemu_cpu": v.cpu,
-        "shape": info.name(), "macs_per_act": info.macs(), "tanhf_per_act": info.tanh_calls(),
+        "profile": v.profile, "opt_level": v.opt_level,
+        "shape": info.name(), "encoding": info.encoding.to_string(),
+        "macs_per_act": info.macs(), "tanhf_per_act": info.tanh_calls(),
         "blob": { "path": v.blob_path, "bytes": blob_len, "kind": info.kind.to_string(),
-                  "activation": info.activation.to_string(), "version": info.version },
+                  "activation": info.activation.to_string(), "encoding": info.encoding.to_string(),
+                  "version": info.version },
         "flash": {
             "total": flash, "vector_table": sec(".vector_table"), "text": sec(".text"),
             "rodata": sec(".rodata"), "data": sec(".data"), "blob": blob_len,
