@@ -268,9 +268,13 @@ pub fn accumulate_f16(weights: &[u8], bias: &[u8], x: &[f32], y: &mut [f32]) {
         bytemuck::try_cast_slice(weights.get(..weights.len() / 2 * 2).unwrap_or_default())
             .unwrap_or_default();
     // The loader has checked every weight is finite, so the branch-free decoder is exact here.
-    accumulate_columns(pairs, x, y, |h: &[u8; 2]| {
-        crate::half::f16_to_f32_finite(u16::from_le_bytes(*h))
-    });
+    // Without a hardware FPU (the Cortex-M3) its multiply is a soft-float call, and the exact
+    // decoder's integer branches are cheaper; both give the same bits on finite weights.
+    #[cfg(not(all(target_arch = "arm", not(target_abi = "eabihf"))))]
+    let decode = crate::half::f16_to_f32_finite;
+    #[cfg(all(target_arch = "arm", not(target_abi = "eabihf")))]
+    let decode = crate::half::f16_to_f32;
+    accumulate_columns(pairs, x, y, |h: &[u8; 2]| decode(u16::from_le_bytes(*h)));
 }
 
 /// `y = b + scale ⊙ (Q x)` for a layer with int8 weights: `weights` holds the signed bytes `q`

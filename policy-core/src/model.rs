@@ -398,11 +398,13 @@ impl<'a> Model<'a> {
     /// bounds' own rules (`normalizer::check`, `bounds::check`, shared with the compiled types),
     /// and an action table inside the bounds.
     fn check_parameters(&self) -> Result<(), Error> {
-        if let Some(index) = self.values().position(|v| !v.is_finite()) {
-            return Err(Error::NonFiniteParameter { index });
-        }
-        if self.header.encoding != blob::Encoding::F32 {
-            self.check_quantised_layers()?;
+        if self.header.encoding == blob::Encoding::F32 {
+            let values = blob::payload_values(self.payload);
+            if let Some(index) = values.into_iter().position(|v| !v.is_finite()) {
+                return Err(Error::NonFiniteParameter { index });
+            }
+        } else {
+            self.check_quantised()?;
         }
         let l = self.layout;
         let s = l.observations;
@@ -424,28 +426,56 @@ impl<'a> Model<'a> {
         Ok(())
     }
 
-    /// A quantised blob's own rules: every int8 scale positive (zero would silence an output,
-    /// a negative one flip it; non-finite scales fail the finite check above), and the padding
-    /// after each layer's weights zero, so that one model has one encoding.
-    fn check_quantised_layers(&self) -> Result<(), Error> {
+    /// A quantised blob's parameters, layer by layer without decoding into a list: the f32
+    /// prefix and biases finite, every f16 weight finite, every int8 scale a positive finite
+    /// number (zero would silence an output, a negative one flip it), and the padding after each
+    /// layer's weights zero, so that one model has one encoding. `NonFiniteParameter` indices
+    /// count parameters in blob order, as [`Model::values`] lists them.
+    fn check_quantised(&self) -> Result<(), Error> {
         let h = &self.header;
-        let mut at = self.layout.layers;
-        let mut l = 0;
+        let non_finite = |index| Error::NonFiniteParameter { index };
+        let prefix = h.shape.prefix_count(h.kind);
+        let head = blob::payload_values(self.payload.get(..4 * prefix).unwrap_or_default());
+        if let Some(index) = head.into_iter().position(|v| !v.is_finite()) {
+            return Err(non_finite(index));
+        }
+        let (mut at, mut first, mut l) = (self.layout.layers, prefix, 0);
         while let Some((inputs, outputs)) = h.shape.layer(h.kind, l) {
             let layer =
                 blob::LayerLayout::of(h.encoding, inputs, outputs, at).ok_or(Error::Malformed {
                     what: "layer does not fit in memory",
                 })?;
-            if h.encoding == blob::Encoding::Int8 {
-                for o in 0..outputs {
-                    let scale = self.f32_at(layer.scales + 4 * o);
-                    if scale.is_nan() || scale <= 0.0 {
-                        return Err(Error::InvalidParameter {
-                            what: "int8 scale that is not a positive number",
-                            index: o,
-                        });
+            let weights = self
+                .payload
+                .get(layer.weights..layer.padding)
+                .unwrap_or_default();
+            match h.encoding {
+                blob::Encoding::Int8 => {
+                    for o in 0..outputs {
+                        let scale = self.f32_at(layer.scales + 4 * o);
+                        if !scale.is_finite() || scale <= 0.0 {
+                            return Err(Error::InvalidParameter {
+                                what: "int8 scale that is not a positive finite number",
+                                index: o,
+                            });
+                        }
                     }
                 }
+                blob::Encoding::F16 => {
+                    let halves = weights.chunks_exact(2);
+                    let bad = halves.into_iter().position(|p| {
+                        !crate::half::f16_to_f32(u16::from_le_bytes([p[0], p[1]])).is_finite()
+                    });
+                    if let Some(i) = bad {
+                        return Err(non_finite(first + i));
+                    }
+                }
+                blob::Encoding::F32 => {}
+            }
+            let bias =
+                blob::payload_values(self.payload.get(layer.bias..layer.end).unwrap_or_default());
+            if let Some(o) = bias.into_iter().position(|v| !v.is_finite()) {
+                return Err(non_finite(first + inputs * outputs + o));
             }
             let padding = self
                 .payload
@@ -457,6 +487,7 @@ impl<'a> Model<'a> {
                 });
             }
             at = layer.end;
+            first += inputs * outputs + outputs;
             l += 1;
         }
         Ok(())
