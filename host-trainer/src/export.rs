@@ -377,43 +377,17 @@ fn check_size(what: &'static str, expected: usize, found: usize) -> Result<(), E
     }
 }
 
-/// The blob `bytes` (f32 weights) with its weights stored in `encoding` instead: the same kind,
-/// shape, activation, label, normaliser, bounds, action table and biases; policy-core's writer
-/// converts the weights (f16: nearest, ties to even; int8: one scale per output, max |w| / 127,
-/// `q = round(w / scale)`). Deterministic: the same f32 blob gives the same bytes. A blob that
-/// is already quantised is refused (quantising twice compounds the error).
+/// The blob `bytes` (f32 weights) with its weights stored in `encoding` instead:
+/// [`policy_core::blob::encode`] (its one definition), with this crate's error.
 ///
 /// ```
 /// use host_trainer::export::encode;
-/// use policy_core::{model::Model, Encoding};
+/// use policy_core::Encoding;
 /// static F32: &[u8] = include_bytes!("../../policy-core/tests/golden/actor_4x48.postcard");
-/// let int8 = encode(F32, Encoding::Int8).unwrap();
-/// assert!(int8.len() < F32.len() / 3);
-/// assert_eq!(Model::from_blob(&int8).unwrap().header().encoding, Encoding::Int8);
-/// assert_eq!(encode(F32, Encoding::F32).unwrap(), F32);
-/// assert!(encode(&int8, Encoding::F16).is_err());
+/// assert!(encode(F32, Encoding::Int8).unwrap().len() < F32.len() / 3);
 /// ```
 pub fn encode(bytes: &[u8], encoding: Encoding) -> Result<Vec<u8>, Error> {
-    let model = Model::from_blob(bytes)?;
-    let h = model.header();
-    if h.encoding != Encoding::F32 {
-        return Err(policy_core::Error::WrongEncoding {
-            expected: Encoding::F32,
-            found: h.encoding,
-        }
-        .into());
-    }
-    let params: Vec<f32> = model.values().collect();
-    let spec = Spec {
-        kind: h.kind,
-        encoding,
-        shape: h.shape,
-        activation: h.activation,
-        label: h.label.as_str(),
-    };
-    let out = blob::to_vec_with(&spec, &mut |sink| sink(&params))?;
-    Model::from_blob(&out)?;
-    Ok(out)
+    Ok(blob::encode(bytes, encoding)?)
 }
 
 #[cfg(test)]

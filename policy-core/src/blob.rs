@@ -999,6 +999,45 @@ pub fn to_vec_with(spec: &Spec<'_>, params: &mut Params<'_>) -> Result<std::vec:
     Ok(out)
 }
 
+/// The blob `bytes` (f32 weights) with its weights stored in `encoding` instead (host side): the
+/// same kind, shape, activation, label, normaliser, bounds, action table and biases; [`write()`]
+/// converts the weights (f16: nearest, ties to even; int8: one scale per output, max |w| / 127,
+/// `q = round(w / scale)`). Deterministic: the same f32 blob gives the same bytes. A blob that is
+/// already quantised is [`Error::WrongEncoding`] (quantising twice compounds the rounding). The
+/// one definition behind `host-trainer export --encoding` and the firmware check's `encode`.
+///
+/// ```
+/// use policy_core::{blob, model::Model, Encoding};
+/// static F32: &[u8] = include_bytes!("../tests/golden/actor_4x48.postcard");
+/// let int8 = blob::encode(F32, Encoding::Int8).unwrap();
+/// assert!(int8.len() < F32.len() / 3);
+/// assert_eq!(Model::from_blob(&int8).unwrap().header().encoding, Encoding::Int8);
+/// assert_eq!(blob::encode(F32, Encoding::F32).unwrap(), F32);
+/// assert!(blob::encode(&int8, Encoding::F16).is_err());
+/// ```
+#[cfg(feature = "std")]
+pub fn encode(bytes: &[u8], encoding: Encoding) -> Result<std::vec::Vec<u8>, Error> {
+    let model = crate::model::Model::from_blob(bytes)?;
+    let h = model.header();
+    if h.encoding != Encoding::F32 {
+        return Err(Error::WrongEncoding {
+            expected: Encoding::F32,
+            found: h.encoding,
+        });
+    }
+    let params: std::vec::Vec<f32> = model.values().collect();
+    let spec = Spec {
+        kind: h.kind,
+        encoding,
+        shape: h.shape,
+        activation: h.activation,
+        label: h.label.as_str(),
+    };
+    let out = to_vec_with(&spec, &mut |sink| sink(&params))?;
+    crate::model::Model::from_blob(&out)?;
+    Ok(out)
+}
+
 fn spec_of<'a, M: Compiled>(model: &M, label: &'a str) -> Spec<'a> {
     Spec {
         kind: M::KIND,

@@ -221,19 +221,7 @@ fn quantised_base() -> impl Strategy<Value = Vec<u8>> {
 
 /// The f32 bases in f16 and in int8 (format version 3).
 fn quantised_bases() -> Vec<Vec<u8>> {
-    let encode = |bytes: &[u8], encoding: policy_core::Encoding| {
-        let model = policy_core::model::Model::from_blob(bytes).expect("a base loads");
-        let h = model.header();
-        let values: Vec<f32> = model.values().collect();
-        let spec = Spec {
-            kind: h.kind,
-            encoding,
-            shape: h.shape,
-            activation: h.activation,
-            label: h.label.as_str(),
-        };
-        blob::to_vec_with(&spec, &mut |sink| sink(&values)).expect("a quantised base writes")
-    };
+    let encode = |bytes: &[u8], encoding| blob::encode(bytes, encoding).expect("a base encodes");
     let mut all = Vec::new();
     for base in [
         ACTOR_2X32.to_vec(),

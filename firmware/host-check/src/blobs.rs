@@ -90,25 +90,9 @@ pub fn parse_encoding(text: &str) -> Result<Encoding> {
 /// order and policy-core's writer quantises the weights (f16: nearest; int8: one scale per
 /// output). Header fields and label are kept; the result is verified before it is returned.
 pub fn encode(bytes: &[u8], encoding: Encoding) -> Result<Vec<u8>> {
-    let model = Model::from_blob(bytes)?;
-    let h = model.header();
-    if h.encoding != Encoding::F32 {
-        bail!(
-            "the blob holds {} weights: only an f32 blob is re-encoded (quantising twice would compound the rounding)",
-            h.encoding
-        );
-    }
-    let params: Vec<f32> = model.values().collect();
-    let spec = Spec {
-        kind: h.kind,
-        encoding,
-        shape: h.shape,
-        activation: h.activation,
-        label: h.label.as_str(),
-    };
-    let out = blob::to_vec_with(&spec, &mut |sink| sink(&params))?;
-    Model::from_blob(&out).context("the re-encoded blob does not verify")?;
-    Ok(out)
+    // policy-core's one definition (what host-trainer's `export --encoding` runs too).
+    blob::encode(bytes, encoding)
+        .context("cannot re-encode the blob (only an f32 blob is re-encoded)")
 }
 
 /// Parses `DEPTHxWIDTH` (any sizes within the blob format's limits).
