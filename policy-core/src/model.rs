@@ -399,8 +399,8 @@ impl<'a> Model<'a> {
     /// and an action table inside the bounds.
     fn check_parameters(&self) -> Result<(), Error> {
         if self.header.encoding == blob::Encoding::F32 {
-            let values = blob::payload_values(self.payload);
-            if let Some(index) = values.into_iter().position(|v| !v.is_finite()) {
+            let mut values = blob::payload_values(self.payload);
+            if let Some(index) = values.position(|v| !v.is_finite()) {
                 return Err(Error::NonFiniteParameter { index });
             }
         } else {
@@ -427,16 +427,17 @@ impl<'a> Model<'a> {
     }
 
     /// A quantised blob's parameters, layer by layer without decoding into a list: the f32
-    /// prefix and biases finite, every f16 weight finite, every int8 scale a positive finite
-    /// number (zero would silence an output, a negative one flip it), and the padding after each
+    /// prefix and biases finite, every f16 weight finite, every int8 scale a positive number
+    /// small enough that `scale · q` stays finite (zero would silence an output, a negative one
+    /// flip it), and the padding after each
     /// layer's weights zero, so that one model has one encoding. `NonFiniteParameter` indices
     /// count parameters in blob order, as [`Model::values`] lists them.
     fn check_quantised(&self) -> Result<(), Error> {
         let h = &self.header;
         let non_finite = |index| Error::NonFiniteParameter { index };
         let prefix = h.shape.prefix_count(h.kind);
-        let head = blob::payload_values(self.payload.get(..4 * prefix).unwrap_or_default());
-        if let Some(index) = head.into_iter().position(|v| !v.is_finite()) {
+        let mut head = blob::payload_values(self.payload.get(..4 * prefix).unwrap_or_default());
+        if let Some(index) = head.position(|v| !v.is_finite()) {
             return Err(non_finite(index));
         }
         let (mut at, mut first, mut l) = (self.layout.layers, prefix, 0);
@@ -453,17 +454,19 @@ impl<'a> Model<'a> {
                 blob::Encoding::Int8 => {
                     for o in 0..outputs {
                         let scale = self.f32_at(layer.scales + 4 * o);
-                        if !scale.is_finite() || scale <= 0.0 {
+                        // Every decoded weight `scale · q` (|q| ≤ 128) must be finite too.
+                        if !(scale * 128.0).is_finite() || scale <= 0.0 {
                             return Err(Error::InvalidParameter {
-                                what: "int8 scale that is not a positive finite number",
+                                what:
+                                    "int8 scale that is not a positive number below f32::MAX / 128",
                                 index: o,
                             });
                         }
                     }
                 }
                 blob::Encoding::F16 => {
-                    let halves = weights.chunks_exact(2);
-                    let bad = halves.into_iter().position(|p| {
+                    let mut halves = weights.chunks_exact(2);
+                    let bad = halves.position(|p| {
                         !crate::half::f16_to_f32(u16::from_le_bytes([p[0], p[1]])).is_finite()
                     });
                     if let Some(i) = bad {
@@ -472,9 +475,9 @@ impl<'a> Model<'a> {
                 }
                 blob::Encoding::F32 => {}
             }
-            let bias =
+            let mut bias =
                 blob::payload_values(self.payload.get(layer.bias..layer.end).unwrap_or_default());
-            if let Some(o) = bias.into_iter().position(|v| !v.is_finite()) {
+            if let Some(o) = bias.position(|v| !v.is_finite()) {
                 return Err(non_finite(first + inputs * outputs + o));
             }
             let padding = self

@@ -242,7 +242,9 @@ fn an_int8_scale_that_is_zero_negative_or_not_finite_is_refused() {
     let (bytes, header_len) = int8_bytes();
     let (kind, shape) = SHAPES[0];
     let first_scale = header_len + 4 * shape.prefix_count(kind);
-    for bad in [0.0f32, -0.01, f32::NAN, f32::INFINITY] {
+    // f32::MAX / 2: finite, but `scale · q` overflows (regression: the layer-by-layer
+    // check once accepted it, found by the mutation property test).
+    for bad in [0.0f32, -0.01, f32::NAN, f32::INFINITY, f32::MAX / 2.0] {
         let mut b = bytes.clone();
         b[first_scale + 4..first_scale + 8].copy_from_slice(&bad.to_le_bytes());
         recrc(&mut b);
