@@ -106,15 +106,6 @@ impl ActorCritic {
         self.update = ActorUpdate::of(config);
     }
 
-    fn updates_due(&self, total_steps: u64) -> usize {
-        let c = &self.agent.config;
-        if total_steps >= c.warmup_steps as u64 && self.agent.replay.len() >= c.batch {
-            c.updates_per_step
-        } else {
-            0
-        }
-    }
-
     /// One critic step and one actor step on the same minibatch, then the soft target update.
     fn update(&mut self) -> Result<(), &'static str> {
         let s = self.agent.sample(&mut self.streams.replay);
@@ -171,7 +162,8 @@ impl Algorithm for ActorCritic {
             next_obs: step.next_obs.to_vec(),
             terminal: step.terminated,
         });
-        for _ in 0..self.updates_due(step.total_steps) {
+        let due = (self.agent.config).updates_due(step.total_steps, self.agent.replay.len());
+        for _ in 0..due {
             self.update()?;
         }
         Ok(())

@@ -160,6 +160,34 @@ impl Config {
     }
 }
 
+impl Config {
+    /// The shape of a network with these hidden layers and activation: `inputs` to `outputs`,
+    /// with `output`'s squashing and dropout probability `dropout` (DDPG and DCP train with
+    /// `self.dropout`; PPO and DQN with none).
+    pub fn net(&self, inputs: usize, outputs: usize, output: Output, dropout: f32) -> NetConfig {
+        NetConfig {
+            inputs,
+            width: self.hidden.width,
+            depth: self.hidden.depth,
+            outputs,
+            activation: self.activation,
+            output,
+            dropout,
+        }
+    }
+
+    /// Updates due after a plant step of an off-policy learner (DDPG, DCP, DQN): none before
+    /// `warmup_steps` plant steps and a full minibatch in the replay buffer, then
+    /// `updates_per_step`.
+    pub fn updates_due(&self, total_steps: u64, stored: usize) -> usize {
+        if total_steps >= self.warmup_steps as u64 && stored >= self.batch {
+            self.updates_per_step
+        } else {
+            0
+        }
+    }
+}
+
 /// Largest minibatch: 65,536 rows.
 pub const MAX_BATCH: usize = 1 << 16;
 /// Largest replay buffer: 50 million transitions (1.6 GB for the navigation plant).
@@ -316,17 +344,14 @@ impl Agent {
             });
         }
         let act_dim = low.len();
-        let net_config = |inputs, outputs, output| NetConfig {
-            inputs,
-            width: config.hidden.width,
-            depth: config.hidden.depth,
-            outputs,
-            activation: config.activation,
-            output,
-            dropout: config.dropout,
-        };
-        let actor = Net::new(net_config(obs_dim, act_dim, Output::Tanh), rng);
-        let critic = Net::new(net_config(obs_dim + act_dim, 1, Output::Linear), rng);
+        let actor = Net::new(
+            config.net(obs_dim, act_dim, Output::Tanh, config.dropout),
+            rng,
+        );
+        let critic = Net::new(
+            config.net(obs_dim + act_dim, 1, Output::Linear, config.dropout),
+            rng,
+        );
         Ok(Agent {
             actor_opt: Adam::new(&actor, config.lr_actor, config.l2),
             critic_opt: Adam::new(&critic, config.lr_critic, config.l2),

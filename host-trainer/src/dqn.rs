@@ -24,7 +24,7 @@ use crate::adam::Adam;
 use crate::agent;
 use crate::algo::{Algorithm, Means, Step};
 use crate::export;
-use crate::net::{soft_update, Matrix, Net, NetConfig, Output, Tape};
+use crate::net::{soft_update, Grads, Matrix, Net, Output, Tape};
 use crate::normalize::RunningNorm;
 use crate::replay::{Replay, Transition};
 use crate::seed::{self, Rng};
@@ -193,6 +193,9 @@ pub struct Dqn {
     means: Means,
     #[serde(skip)]
     tapes: (Tape, Tape),
+    /// The Q-network's gradients, reused from update to update.
+    #[serde(skip)]
+    grads: Option<Grads>,
 }
 
 impl Dqn {
@@ -229,15 +232,7 @@ impl Dqn {
                 }
             }
         }
-        let net_config = NetConfig {
-            inputs: obs_dim,
-            width: shared.hidden.width,
-            depth: shared.hidden.depth,
-            outputs: own.moves,
-            activation: shared.activation,
-            output: Output::Linear,
-            dropout: 0.0,
-        };
+        let net_config = shared.net(obs_dim, own.moves, Output::Linear, 0.0);
         let q = Net::new(net_config, &mut seed::stream(config.seed, "init"));
         Ok(Dqn {
             opt: Adam::new(&q, shared.lr_critic, shared.l2),
@@ -258,6 +253,7 @@ impl Dqn {
             pending: 0,
             means: Means::default(),
             tapes: Default::default(),
+            grads: None,
         })
     }
 
@@ -274,15 +270,6 @@ impl Dqn {
         let mut q = vec![0.0; self.q.config.outputs];
         self.q.forward_one(&z, &mut q);
         policy_core::model::argmax(&q)
-    }
-
-    fn updates_due(&self, total_steps: u64) -> usize {
-        let c = &self.shared;
-        if total_steps >= c.warmup_steps as u64 && self.replay.len() >= c.batch {
-            c.updates_per_step
-        } else {
-            0
-        }
     }
 
     /// One Huber step toward y = r + γ(1 − terminal) max_k Q'(s', k) on a minibatch from the
@@ -319,9 +306,10 @@ impl Dqn {
         if !loss.is_finite() {
             return Err("q loss");
         }
-        let mut grads = self.q.zero_grads();
-        self.q.backward(&self.tapes.0, &grad, &mut grads);
-        self.opt.step(&mut self.q, &grads);
+        let grads = self.grads.get_or_insert_with(|| self.q.zero_grads());
+        grads.zero();
+        self.q.backward(&self.tapes.0, &grad, grads);
+        self.opt.step(&mut self.q, grads);
         soft_update(&mut self.q_target, &self.q, self.shared.tau);
         self.means.add(1, loss);
         Ok(())
@@ -354,7 +342,7 @@ impl Algorithm for Dqn {
             next_obs: step.next_obs.to_vec(),
             terminal: step.terminated,
         });
-        for _ in 0..self.updates_due(step.total_steps) {
+        for _ in 0..self.shared.updates_due(step.total_steps, self.replay.len()) {
             self.update()?;
         }
         Ok(())

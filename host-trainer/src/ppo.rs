@@ -25,10 +25,10 @@
 use serde::{Deserialize, Serialize};
 
 use crate::adam::{Adam, VecAdam};
-use crate::agent::{self, Hidden};
+use crate::agent;
 use crate::algo::{Algorithm, Step};
 use crate::export::{self, ActorParts};
-use crate::net::{Grads, Matrix, Net, NetConfig, Output, Tape};
+use crate::net::{Grads, Matrix, Net, Output, Tape};
 use crate::normalize::RunningNorm;
 use crate::rollout::{Rollout, RolloutStep};
 use crate::seed::{self, Rng};
@@ -316,18 +316,9 @@ impl Ppo {
         shared.validate()?;
         own.validate()?;
         let act_dim = low.len();
-        let net = |inputs, outputs, output| NetConfig {
-            inputs,
-            width: shared.hidden.width,
-            depth: shared.hidden.depth,
-            outputs,
-            activation: shared.activation,
-            output,
-            dropout: 0.0,
-        };
         let mut init = seed::stream(config.seed, "init");
-        let actor = Net::new(net(obs_dim, act_dim, Output::Tanh), &mut init);
-        let value = Net::new(net(obs_dim, 1, Output::Linear), &mut init);
+        let actor = Net::new(shared.net(obs_dim, act_dim, Output::Tanh, 0.0), &mut init);
+        let value = Net::new(shared.net(obs_dim, 1, Output::Linear, 0.0), &mut init);
         Ok(Ppo {
             actor_opt: Adam::new(&actor, shared.lr_actor, own.l2),
             log_std_opt: VecAdam::new(act_dim, shared.lr_actor),
@@ -355,11 +346,6 @@ impl Ppo {
     pub fn configure(&mut self, config: &TrainConfig) {
         self.config = config.ppo.clone();
         self.shared = config.agent.clone();
-    }
-
-    /// The hidden shape of both networks.
-    pub fn hidden(&self) -> Hidden {
-        self.shared.hidden
     }
 
     fn parts(&self) -> ActorParts<'_> {
@@ -414,7 +400,7 @@ impl Ppo {
 
                 // The policy: forward, clipped surrogate, backward.
                 let means = self.actor.forward(&z, &mut self.tapes.0, None).clone();
-                let s = surrogate(
+                let mut s = surrogate(
                     &means.data,
                     &self.log_std,
                     &actions.data,
@@ -429,7 +415,7 @@ impl Ppo {
                 actor_grads.zero();
                 self.actor.backward(
                     &self.tapes.0,
-                    &Matrix::from_vec(m, act_dim, s.d_mean.clone()),
+                    &Matrix::from_vec(m, act_dim, std::mem::take(&mut s.d_mean)),
                     &mut actor_grads,
                 );
 
@@ -448,16 +434,15 @@ impl Ppo {
                 );
 
                 // One step of everything, after clipping the global gradient norm.
-                let mut d_log_std = s.d_log_std.clone();
                 clip_global_norm(
                     &mut actor_grads,
                     &mut value_grads,
-                    &mut d_log_std,
+                    &mut s.d_log_std,
                     self.config.max_grad_norm,
                 );
                 self.actor_opt.step(&mut self.actor, &actor_grads);
                 self.value_opt.step(&mut self.value, &value_grads);
-                self.log_std_opt.step(&mut self.log_std, &d_log_std);
+                self.log_std_opt.step(&mut self.log_std, &s.d_log_std);
 
                 for (sum, v) in sums.iter_mut().zip([
                     s.policy_loss,

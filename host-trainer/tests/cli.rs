@@ -587,6 +587,21 @@ fn quantised_exports_inspect_and_evaluate() {
         let eval = host_trainer(&["eval", "--blob", s(&file), "--episodes", "3"]);
         assert_ok(&eval);
     }
+    // Against a blob of another kind (the critic): a one-line error, not a comparison.
+    let int8 = run.join("policy-int8.postcard");
+    let mismatch = host_trainer(&[
+        "inspect",
+        s(&int8),
+        "--against",
+        s(&run.join("critic.postcard")),
+    ]);
+    assert!(!mismatch.status.success());
+    let stderr = String::from_utf8_lossy(&mismatch.stderr);
+    assert!(
+        stderr.contains("cannot compare") && stderr.contains("wrong model kind"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
     let before = entries(&run);
     let bad = host_trainer(&["export", "--run", s(&run), "--encoding", "int4"]);
     assert_one_line_error(&bad, &["int4"]);

@@ -753,6 +753,20 @@ pub struct Spec<'a> {
     pub label: &'a str,
 }
 
+impl<'a> Spec<'a> {
+    /// The spec of the blob `header` describes, with its weights in `encoding` (how a blob is
+    /// re-encoded or written back).
+    pub fn like(header: &'a Header, encoding: Encoding) -> Spec<'a> {
+        Spec {
+            kind: header.kind,
+            encoding,
+            shape: header.shape,
+            activation: header.activation,
+            label: header.label.as_str(),
+        }
+    }
+}
+
 impl Spec<'_> {
     fn header(&self) -> Result<Header, Error> {
         self.shape.check(self.kind)?;
@@ -1026,14 +1040,7 @@ pub fn encode(bytes: &[u8], encoding: Encoding) -> Result<std::vec::Vec<u8>, Err
         });
     }
     let params: std::vec::Vec<f32> = model.values().collect();
-    let spec = Spec {
-        kind: h.kind,
-        encoding,
-        shape: h.shape,
-        activation: h.activation,
-        label: h.label.as_str(),
-    };
-    let out = to_vec_with(&spec, &mut |sink| sink(&params))?;
+    let out = to_vec_with(&Spec::like(h, encoding), &mut |sink| sink(&params))?;
     crate::model::Model::from_blob(&out)?;
     Ok(out)
 }

@@ -132,13 +132,7 @@ fn check_model(model: &Model<'_>, v: &Verified<'_>) {
         "accepted a non-finite value"
     );
     let h = model.header();
-    let spec = Spec {
-        kind: h.kind,
-        encoding,
-        shape: h.shape,
-        activation: h.activation,
-        label: h.label.as_str(),
-    };
+    let spec = Spec::like(h, encoding);
     let mut out = vec![0u8; blob::encoded_len(&spec).expect("an accepted shape encodes")];
     let n = blob::write(&spec, &mut |sink| sink(&values), &mut out).expect("writes back");
     let again = blob::verify(&out[..n]).expect("a written blob verifies");
