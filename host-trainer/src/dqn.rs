@@ -420,6 +420,25 @@ mod tests {
         assert!(eps[99] > 0.05);
     }
 
+    /// A plant DQN's moves do not fit (other action sizes, a box smaller than a move) is a
+    /// clear configuration error, before any network exists.
+    #[test]
+    fn moves_that_do_not_fit_the_plant_are_refused() {
+        let config = TrainConfig {
+            algo: crate::algo::Algo::Dqn,
+            ..TrainConfig::default()
+        };
+        let err = Dqn::new(&config, 2, &[-0.25; 3], &[0.25; 3]).expect_err("3-D actions");
+        assert!(err.to_string().contains("2-D actions"), "{err}");
+        let mut long = config.clone();
+        long.dqn.step = 0.5;
+        let err = Dqn::new(&long, 2, &[-0.25; 2], &[0.25; 2]).expect_err("0.5 > 0.25");
+        assert!(err.to_string().contains("dqn.step"), "{err}");
+        long.dqn.epsilon_fraction = 2.0;
+        let err = long.dqn.validate().expect_err("fraction > 1");
+        assert!(err.to_string().contains("dqn.epsilon_fraction"), "{err}");
+    }
+
     #[test]
     fn the_table_holds_eight_moves_of_a_quarter() {
         let t = Config::default().table();
