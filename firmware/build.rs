@@ -1,4 +1,5 @@
-//! Puts memory.x where cortex-m-rt's link.x finds it, and chooses the blob `include_bytes!` embeds.
+//! Puts memory.x where cortex-m-rt's link.x finds it. The firmware holds no blob: policies are
+//! flashed into the slots memory.x declares, separately from the firmware.
 
 use std::{env, fs, path::PathBuf, process::exit};
 
@@ -12,22 +13,4 @@ fn main() {
     }
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed=memory.x");
-
-    // The blob is a build input like memory.x: POLICY_BLOB names it, else firmware/policy.postcard.
-    println!("cargo:rerun-if-env-changed=POLICY_BLOB");
-    let blob = match env::var_os("POLICY_BLOB") {
-        Some(path) => PathBuf::from(path),
-        None => manifest.join("policy.postcard"),
-    };
-    let blob = manifest.join(blob); // relative paths are taken from firmware/
-    if !blob.is_file() {
-        eprintln!(
-            "no policy blob at {}: set POLICY_BLOB=/path/to/actor.postcard (host-trainer's export), or \
-             make one with `cargo run --manifest-path firmware/host-check/Cargo.toml -- gen 4x48 firmware/policy.postcard`",
-            blob.display()
-        );
-        exit(1);
-    }
-    println!("cargo:rerun-if-changed={}", blob.display());
-    println!("cargo:rustc-env=POLICY_BLOB_PATH={}", blob.display());
 }

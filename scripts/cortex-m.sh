@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
 # cortex-m.sh -- build the example firmware (firmware/) for a Cortex-M4F and a Cortex-M3, run it
 # under QEMU on several blobs, check its actions bit for bit against policy-core on the host, and
-# write a resource report (flash, static RAM, peak stack, instructions per `act`, boot cost).
+# write a resource report (flash, static RAM, peak stack, instructions per `act`, boot cost);
+# then boot the M4F firmware on the A/B slot cases (which slot runs, fallback, safe state).
 #
-# One firmware runs a blob of any shape straight from flash (policy_core::model::Model, a 512 B
-# activation scratch in RAM); a variant is a target and a blob, and each build only relinks the
-# firmware around another `include_bytes!`. The blobs: the given --blob ("trained"), and
+# The firmware holds no blob: policies live in two flash slots after it (firmware/memory.x), and
+# each run loads a slot image (policy-core's slot record: a 16-byte header with a sequence number,
+# then the blob) with QEMU's `-device loader,file=IMAGE,addr=ADDR`, as a flasher would write it.
+# So each target and profile is built once, and every blob runs on the same firmware bytes.
+# The blobs: the given --blob ("trained"), and
 # deterministic ones from `host-check gen`: tanh 2x32, 4x48 and 6x64, and a ReLU 3x40, all f32;
 # ReLU 2x32, 4x48 and 6x64 with f16 and int8 weights (`gen --encoding`; the same f32 weights,
 # quantised by policy-core's writer), and the trained blob re-encoded in f16 and int8
@@ -19,6 +22,7 @@
 #                   shape up to 64 wide), run by the *-trained* variants (skipped without it).
 #   --out FILE      JSON report path (default: <target dir>/cortex-m-report.json).
 #   --install-only  install the toolchain and QEMU, then stop.
+#   --no-slot-cases skip the A/B slot cases (they run by default).
 # Environment: PREFIX (private compiler prefix, default /opt/rust-web), RUST_WEB_VERSION (pin a
 # Debian rustc-web version), VARIANTS (space-separated subset of the names below), EXTRA_FEATURES
 # (firmware features, if any), QEMU_TIMEOUT (seconds, default 60), SIZE_OPT_LEVEL (opt-level of
@@ -45,6 +49,7 @@ WORK=$BASE/cortex-m
 OUT=$BASE/cortex-m-report.json
 BLOB=
 INSTALL_ONLY=0
+SLOT_CASES=1
 QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
 # name:target:qemu machine:qemu cpu:blob[:profile]. blob: trained (= --blob) or
 # DEPTHxWIDTH-ACTIVATION (host-check gen), either with an optional -f16 or -int8 (re-encoded;
@@ -98,7 +103,8 @@ while [ $# -gt 0 ]; do
     --blob) [ $# -ge 2 ] || die "--blob needs a file"; BLOB=$(realpath "$2"); shift 2 ;;
     --out) [ $# -ge 2 ] || die "--out needs a file"; OUT=$(realpath -m "$2"); shift 2 ;;
     --install-only) INSTALL_ONLY=1; shift ;;
-    -h|--help) sed -n '2,26p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --no-slot-cases) SLOT_CASES=0; shift ;;
+    -h|--help) sed -n '2,33p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) die "unknown argument $1 (see --help)" ;;
   esac
 done
@@ -231,6 +237,25 @@ blob_for() { # trained[-ENC] | DEPTHxWIDTH-ACTIVATION[-ENC] -> blob path (given,
 FW_ENV=(env -u RUSTFLAGS -u CARGO_ENCODED_RUSTFLAGS -u CARGO_BUILD_RUSTFLAGS RUSTC="$RUSTC_X" RUSTC_BOOTSTRAP=1 CARGO_TARGET_DIR="$WORK/fw"
   CARGO_PROFILE_RELEASE_SIZE_OPT_LEVEL="$SIZE_OPT_LEVEL")
 QEMU_BASE=(qemu-system-arm -nographic -semihosting-config enable=on,target=native -icount shift=0)
+# The address of a slot (a or b) in a firmware ELF: memory.x's _slot_a / _slot_b symbols.
+slot_addr() { local a; a=$(nm "$1" | awk -v s="_slot_$2" '$3==s{print $1}'); [ -n "$a" ] || die "no _slot_$2 symbol in $1"; echo "0x$a"; }
+# run_qemu DIR MACHINE CPU [ADDR IMAGE]...: boots DIR/firmware.elf with each IMAGE loaded at its
+# ADDR (a flasher's job on a board); the firmware's output goes to DIR/firmware.log and the
+# plugin's counts to DIR/plugin.log (plugin_log is set for host-check). Returns QEMU's status.
+run_qemu() {
+  local dir=$1 machine=$2 cpu=$3; shift 3
+  local loaders=() plugin_args=()
+  while [ $# -ge 2 ]; do loaders+=(-device "loader,file=$2,addr=$1"); shift 2; done
+  plugin_log=()
+  if [ -f "$PLUGIN_SO" ]; then
+    local mark; mark=$(nm "$dir/firmware.elf" | awk '$3=="fw_mark"{print $1}')
+    [ -n "$mark" ] || die "$dir: no fw_mark symbol in the firmware"
+    plugin_args=(-plugin "$PLUGIN_SO,mark=$(printf '0x%x' $((0x$mark & ~1)))" -d plugin)  # drop the Thumb bit
+    plugin_log=(--plugin-log "$dir/plugin.log")
+  fi
+  timeout "$QEMU_TIMEOUT" "${QEMU_BASE[@]}" -M "$machine" -cpu "$cpu" "${plugin_args[@]}" "${loaders[@]}" \
+    -kernel "$dir/firmware.elf" </dev/null >"$dir/firmware.log" 2>"$dir/plugin.log"
+}
 SELECTED=(${VARIANTS:-$(printf '%s\n' "${ALL_VARIANTS[@]}" | cut -d: -f1)})
 FAILED=(); JSONS=()
 for spec in "${ALL_VARIANTS[@]}"; do
@@ -241,8 +266,8 @@ for spec in "${ALL_VARIANTS[@]}"; do
   dir=$WORK/variants/$name; mkdir -p "$dir"; rm -f "$dir"/*.log "$dir/resources.json"
   blob=$(blob_for "$which")
 
-  step "$name: build ($target, profile $profile, blob $(basename "$blob"))"
-  if ! (cd "$ROOT/firmware" && POLICY_BLOB="$blob" "${FW_ENV[@]}" cargo build --profile "$profile" --locked -Zbuild-std=core \
+  step "$name: build ($target, profile $profile; no blob inside)"
+  if ! (cd "$ROOT/firmware" && "${FW_ENV[@]}" cargo build --profile "$profile" --locked -Zbuild-std=core \
         --target "$target" ${EXTRA_FEATURES:+--features "$EXTRA_FEATURES"} 2>&1 \
         | { grep -vE '^ +(Compiling|Downloaded|Downloading|Locking|Adding|Updating|Finished)' || true; } ); then
     FAILED+=("$name: build"); continue
@@ -252,17 +277,10 @@ for spec in "${ALL_VARIANTS[@]}"; do
   cp "$elf" "$dir/firmware.elf"
   size -A "$dir/firmware.elf" > "$dir/sizes.txt"
 
-  step "$name: run under QEMU ($machine, $cpu; timeout ${QEMU_TIMEOUT}s)"
-  plugin_args=(); plugin_log=()
-  if [ -f "$PLUGIN_SO" ]; then
-    mark=$(nm "$dir/firmware.elf" | awk '$3=="fw_mark"{print $1}')
-    [ -n "$mark" ] || die "$name: no fw_mark symbol in the firmware"
-    plugin_args=(-plugin "$PLUGIN_SO,mark=$(printf '0x%x' $((0x$mark & ~1)))" -d plugin)  # drop the Thumb bit
-    plugin_log=(--plugin-log "$dir/plugin.log")
-  fi
+  step "$name: run under QEMU ($machine, $cpu; $(basename "$blob") in slot A; timeout ${QEMU_TIMEOUT}s)"
+  "$HC" image "$blob" "$dir/slot-a.bin" --sequence 1 >/dev/null
   set +e
-  timeout "$QEMU_TIMEOUT" "${QEMU_BASE[@]}" -M "$machine" -cpu "$cpu" "${plugin_args[@]}" \
-    -kernel "$dir/firmware.elf" </dev/null >"$dir/firmware.log" 2>"$dir/plugin.log"
+  run_qemu "$dir" "$machine" "$cpu" "$(slot_addr "$dir/firmware.elf" a)" "$dir/slot-a.bin"
   rc=$?
   set -e
   if [ $rc != 0 ]; then
@@ -272,12 +290,89 @@ for spec in "${ALL_VARIANTS[@]}"; do
 
   step "$name: compare with policy-core on the host (bit-exact) and measure"
   if ! "$HC" check "$blob" "$dir/firmware.log"; then FAILED+=("$name: actions differ from the host"); continue; fi
-  if ! "$HC" measure --variant "$name" --target "$target" --machine "$machine" --cpu "$cpu" --blob "$blob" \
+  if ! "$HC" measure --variant "$name" --target "$target" --machine "$machine" --cpu "$cpu" --blob "$blob" --image "$dir/slot-a.bin" \
         --profile "$profile" --opt-level "${OPT_LEVEL[$profile]}" --sizes "$dir/sizes.txt" --fw-log "$dir/firmware.log" "${plugin_log[@]}" --out "$dir/resources.json"; then
     FAILED+=("$name: measurement"); continue
   fi
   JSONS+=("$dir/resources.json")
 done
+
+#--------------------------------------------------------------------------------------------------
+# A/B slot cases on the M4F (release): the same firmware, other slot contents. Each case names
+# the slot that must run (its actions checked bit-exact against that slot's blob on the host) or
+# the safe state (zero actions, both slots' reasons, exit status 1), and the reason a skipped slot
+# must report. Images come from `host-check image` (policy-core's slot::record, as host-trainer's
+# `export --image` writes them); slot B of "b-newer-hex" is Intel HEX, which QEMU's loader reads
+# at the addresses inside it.
+SLOT_JSONS=()
+if [ "$SLOT_CASES" = 1 ]; then
+  step "slot cases: build the M4F firmware (release) and the slot images"
+  IFS=: read -r target machine cpu <<<"$M4F"
+  (cd "$ROOT/firmware" && "${FW_ENV[@]}" cargo build --release --locked -Zbuild-std=core --target "$target" 2>&1 \
+    | { grep -vE '^ +(Compiling|Downloaded|Downloading|Locking|Adding|Updating|Finished)' || true; }) \
+    || die "slot cases: firmware build failed"
+  elf=$WORK/fw/$target/release/policy-firmware
+  A_ADDR=$(slot_addr "$elf" a); B_ADDR=$(slot_addr "$elf" b)
+  S=$WORK/slots; mkdir -p "$S/img"
+  GOOD_A=${BLOB:-$(blob_for 4x48-relu)}
+  GOOD_B=$WORK/blobs/actor_4x48-relu-seed5.postcard
+  "$HC" gen 4x48 "$GOOD_B" --activation relu --seed 5 >/dev/null
+  WIDE=$WORK/blobs/actor_2x96-relu.postcard
+  "$HC" gen 2x96 "$WIDE" --activation relu >/dev/null
+  CRITIC=$ROOT/policy-core/tests/golden/critic_2x32.postcard
+  I=$S/img
+  "$HC" image "$GOOD_A" "$I/a1.bin" --sequence 1 >/dev/null
+  "$HC" image "$GOOD_A" "$I/a-max.bin" --sequence 4294967295 >/dev/null
+  "$HC" image "$GOOD_B" "$I/b2.bin" --sequence 2 >/dev/null
+  "$HC" image "$GOOD_B" "$I/b2.hex" --sequence 2 --address "$B_ADDR" >/dev/null
+  "$HC" image "$GOOD_B" "$I/b0.bin" --sequence 0 >/dev/null
+  "$HC" image "$GOOD_B" "$I/b7.bin" --sequence 7 >/dev/null
+  "$HC" image "$CRITIC" "$I/critic2.bin" --sequence 2 >/dev/null
+  "$HC" image "$WIDE" "$I/wide2.bin" --sequence 2 >/dev/null
+  "$HC" damage "$I/a1.bin" "$I/a1-flipped.bin" --flip 216 >/dev/null
+  "$HC" damage "$I/b2.bin" "$I/b2-flipped.bin" --flip 216 >/dev/null
+  "$HC" damage "$I/b2.bin" "$I/b2-seqflip.bin" --flip 5 >/dev/null
+  "$HC" damage "$I/b2.bin" "$I/b2-cut.bin" --cut $(( $(stat -c %s "$I/b2.bin") / 2 )) >/dev/null
+  "$HC" fill "$I/erased.bin" --len 4096 --byte 0xFF >/dev/null
+  "$HC" fill "$I/random.bin" --len 4096 --random 7 >/dev/null
+  # name:expect:blob that runs (A, B or -):reason a failed slot must give (or -):slot A image:slot B image
+  CASES=(
+    "a-only:A:$GOOD_A:-:a1.bin:-"
+    "b-newer-hex:B:$GOOD_B:-:a1.bin:b2.hex"
+    "b-flipped-byte:A:$GOOD_A:checksum mismatch:a1.bin:b2-flipped.bin"
+    "both-bad:safe:-:checksum mismatch:a1-flipped.bin:erased.bin"
+    "both-empty:safe:-:empty slot:-:-"
+    "b-random-bytes:A:$GOOD_A:not a slot record:a1.bin:random.bin"
+    "b-truncated:A:$GOOD_A:checksum mismatch:a1.bin:b2-cut.bin"
+    "b-critic:A:$GOOD_A:wrong model kind:a1.bin:critic2.bin"
+    "b-too-wide:A:$GOOD_A:scratch buffer too small:a1.bin:wide2.bin"
+    "b-sequence-flipped:A:$GOOD_A:header corrupted:a1.bin:b2-seqflip.bin"
+    "sequence-wrapped:B:$GOOD_B:-:a-max.bin:b0.bin"
+    "a-erased:B:$GOOD_B:empty slot:erased.bin:b7.bin"
+  )
+  for c in "${CASES[@]}"; do
+    IFS=: read -r cname expect runs reason img_a img_b <<<"$c"
+    step "slot case $cname: expect $expect"
+    dir=$S/$cname; mkdir -p "$dir"; cp "$elf" "$dir/firmware.elf"
+    loads=()
+    [ "$img_a" = - ] || loads+=("$A_ADDR" "$I/$img_a")
+    [ "$img_b" = - ] || loads+=("$B_ADDR" "$I/$img_b")
+    set +e
+    run_qemu "$dir" "$machine" "$cpu" "${loads[@]}"
+    rc=$?
+    set -e
+    want_rc=0; [ "$expect" = safe ] && want_rc=1
+    if [ $rc != $want_rc ]; then
+      tail -5 "$dir/firmware.log"
+      FAILED+=("slot case $cname: QEMU exit status $rc, expected $want_rc"); continue
+    fi
+    args=(--name "$cname" --expect "$expect" --fw-log "$dir/firmware.log" "${plugin_log[@]}" --out "$dir/case.json")
+    [ "$runs" = - ] || args+=(--blob "$runs")
+    [ "$reason" = - ] || args+=(--reason "$reason")
+    if ! "$HC" slot-case "${args[@]}"; then FAILED+=("slot case $cname"); continue; fi
+    SLOT_JSONS+=("$dir/case.json")
+  done
+fi
 
 #--------------------------------------------------------------------------------------------------
 step "report"
@@ -290,6 +385,10 @@ mkdir -p "$(dirname "$OUT")"
   --meta "instructions=exact counts from a TCG plugin between fw_mark calls (mark cost subtracted)" \
   --meta "command=${VARIANTS:+VARIANTS=\"$VARIANTS\" }${SIZE_OPT_LEVEL_SET:+SIZE_OPT_LEVEL=$SIZE_OPT_LEVEL }${EXTRA_FEATURES:+EXTRA_FEATURES=$EXTRA_FEATURES }bash scripts/cortex-m.sh${BLOB:+ --blob $BLOB}" \
   "${JSONS[@]}"
+if [ ${#SLOT_JSONS[@]} -gt 0 ]; then
+  echo "slot cases (M4F, release; boot = choosing and verifying, in instructions):"
+  "$HC" slot-table "${OUT%.json}-slots.md" "${SLOT_JSONS[@]}"
+fi
 step done
 echo "report: $OUT (table: ${OUT%.json}.md)"
 echo "timings:"; printf '  %s\n' "${TIMINGS[@]}"
@@ -298,4 +397,4 @@ if [ ${#FAILED[@]} -gt 0 ]; then
   printf 'FAILED: %s\n' "${FAILED[@]}" >&2
   exit 1
 fi
-echo "RESULT: PASS (${#JSONS[@]} variants bit-exact with the host)"
+echo "RESULT: PASS (${#JSONS[@]} variants bit-exact with the host; ${#SLOT_JSONS[@]} slot cases as expected)"

@@ -125,7 +125,7 @@ pub fn reference(name: &str, scenario: &Scenario) -> Result<Box<dyn Controller>,
 
 /// Scratch width that fits every shape a blob may declare: the widest hidden layer,
 /// observation vector, action vector or action table the format allows.
-const SCRATCH_WIDTH: usize = max(
+pub const SCRATCH_WIDTH: usize = max(
     max(blob::MAX_WIDTH, blob::MAX_OBSERVATIONS),
     max(blob::MAX_ACTIONS, blob::MAX_CHOICES),
 );
@@ -177,7 +177,13 @@ impl<'a> BlobPolicy<'a> {
     /// assert!(BlobPolicy::boot(&blob[1..]).is_err());
     /// ```
     pub fn boot(bytes: &'a [u8]) -> Result<BlobPolicy<'a>, Error> {
-        let model = Model::from_blob(bytes)?;
+        BlobPolicy::from_model(Model::from_blob(bytes)?)
+    }
+
+    /// Wraps a model already verified as a policy (for example by
+    /// [`Model::for_policy`](policy_core::model::Model::for_policy) when booting from flash
+    /// slots); a critic is refused.
+    pub fn from_model(model: Model<'a>) -> Result<BlobPolicy<'a>, Error> {
         if model.header().kind == ModelKind::Critic {
             return Err(policy_core::Error::WrongKind {
                 expected: ModelKind::Actor,

@@ -48,6 +48,13 @@ pub enum Error {
         /// The size found.
         found: usize,
     },
+    /// Neither flash slot holds a policy the firmware can run (the safe state runs).
+    NoSlot {
+        /// What became of slot A.
+        a: policy_core::slot::Status,
+        /// What became of slot B.
+        b: policy_core::slot::Status,
+    },
     /// An evaluation or fault setting is out of range.
     Config {
         /// The setting.
@@ -88,6 +95,10 @@ impl fmt::Display for Error {
             } => {
                 write!(f, "{what}: the plant needs {expected}, found {found}")
             }
+            Error::NoSlot { a, b } => write!(
+                f,
+                "no slot holds a policy this plant's firmware can run: slot A {a}; slot B {b}"
+            ),
             Error::Config { field, message } => write!(f, "{field}: {message}"),
         }
     }

@@ -235,6 +235,47 @@ pub fn read_blob(path: &Path) -> io::Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// The largest slot image [`read_slot`] takes (64 MiB): a whole slot dumped from flash fits,
+/// with room to spare; a larger file is not a slot of any microcontroller.
+pub const MAX_SLOT_FILE: u64 = 64 << 20;
+
+/// Reads a flash slot image: the slot record a flasher writes (`host-trainer export --image bin`)
+/// or a dump of the whole slot. Intel HEX is refused with a message (give the `.bin` image), as
+/// is a file larger than [`MAX_SLOT_FILE`]; the bytes are not checked otherwise (booting does).
+///
+/// ```
+/// let path = std::env::temp_dir().join(format!("read-slot-doc-{}", std::process::id()));
+/// std::fs::write(&path, b":020000040804EE").unwrap();
+/// let err = firmware_sim::files::read_slot(&path).unwrap_err().to_string();
+/// assert!(err.contains("Intel HEX"), "{err}");
+/// # std::fs::remove_file(&path).unwrap();
+/// ```
+pub fn read_slot(path: &Path) -> io::Result<Vec<u8>> {
+    let file = fs::File::open(path)?;
+    let size = file.metadata()?.len();
+    let too_large = |size: u64| {
+        io::Error::new(
+            io::ErrorKind::InvalidData,
+            format!("file is {size} bytes, larger than any flash slot ({MAX_SLOT_FILE} bytes)"),
+        )
+    };
+    if size > MAX_SLOT_FILE {
+        return Err(too_large(size));
+    }
+    let mut bytes = Vec::with_capacity(size as usize);
+    file.take(MAX_SLOT_FILE + 1).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > MAX_SLOT_FILE {
+        return Err(too_large(bytes.len() as u64));
+    }
+    if bytes.first() == Some(&b':') {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidData,
+            "this is an Intel HEX image: give the raw .bin image of the slot (export --image bin)",
+        ));
+    }
+    Ok(bytes)
+}
+
 fn file_name(path: &Path) -> io::Result<String> {
     path.file_name()
         .map(|n| n.to_string_lossy().into_owned())

@@ -10,6 +10,8 @@
 //! - [`harness`]: the firmware loop (boot from a blob, sensor, actuator, faults) and its margin
 //!   metrics; [`controller`]: blob policies of any shape (policy-core's runtime model) and
 //!   reference controllers.
+//! - [`slots`]: booting from the A/B flash slots with the firmware's own rule (policy-core's
+//!   `slot::choose`).
 //! - [`files`]: atomic output files, output paths checked before work, bounded blob reads;
 //!   [`json_report`] and [`svg`]: the CLI's report and plot, streamed episode by episode.
 #![deny(missing_docs)]
@@ -29,6 +31,7 @@ pub mod oracle;
 pub mod scenario;
 pub mod seed;
 pub mod sensor;
+pub mod slots;
 pub mod svg;
 
 pub use error::Error;

@@ -24,6 +24,7 @@ use firmware_sim::json_report::JsonReportWriter;
 use firmware_sim::metrics::EpisodeRecord;
 use firmware_sim::scenario::Scenario;
 use firmware_sim::sensor::SensorModel;
+use firmware_sim::slots::boot_slots;
 use firmware_sim::svg::SvgWriter;
 
 #[derive(Parser, Debug)]
@@ -48,10 +49,22 @@ struct RunArgs {
     /// Policy blob to boot, as it would be flashed.
     #[arg(
         long,
-        conflicts_with = "controller",
-        required_unless_present = "controller"
+        conflicts_with_all = ["controller", "slot_a", "slot_b"],
+        required_unless_present_any = ["controller", "slot_a", "slot_b"]
     )]
     blob: Option<PathBuf>,
+    /// Slot A's image (`host-trainer export --image bin --slot a`): with --slot-b, boots the newer
+    /// slot that verifies, else the other, else the safe state, as the example firmware does.
+    /// A slot not given is empty.
+    #[arg(long, conflicts_with = "controller")]
+    slot_a: Option<PathBuf>,
+    /// Slot B's image (`host-trainer export --image bin --slot b`).
+    #[arg(long, conflicts_with = "controller")]
+    slot_b: Option<PathBuf>,
+    /// With --slot-a/--slot-b: the firmware's scratch width; a blob with a wider layer is refused
+    /// as the chip refuses it [default: 64, the example firmware's].
+    #[arg(long, default_value_t = firmware_sim::slots::FIRMWARE_SCRATCH_WIDTH)]
+    scratch_width: usize,
     /// A reference controller instead of a blob: straight or oracle.
     #[arg(long)]
     controller: Option<String>,
@@ -145,7 +158,21 @@ fn run(args: &RunArgs) -> Result<bool> {
     cfg.validate(&scenario)?;
     // The blob's bytes outlive the policy that runs from them, as flash outlives the firmware.
     let bytes = read_blob(args)?;
-    let (mut controller, boot_error) = controller(args, bytes.as_deref(), &scenario)?;
+    let slots = [&args.slot_a, &args.slot_b].map(|p| read_slot(p.as_deref()));
+    let [slot_a, slot_b] = slots;
+    let (slot_a, slot_b) = (slot_a?, slot_b?);
+    let (mut controller, boot_error) = if args.slot_a.is_some() || args.slot_b.is_some() {
+        let boot = boot_slots(
+            &slot_a,
+            &slot_b,
+            &PlantSizes::of(&scenario)?,
+            args.scratch_width,
+        )?;
+        print!("{}", boot.describe());
+        (boot.controller, boot.error)
+    } else {
+        controller(args, bytes.as_deref(), &scenario)?
+    };
     let mut outputs = Outputs::create(args, &scenario, &controller.name())?;
     let mut report = evaluate_streaming(controller.as_mut(), &scenario, &cfg, |e| {
         outputs.episode(&e)
@@ -198,6 +225,13 @@ fn read_blob(args: &RunArgs) -> Result<Option<Vec<u8>>> {
             files::read_blob(path).with_context(|| format!("cannot read blob {}", path.display()))
         })
         .transpose()
+}
+
+/// The bytes of a slot image, or none (an empty slot) when the slot is not given.
+fn read_slot(path: Option<&Path>) -> Result<Vec<u8>> {
+    path.map_or(Ok(Vec::new()), |path| {
+        files::read_slot(path).with_context(|| format!("cannot read slot image {}", path.display()))
+    })
 }
 
 /// The booted blob (or the safe state and why the blob did not boot), or a reference controller.
@@ -265,11 +299,11 @@ fn written<T>(result: io::Result<T>, path: &Path) -> Result<T> {
 }
 
 fn report_failures(report: &Report, blob: Option<&Path>) {
-    if let (Some(reason), Some(path)) = (&report.boot_error, blob) {
-        eprintln!(
-            "error: {}: {reason} (ran in the safe state: zero action)",
-            path.display()
-        );
+    if let Some(reason) = &report.boot_error {
+        let from = blob
+            .map(|p| format!("{}: ", p.display()))
+            .unwrap_or_default();
+        eprintln!("error: {from}{reason} (ran in the safe state: zero action)");
     } else if !report.pass.passed {
         eprintln!("FAIL: {}", report.pass.failures.join("; "));
     }

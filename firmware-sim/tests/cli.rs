@@ -462,3 +462,71 @@ fn streamed_json_and_svg_equal_the_library_report() {
 fn path(p: &Path) -> &str {
     p.to_str().expect("utf8")
 }
+
+/// `--slot-a/--slot-b` boot the newer slot that verifies, as the firmware does, and say which;
+/// a corrupt newer slot falls back; no runnable slot is the safe state with both reasons (exit
+/// 1); an Intel HEX image or a slot with --blob is bad input.
+#[test]
+fn slot_images_boot_like_the_firmware() {
+    use policy_core::slot;
+    let dir = scratch("slots");
+    let blob = random_blob::<32, 1>(3, "slot");
+    let write = |name: &str, bytes: &[u8]| {
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).expect("write slot image");
+        path.to_str().expect("utf8").to_string()
+    };
+    let a = write(
+        "a.bin",
+        &slot::record(&blob, 1, 1 << 17).expect("test value"),
+    );
+    let b_good = slot::record(&blob, 2, 1 << 17).expect("test value");
+    let b = write("b.bin", &b_good);
+    let mut flipped = b_good.clone();
+    flipped[100] ^= 0x01;
+    let b_bad = write("b-bad.bin", &flipped);
+    let erased = write("erased.bin", &[0xFF; 4096]);
+    let hex = write(
+        "b.hex",
+        slot::intel_hex(&b_good, 0x60000)
+            .expect("test value")
+            .as_bytes(),
+    );
+
+    let o = run(&["--slot-a", &a, "--slot-b", &b, "--episodes", "2"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("slot A: standby (sequence 1"), "{out}");
+    assert!(
+        out.contains("slot B: running (sequence 2)\nslot B runs"),
+        "{out}"
+    );
+    assert!(out.contains("blob \"slot\""), "{out}");
+
+    let o = run(&["--slot-a", &a, "--slot-b", &b_bad, "--episodes", "2"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("slot B: failed: checksum mismatch"), "{out}");
+    assert!(out.contains("slot A runs"), "{out}");
+
+    let o = run(&["--slot-a", &erased, "--slot-b", &b_bad, "--episodes", "2"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("empty slot")
+            && err.contains("checksum mismatch")
+            && err.contains("safe state"),
+        "{err}"
+    );
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("no slot runs: safe state"), "{out}");
+
+    // Only slot B given: slot A is empty.
+    let o = run(&["--slot-b", &b, "--episodes", "2"]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("slot A: failed: empty slot"));
+
+    assert_bad_input(&run(&["--slot-a", &hex]), &["Intel HEX", ".bin"]);
+    assert_bad_input(&run(&["--slot-a", &a, "--blob", &a]), &["--blob"]);
+    assert_bad_input(
+        &run(&["--slot-a", &a, "--scratch-width", "0"]),
+        &["scratch width"],
+    );
+}

@@ -1,13 +1,15 @@
 //! Example firmware: a DCP policy running on a Cortex-M, straight from flash.
 //!
-//! The part a user copies is short ([`boot`] and [`control_step`]): the blob sits in flash
-//! (`include_bytes!`), is verified once at boot with [`Model::from_blob`] and checked against the
-//! firmware's sizes ([`Model::expect_sizes`]) and its scratch width [`W`]; then
-//! [`act`](Model::act) reads the weights from flash on every call. Nothing model-sized is copied
+//! The part a user copies is short ([`boot`] and [`control_step`]). The firmware holds no blob:
+//! policies are flashed into two slots of their own (memory.x, [`slots`]), so a new policy never
+//! means a new firmware build. At boot [`slot::choose`] picks the newer slot whose blob passes
+//! [`Model::for_policy`] (CRC, header, every parameter; an actor or discrete policy with this
+//! firmware's sizes, narrow enough for its scratch width [`W`]) and falls back to the other slot;
+//! then [`act`](Model::act) reads the weights from flash on every call. Nothing model-sized is copied
 //! to RAM: the only RAM the policy uses is a [`Scratch<W>`] (2 x `W` floats) for the activations.
 //! One build runs a blob of any shape up to `W` wide: there is no table of compiled shapes. On
-//! any error (a blob that fails verification, has other sizes, or is too wide) the firmware runs
-//! the safe state, the zero action.
+//! any error (neither slot holds a blob that verifies, has these sizes and fits) the firmware runs
+//! the safe state, the zero action, and prints each slot's reason.
 //!
 //! There is no compile-time fast path, because it was not faster: the const-generic
 //! `Policy<2, 48, 3, 2>` (weights copied into 29 KB of RAM) ran the trained 4x48 ReLU actor at
@@ -16,16 +18,17 @@
 //! KB of RAM in all.
 //!
 //! Everything else measures what that costs, for scripts/cortex-m.sh: it prints the observations
-//! and actions as `f32` bits (the host recomputes them), calls [`fw_mark`] around each span whose
-//! instructions a QEMU plugin counts, times the same spans with SysTick (the fallback count),
-//! and paints the stack to find its peak. The run ends with QEMU's exit status: 0 only if the
-//! blob was accepted at boot and every action is finite and inside the bounds; panics and faults
-//! exit too.
+//! and actions as `f32` bits (the host recomputes them), which slot runs and why, calls
+//! [`fw_mark`] around each span whose instructions a QEMU plugin counts, times the same spans
+//! with SysTick (the fallback count), and paints the stack to find its peak. The run ends with
+//! QEMU's exit status: 0 only if a slot's blob was accepted at boot and every action is finite
+//! and inside the bounds; panics and faults exit too.
 #![no_std]
 #![no_main]
 
 mod console;
 mod observations;
+mod slots;
 mod stack;
 
 use core::hint::black_box;
@@ -33,20 +36,11 @@ use core::hint::black_box;
 use cortex_m::peripheral::{syst::SystClkSource, SYST};
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use policy_core::model::{Model, Scratch};
-use policy_core::{Error, ModelKind};
+use policy_core::slot::{self, SlotId, Status};
 
 use console::{exit_failure, exit_ok, fail, Line};
 use observations::OBSERVATIONS;
-
-/// The policy blob in flash; build.rs picks the file (`POLICY_BLOB`). It is placed at a 4-byte
-/// boundary so that a version-2 payload (4-aligned within the blob) is 4-aligned in flash too,
-/// which lets policy-core read the weights as `f32` words.
-static BLOB: &[u8] = &ALIGNED.0;
-static ALIGNED: &Aligned<[u8]> = &Aligned(*include_bytes!(env!("POLICY_BLOB_PATH")));
-
-/// Gives its contents the alignment of a `u32`.
-#[repr(C, align(4))]
-struct Aligned<T: ?Sized>(T);
+use slots::slots;
 
 /// Observations the firmware's sensors give (x, y: the navigation task).
 const OBS: usize = 2;
@@ -69,23 +63,11 @@ pub extern "C" fn fw_mark(id: u32) {
     black_box(id);
 }
 
-/// Verifies the blob and checks that this firmware can run it: a policy (actor or discrete)
-/// with [`OBS`] observations and [`ACT`] actions whose widest layer fits the scratch.
-pub fn boot(blob: &'static [u8]) -> Result<Model<'static>, Error> {
-    let model = Model::from_blob(blob)?;
-    model.expect_sizes(OBS, ACT)?;
-    let header = model.header();
-    if header.kind == ModelKind::Critic {
-        return Err(Error::WrongKind {
-            expected: ModelKind::Actor,
-            found: header.kind,
-        });
-    }
-    let needed = header.shape.scratch_width(header.kind);
-    if needed > W {
-        return Err(Error::ScratchTooSmall { needed, found: W });
-    }
-    Ok(model)
+/// Picks the slot to run (the newer one that verifies, else the other) and verifies its blob as
+/// a policy this firmware can run: an actor or discrete policy with [`OBS`] observations and
+/// [`ACT`] actions whose widest layer fits the scratch. `running` is `None`: the safe state.
+pub fn boot(slot_a: &'static [u8], slot_b: &'static [u8]) -> slot::Boot<Model<'static>> {
+    slot::choose(slot_a, slot_b, |blob| Model::for_policy(blob, OBS, ACT, W))
 }
 
 /// One control step: the policy's action, or the safe state (zero) without a model or on any
@@ -122,13 +104,14 @@ fn main() -> ! {
     fw_mark(0); // span "overhead": two marks back to back
     fw_mark(1);
 
+    let (slot_a, slot_b) = slots();
     let t0 = ticks();
     fw_mark(2);
-    let booted = boot(black_box(BLOB));
+    let booted = boot(black_box(slot_a), black_box(slot_b));
     fw_mark(3);
     let boot_ticks = elapsed(t0);
     let boot_stack = stack::used_below(sp);
-    let model = booted.as_ref().ok();
+    let model = booted.running.as_ref().map(|(_, model)| model);
 
     stack::paint(sp);
     let mut actions = [[0.0f32; ACT]; OBSERVATIONS.len()];
@@ -143,7 +126,16 @@ fn main() -> ! {
 
     let tanh_sum = time_tanhf();
 
-    report(model, &actions, sp, [boot_stack, act_stack]);
+    report_slots(&booted);
+    let running_slot = match booted.running {
+        Some((SlotId::A, _)) => Some(slot_a),
+        Some((SlotId::B, _)) => Some(slot_b),
+        None => None,
+    };
+    let blob_bytes = running_slot
+        .and_then(|s| slot::read(s).ok())
+        .map_or(0, |r| r.blob.len());
+    report(model, blob_bytes, &actions, sp, [boot_stack, act_stack]);
     Line::new("TICKS_CAL").dec(cal_insns).dec(cal_ticks).emit();
     Line::new("TICKS boot 1").dec(boot_ticks).emit();
     Line::new("TICKS act")
@@ -151,16 +143,46 @@ fn main() -> ! {
         .dec(act_ticks)
         .emit();
     black_box(tanh_sum);
-    match &booted {
-        Ok(model) => check_bounds(model, &actions),
-        Err(e) => fail_boot(e),
+    match model {
+        Some(model) => check_bounds(model, &actions),
+        None => fail_boot(),
     }
     Line::new("DONE").emit();
     exit_ok()
 }
 
+/// Prints what became of each slot (`SLOT A running 3`, `SLOT B failed: <reason>`) and which
+/// one runs (`RUNNING A`, `RUNNING B` or `RUNNING safe`).
+fn report_slots(booted: &slot::Boot<Model<'_>>) {
+    use core::fmt::Write;
+    for (name, status) in [("SLOT A", booted.a), ("SLOT B", booted.b)] {
+        let mut line = Line::new(name);
+        match status {
+            Status::Running { sequence } => line.push(" running").dec(sequence),
+            Status::Standby { sequence } => line.push(" standby").dec(sequence),
+            Status::Failed(e) => {
+                let _ = write!(line.push(" failed: "), "{e}");
+                &mut line
+            }
+        };
+        line.emit();
+    }
+    let running = match booted.running {
+        Some((SlotId::A, _)) => "A",
+        Some((SlotId::B, _)) => "B",
+        None => "safe",
+    };
+    Line::new("RUNNING ").push(running).emit();
+}
+
 /// Prints what the host needs to check and measure, in the order the spans were marked.
-fn report(model: Option<&Model<'_>>, actions: &[[f32; ACT]], sp: usize, phases: [usize; 2]) {
+fn report(
+    model: Option<&Model<'_>>,
+    blob_bytes: usize,
+    actions: &[[f32; ACT]],
+    sp: usize,
+    phases: [usize; 2],
+) {
     if let Some(model) = model {
         let shape = model.header().shape;
         Line::new("SHAPE")
@@ -173,7 +195,7 @@ fn report(model: Option<&Model<'_>>, actions: &[[f32; ACT]], sp: usize, phases: 
     Line::new("SCRATCH_BYTES")
         .dec(core::mem::size_of::<Scratch<W>>() as u32)
         .emit();
-    Line::new("BLOB_BYTES").dec(BLOB.len() as u32).emit();
+    Line::new("BLOB_BYTES").dec(blob_bytes as u32).emit();
     for (k, (obs, act)) in OBSERVATIONS.iter().zip(actions).enumerate() {
         Line::new("OBS")
             .dec(k as u32)
@@ -257,13 +279,10 @@ fn calibrate() -> (u32, u32) {
     (2 * TURNS, elapsed(t0))
 }
 
-/// Reports a blob the firmware refused at boot, with policy-core's one-line reason (expected vs
-/// found). The actions printed before it are the safe state's.
-fn fail_boot(e: &Error) -> ! {
-    use core::fmt::Write;
-    let mut line = Line::new("FAIL boot: ");
-    let _ = write!(line, "{e}");
-    line.emit();
+/// Ends a run in which no slot could run (the `SLOT` lines above say why, with policy-core's
+/// one-line reasons). The actions printed before it are the safe state's.
+fn fail_boot() -> ! {
+    Line::new("FAIL boot: no slot holds a policy this firmware can run (safe state)").emit();
     exit_failure()
 }
 

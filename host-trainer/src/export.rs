@@ -761,3 +761,56 @@ mod tests {
         ));
     }
 }
+
+/// How a flash slot image is written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ImageFormat {
+    /// The raw slot record; the flasher is told the address.
+    Bin,
+    /// Intel HEX with the slot's address inside.
+    Hex,
+}
+
+impl core::fmt::Display for ImageFormat {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            ImageFormat::Bin => "bin",
+            ImageFormat::Hex => "hex",
+        })
+    }
+}
+
+/// Where a slot image goes: the slot's flash address and size, and the record's sequence number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SlotTarget {
+    /// The slot's first byte in the chip's address space.
+    pub address: u32,
+    /// The slot's size in bytes; a record that does not fit is refused.
+    pub size: usize,
+    /// The record's sequence number (one more than the running slot's makes it the newer).
+    pub sequence: u32,
+}
+
+/// The flash image of a policy blob for one slot: policy-core's slot record (header with the
+/// sequence number, then the blob), raw or as Intel HEX at the slot's address. The blob is
+/// verified first, so an image never carries a blob the firmware would refuse as corrupt.
+///
+/// ```
+/// use host_trainer::export::{slot_image, ImageFormat, SlotTarget};
+/// static BLOB: &[u8] = include_bytes!("../../policy-core/tests/golden/actor_2x32.postcard");
+/// let target = SlotTarget { address: 0x0804_0000, size: 128 * 1024, sequence: 2 };
+/// let bin = slot_image(BLOB, ImageFormat::Bin, target).unwrap();
+/// assert_eq!(&bin[..4], b"DCPS");
+/// assert_eq!(bin.len(), 16 + BLOB.len());
+/// let hex = String::from_utf8(slot_image(BLOB, ImageFormat::Hex, target).unwrap()).unwrap();
+/// assert!(hex.starts_with(":020000040804EE\n:1000000044435053"));
+/// assert!(slot_image(&BLOB[1..], ImageFormat::Bin, target).is_err());
+/// ```
+pub fn slot_image(blob: &[u8], format: ImageFormat, target: SlotTarget) -> Result<Vec<u8>, Error> {
+    Model::from_blob(blob)?;
+    let record = policy_core::slot::record(blob, target.sequence, target.size)?;
+    Ok(match format {
+        ImageFormat::Bin => record,
+        ImageFormat::Hex => policy_core::slot::intel_hex(&record, target.address)?.into_bytes(),
+    })
+}

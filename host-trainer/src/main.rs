@@ -4,7 +4,8 @@
 //! host-trainer train [--task nav-walls] [--algo dcp|ddpg|ppo|dqn] [--hidden 4x48] [--reward gr] [--episodes 3000]
 //!                    [--t 16] [--sigma 0.2] [--noise gaussian|ou] [--seed 0] [--out runs] [--config FILE] [--resume RUN_DIR]
 //! host-trainer eval --blob FILE [--task nav-walls] [--episodes 100] [--seed 0] [--json FILE]
-//! host-trainer export --run RUN_DIR
+//! host-trainer export --run RUN_DIR [--encoding f32|f16|int8]
+//!                     [--image bin|hex --slot a|b --sequence N [--address ADDR] [--slot-size BYTES]]
 //! host-trainer inspect BLOB
 //! host-trainer sweep --seeds 0-4 [--algo dcp,ddpg] [--jobs N] --out DIR [--config FILE] [--quiet]
 //! ```
@@ -24,11 +25,13 @@ use firmware_sim::harness::{self, EvalConfig, PlantSizes, Report};
 use firmware_sim::scenario::Scenario;
 use host_trainer::agent::Hidden;
 use host_trainer::checkpoint::Checkpoint;
+use host_trainer::export::{ImageFormat, SlotTarget};
 use host_trainer::inspect;
 use host_trainer::noise::Noise;
 use host_trainer::run_dir::{self, RunDir};
 use host_trainer::sweep::{self, Seeds};
 use host_trainer::train::{self, Algo, Outcome, RewardKind, TrainConfig, Trainer};
+use policy_core::slot::SlotId;
 use policy_core::Encoding;
 
 #[derive(Debug, Parser)]
@@ -161,6 +164,41 @@ struct ExportArgs {
     /// (policy-f16.postcard, policy-int8.postcard; weights only, everything else stays f32).
     #[arg(long, default_value = "f32", value_parser = parse_encoding)]
     encoding: Encoding,
+    /// Also write a flash slot image of the policy (a slot record: header with --sequence, then
+    /// the blob): bin (raw; the flasher is given the address) or hex (Intel HEX at the address).
+    #[arg(long, value_enum, requires_all = ["slot", "sequence"])]
+    image: Option<ImageFormat>,
+    /// The slot the image is for: a or b (write the one the device is not running).
+    #[arg(long, value_parser = parse_slot, requires = "image")]
+    slot: Option<SlotId>,
+    /// The record's sequence number: one more than the running slot's, which the firmware
+    /// prints at boot (`SLOT A running 3`). The newer slot that verifies runs.
+    #[arg(long, requires = "image")]
+    sequence: Option<u32>,
+    /// The slot's flash address, decimal or 0x hex [default: the example firmware's
+    /// (firmware/memory.x): 0x40000 for a, 0x60000 for b].
+    #[arg(long, value_parser = parse_address, requires = "image")]
+    address: Option<u32>,
+    /// The slot's size in bytes; a record that does not fit is refused [default: 131072, the
+    /// example firmware's].
+    #[arg(long, requires = "image")]
+    slot_size: Option<usize>,
+}
+
+fn parse_slot(s: &str) -> Result<SlotId, String> {
+    match s {
+        "a" | "A" => Ok(SlotId::A),
+        "b" | "B" => Ok(SlotId::B),
+        _ => Err(format!("expected a or b, found {s:?}")),
+    }
+}
+
+fn parse_address(s: &str) -> Result<u32, String> {
+    let parsed = match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
+        Some(hex) => u32::from_str_radix(&hex.replace('_', ""), 16),
+        None => s.parse(),
+    };
+    parsed.map_err(|_| format!("expected a 32-bit address such as 0x08040000, found {s:?}"))
 }
 
 #[derive(Debug, Args)]
@@ -499,32 +537,95 @@ fn eval_command(args: EvalArgs) -> Result<()> {
 
 fn export_command(args: ExportArgs) -> Result<()> {
     let (trainer, run) = resume(&args.run, None)?;
+    let name = run_dir::policy_file(args.encoding);
+    let f32 = trainer.policy_blob(&trainer.config.blob_label())?;
+    let policy = match args.encoding {
+        Encoding::F32 => f32,
+        other => host_trainer::export::encode(&f32, other)?,
+    };
+    // The image is made (and refused) before anything is written.
+    let image = args
+        .image
+        .map(|format| slot_image(&args, format, &policy))
+        .transpose()?;
     if args.encoding != Encoding::F32 {
-        let f32 = trainer.policy_blob(&trainer.config.blob_label())?;
-        let bytes = host_trainer::export::encode(&f32, args.encoding)?;
-        let name = run_dir::policy_file(args.encoding);
-        run.write(&name, &bytes)?;
+        run.write(&name, &policy)?;
         println!(
             "wrote {} ({} bytes, {} weights; episode {})",
             run.file(&name).display(),
-            bytes.len(),
+            policy.len(),
             args.encoding,
             trainer.episode
         );
-        return Ok(());
-    }
-    trainer.export(&run)?;
-    let critic_file = run.file(run_dir::CRITIC);
-    let critic = if critic_file.is_file() {
-        format!(" and {}", critic_file.display())
     } else {
-        String::new()
+        trainer.export(&run)?;
+        let critic_file = run.file(run_dir::CRITIC);
+        let critic = if critic_file.is_file() {
+            format!(" and {}", critic_file.display())
+        } else {
+            String::new()
+        };
+        println!(
+            "wrote {}{critic} (episode {})",
+            run.file(run_dir::POLICY).display(),
+            trainer.episode
+        );
+    }
+    if let Some((format, id, target, bytes)) = image {
+        write_slot_image(&run, args.encoding, format, id, target, &bytes)?;
+    }
+    Ok(())
+}
+
+/// The policy's flash slot image for `--image`, with where it goes.
+fn slot_image(
+    args: &ExportArgs,
+    format: ImageFormat,
+    policy: &[u8],
+) -> Result<(ImageFormat, SlotId, SlotTarget, Vec<u8>)> {
+    use policy_core::slot;
+    // clap's `requires` guarantees both with --image.
+    let (Some(id), Some(sequence)) = (args.slot, args.sequence) else {
+        anyhow::bail!("--image needs --slot and --sequence");
     };
-    println!(
-        "wrote {}{critic} (episode {})",
-        run.file(run_dir::POLICY).display(),
-        trainer.episode
-    );
+    let default_address = match id {
+        SlotId::A => slot::EXAMPLE_SLOT_A,
+        SlotId::B => slot::EXAMPLE_SLOT_B,
+    };
+    let target = SlotTarget {
+        address: args.address.unwrap_or(default_address),
+        size: args.slot_size.unwrap_or(slot::EXAMPLE_SLOT_SIZE),
+        sequence,
+    };
+    let bytes = host_trainer::export::slot_image(policy, format, target)
+        .with_context(|| format!("cannot make the slot {id} image"))?;
+    Ok((format, id, target, bytes))
+}
+
+/// Writes the policy's flash slot image next to it and says how to flash it.
+fn write_slot_image(
+    run: &RunDir,
+    encoding: Encoding,
+    format: ImageFormat,
+    id: SlotId,
+    target: SlotTarget,
+    bytes: &[u8],
+) -> Result<()> {
+    let name = run_dir::image_file(encoding, id, format);
+    run.write(&name, bytes)?;
+    let file = run.file(&name);
+    let (path, address, sequence) = (file.display(), target.address, target.sequence);
+    println!("wrote {path} (slot {id} at {address:#010x}, sequence {sequence})");
+    match format {
+        ImageFormat::Bin => println!(
+            "flash it: probe-rs download --chip YOUR_CHIP --binary-format bin --base-address {address:#010x} {path}\n\
+             under QEMU: -device loader,file={path},addr={address:#x}"
+        ),
+        ImageFormat::Hex => println!(
+            "flash it: probe-rs download --chip YOUR_CHIP --binary-format hex {path}\n\
+             under QEMU: -device loader,file={path}"
+        ),
+    }
     Ok(())
 }
 

@@ -41,6 +41,28 @@ pub fn policy_file(encoding: policy_core::Encoding) -> String {
         other => format!("policy-{other}.postcard"),
     }
 }
+/// A flash slot image's file name: the policy file's stem, the slot and the format, e.g.
+/// `policy.slot-b.hex` or `policy-int8.slot-a.bin`.
+///
+/// ```
+/// use host_trainer::export::ImageFormat;
+/// use policy_core::{slot::SlotId, Encoding};
+/// assert_eq!(
+///     host_trainer::run_dir::image_file(Encoding::Int8, SlotId::A, ImageFormat::Bin),
+///     "policy-int8.slot-a.bin"
+/// );
+/// ```
+pub fn image_file(
+    encoding: policy_core::Encoding,
+    slot: policy_core::slot::SlotId,
+    format: crate::export::ImageFormat,
+) -> String {
+    let policy = policy_file(encoding);
+    let stem = policy.trim_end_matches(".postcard");
+    let slot = slot.to_string().to_lowercase();
+    format!("{stem}.slot-{slot}.{format}")
+}
+
 /// The firmware-sim evaluation of the exported policy.
 pub const EVAL: &str = "eval.json";
 

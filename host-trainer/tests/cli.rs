@@ -608,3 +608,102 @@ fn quantised_exports_inspect_and_evaluate() {
     assert_eq!(entries(&run), before, "nothing written");
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+/// `export --image bin|hex --slot a|b --sequence N [--address A]` writes the slot record beside
+/// the policy: the raw image boots in firmware-sim's slot rule (the newer slot runs), the Intel
+/// HEX image carries the slot's address; a record that does not fit the slot, or --image
+/// without --slot, is a one-line error that writes nothing.
+#[test]
+fn export_writes_flash_slot_images() {
+    use firmware_sim::harness::PlantSizes;
+    use firmware_sim::slots::{boot_slots, FIRMWARE_SCRATCH_WIDTH};
+    let base = scratch("slot-images");
+    assert_ok(&train_smoke(&base, 2, &[]));
+    let run = base.join("nav-walls__dcp__3");
+    let export = |extra: &[&str]| {
+        let mut args = vec!["export", "--run", s(&run)];
+        args.extend_from_slice(extra);
+        host_trainer(&args)
+    };
+    assert_ok(&export(&[
+        "--image",
+        "bin",
+        "--slot",
+        "a",
+        "--sequence",
+        "4",
+    ]));
+    let out = export(&[
+        "--encoding",
+        "int8",
+        "--image",
+        "bin",
+        "--slot",
+        "b",
+        "--sequence",
+        "5",
+    ]);
+    assert_ok(&out);
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(said.contains("--base-address 0x00060000"), "{said}");
+    let a = std::fs::read(run.join("policy.slot-a.bin")).expect("slot A image");
+    let b = std::fs::read(run.join("policy-int8.slot-b.bin")).expect("slot B image");
+    let int8 = std::fs::read(run.join("policy-int8.postcard")).expect("int8 policy");
+    assert_eq!(b[16..], int8[..], "the record holds the exported blob");
+    let f32 = std::fs::read(run.join("policy.postcard")).expect("f32 policy");
+    assert_eq!(a[16..], f32[..]);
+    let nav = PlantSizes {
+        observations: 2,
+        actions: 2,
+    };
+    let boot = boot_slots(&a, &b, &nav, FIRMWARE_SCRATCH_WIDTH).expect("boot");
+    assert_eq!(boot.running, Some(policy_core::slot::SlotId::B));
+    assert!(boot.controller.name().contains("int8"));
+
+    assert_ok(&export(&[
+        "--image",
+        "hex",
+        "--slot",
+        "b",
+        "--sequence",
+        "6",
+        "--address",
+        "0x08060000",
+    ]));
+    let hex = std::fs::read_to_string(run.join("policy.slot-b.hex")).expect("hex image");
+    assert!(
+        hex.starts_with(":020000040806EC\n:1000000044435053"),
+        "{hex}"
+    );
+    assert!(hex.ends_with(":00000001FF\n"));
+
+    let before = entries(&run);
+    let small = export(&[
+        "--image",
+        "bin",
+        "--slot",
+        "a",
+        "--sequence",
+        "7",
+        "--slot-size",
+        "1024",
+    ]);
+    assert_one_line_error(&small, &["does not fit its slot"]);
+    let no_slot = export(&["--image", "bin", "--sequence", "7"]);
+    assert!(!no_slot.status.success());
+    let bad_address = export(&[
+        "--image",
+        "hex",
+        "--slot",
+        "a",
+        "--sequence",
+        "1",
+        "--address",
+        "0xZZ",
+    ]);
+    assert!(!bad_address.status.success());
+    assert!(String::from_utf8_lossy(&bad_address.stderr).contains("0xZZ"));
+    // A refused image is refused before anything is written.
+    assert_eq!(entries(&run), before, "no new file");
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}

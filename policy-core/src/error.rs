@@ -118,6 +118,27 @@ pub enum Error {
         /// Bytes available.
         found: usize,
     },
+    /// A flash slot holds no slot record: erased (all `0xFF`) or blank (all `0x00`).
+    SlotEmpty,
+    /// A flash slot does not start with the slot-record magic `DCPS`.
+    SlotMagic {
+        /// The four bytes found at the start of the slot.
+        found: [u8; 4],
+    },
+    /// A slot record's header (magic, sequence number, length) fails its own CRC-32.
+    SlotHeaderChecksum {
+        /// CRC-32 stored in the header.
+        stored: u32,
+        /// CRC-32 computed over the header's first 12 bytes.
+        computed: u32,
+    },
+    /// A slot record (header and blob) is longer than its slot.
+    SlotOverflow {
+        /// Bytes the record needs.
+        needed: usize,
+        /// Bytes the slot has.
+        capacity: usize,
+    },
 }
 
 impl fmt::Display for Error {
@@ -192,6 +213,19 @@ impl fmt::Display for Error {
                     "output buffer too small: needs {needed} bytes, found {found}"
                 )
             }
+            Error::SlotEmpty => write!(f, "empty slot: no slot record (erased or blank flash)"),
+            Error::SlotMagic { found } => write!(
+                f,
+                "not a slot record: expected magic \"DCPS\", found {found:02x?}"
+            ),
+            Error::SlotHeaderChecksum { stored, computed } => write!(
+                f,
+                "slot record header corrupted: stored CRC-32 {stored:#010x}, computed {computed:#010x}"
+            ),
+            Error::SlotOverflow { needed, capacity } => write!(
+                f,
+                "slot record does not fit its slot: needs {needed} bytes, the slot has {capacity}"
+            ),
         }
     }
 }

@@ -11,6 +11,8 @@
 //! - [`Policy`] / [`Critic`]: the same models with their sizes as const generics (weights in a
 //!   RAM struct), for code that wants sizes in its types; they compute the same bits.
 //!   [`compare::refine`] is DCP's compare step on the device.
+//! - [`slot`]: two flash slots (A/B) for blobs and the one rule that picks the slot to run: the
+//!   newer one that verifies, else the other, else the safe state, with a reason for each.
 //! - [`blob`]: the one definition of the weight-blob format (postcard header, aligned `f32`
 //!   payload, CRC-32), read on the chip and written on the host. See `docs/blob-format.md`.
 //!
@@ -49,6 +51,7 @@ pub mod mlp;
 pub mod model;
 pub mod normalizer;
 pub mod policy;
+pub mod slot;
 pub mod tanh;
 
 pub use blob::{Encoding, ModelKind, Shape};

@@ -135,6 +135,45 @@ impl<'a> Model<'a> {
         Ok(model)
     }
 
+    /// Verifies `bytes` as a policy a firmware can run: an actor or a discrete policy (not a
+    /// critic) with `observations` inputs and `actions` outputs whose widest layer fits a
+    /// [`Scratch`] of `scratch_width`. The example firmware's boot check, and the verification
+    /// [`slot::choose`](crate::slot::choose) runs on each slot.
+    ///
+    /// ```
+    /// use policy_core::{model::Model, Error};
+    /// static ACTOR: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+    /// static CRITIC: &[u8] = include_bytes!("../tests/golden/critic_2x32.postcard");
+    /// assert!(Model::for_policy(ACTOR, 2, 2, 64).is_ok());
+    /// assert!(matches!(Model::for_policy(ACTOR, 2, 2, 16), Err(Error::ScratchTooSmall { .. })));
+    /// assert!(matches!(Model::for_policy(ACTOR, 6, 2, 64), Err(Error::SizeMismatch { .. })));
+    /// assert!(matches!(Model::for_policy(CRITIC, 2, 2, 64), Err(Error::WrongKind { .. })));
+    /// ```
+    pub fn for_policy(
+        bytes: &'a [u8],
+        observations: usize,
+        actions: usize,
+        scratch_width: usize,
+    ) -> Result<Model<'a>, Error> {
+        let model = Model::from_blob(bytes)?;
+        let kind = model.header.kind;
+        if kind == ModelKind::Critic {
+            return Err(Error::WrongKind {
+                expected: ModelKind::Actor,
+                found: kind,
+            });
+        }
+        model.expect_sizes(observations, actions)?;
+        let needed = model.layout.scratch_width;
+        if needed > scratch_width {
+            return Err(Error::ScratchTooSmall {
+                needed,
+                found: scratch_width,
+            });
+        }
+        Ok(model)
+    }
+
     /// The blob's header: kind, encoding, shape, activation, label.
     pub fn header(&self) -> &Header {
         &self.header

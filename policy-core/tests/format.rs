@@ -245,3 +245,19 @@ fn quantised_worked_examples_are_what_the_writer_writes() {
         assert!((a[0] - action).abs() < 1e-5, "{encoding}: {}", a[0]);
     }
 }
+
+/// The slot-record example in `docs/blob-format.md` is the header policy-core writes for the
+/// tiny blob with sequence number 3, and reads back.
+#[test]
+fn slot_header_worked_example_is_what_the_writer_writes() {
+    let blob = blob_of(&tiny_policy(), TINY_LABEL);
+    let header = policy_core::slot::header(3, blob.len()).expect("header");
+    assert_eq!(
+        doc_hex_of("tiny-slot-header"),
+        header,
+        "docs/blob-format.md's slot header dump is out of date"
+    );
+    let record = [&header[..], &blob].concat();
+    let read = policy_core::slot::read(&record).expect("reads back");
+    assert_eq!((read.sequence, read.blob), (3, &blob[..]));
+}

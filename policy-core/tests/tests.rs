@@ -23,3 +23,5 @@ mod quantised;
 mod tanh;
 // The device-side compare step never returns a worse action under Q.
 mod compare;
+// The A/B flash slots: fallback and safe state on every bad slot, never a panic.
+mod slots;

@@ -8,6 +8,7 @@ use firmware_sim::controller::Controller;
 use firmware_sim::harness;
 use policy_core::blob::{self, Compiled, Spec, Verified};
 use policy_core::model::{Model, Scratch};
+use policy_core::slot::{self, SlotId};
 use policy_core::{Critic, Error, ModelKind, Policy};
 
 /// The golden 2x32 actor's shape.
@@ -73,6 +74,43 @@ pub fn check(bytes: &[u8]) {
         runtime.is_some(),
     );
     check_boot(bytes, runtime.as_ref());
+    check_slots(bytes);
+}
+
+/// A good slot A: the golden 2x32 actor with sequence number 1.
+fn good_slot_a() -> &'static [u8] {
+    static A: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+    A.get_or_init(|| {
+        let blob = include_bytes!("../../policy-core/tests/golden/actor_2x32.postcard");
+        slot::record(blob, 1, 1 << 16).expect("the golden actor fits a 64 KiB slot")
+    })
+}
+
+/// The A/B slot rule (policy-core's `slot::choose` with the firmware's verification): with the
+/// bytes as slot B beside a good slot A, something always runs, and B only if its record is
+/// intact and its blob passes; with the bytes split into two slots, whatever runs passed.
+fn check_slots(bytes: &[u8]) {
+    fn verify(blob: &[u8]) -> Result<Model<'_>, Error> {
+        Model::for_policy(blob, 2, 2, WIDTH)
+    }
+    let runs_verified = |slot_bytes: &[u8]| {
+        let record = slot::read(slot_bytes).expect("a running slot has an intact record");
+        assert!(
+            verify(record.blob).is_ok(),
+            "a running slot's blob verifies"
+        );
+    };
+    match slot::choose(good_slot_a(), bytes, verify).running {
+        None => panic!("a good slot A must run whatever slot B holds"),
+        Some((SlotId::B, _)) => runs_verified(bytes),
+        Some((SlotId::A, _)) => {}
+    }
+    let (x, y) = bytes.split_at(bytes.len() / 2);
+    match slot::choose(x, y, verify).running {
+        Some((SlotId::A, _)) => runs_verified(x),
+        Some((SlotId::B, _)) => runs_verified(y),
+        None => {}
+    }
 }
 
 /// `verify` Ok: the header is one this build reads, its length fields agree with the bytes, the

@@ -30,6 +30,10 @@ pub struct FirmwareLog {
     pub stack_main: Option<u64>,
     /// Stack bytes used below `main` in each phase.
     pub stack_phases: BTreeMap<String, u64>,
+    /// What became of each flash slot at boot: `SLOT A running 3` gives `"A" -> "running 3"`.
+    pub slots: BTreeMap<String, String>,
+    /// `RUNNING A`, `RUNNING B` or `RUNNING safe`: the slot the firmware runs.
+    pub running: Option<String>,
     /// The firmware reached its end.
     pub done: bool,
     /// `FAIL ...` lines.
@@ -104,6 +108,12 @@ impl FirmwareLog {
                         .to_string();
                     log.stack_phases.insert(name, num(f.next(), line)?);
                 }
+                Some("SLOT") => {
+                    let id = f.next().ok_or_else(|| anyhow!("short line {line:?}"))?;
+                    let rest = f.collect::<Vec<_>>().join(" ");
+                    log.slots.insert(id.to_string(), rest);
+                }
+                Some("RUNNING") => log.running = f.next().map(str::to_string),
                 Some("DONE") => log.done = true,
                 Some("FAIL") => log.failures.push(line.to_string()),
                 _ => {}
@@ -166,7 +176,8 @@ mod tests {
 
     const LOG: &str = "SHAPE 4 48 2 2\nSCRATCH_BYTES 512\nOBS 0 00000000 3f800000\n\
                        ACT 0 3e800000 be800000\nSPAN overhead 1\nSPAN act 0\nSPAN tanhf 64\n\
-                       STACK_MAIN 96\nSTACK_PHASE act 120\nDONE\n";
+                       STACK_MAIN 96\nSTACK_PHASE act 120\nSLOT A running 3\n\
+                       SLOT B failed: checksum mismatch: stored CRC-32 0x1\nRUNNING A\nDONE\n";
 
     #[test]
     fn parses_every_field_as_printed() {
@@ -176,6 +187,12 @@ mod tests {
         assert_eq!(f32::from_bits(log.actions[&0][0]), 0.25);
         assert_eq!(log.spans[1], ("act0".to_string(), 1));
         assert_eq!(log.stack_phases["act"], 120);
+        assert_eq!(log.slots["A"], "running 3");
+        assert_eq!(
+            log.slots["B"],
+            "failed: checksum mismatch: stored CRC-32 0x1"
+        );
+        assert_eq!(log.running.as_deref(), Some("A"));
         log.require_success().unwrap();
     }
 

@@ -7,9 +7,20 @@
 //!                                          re-encode an f32 blob (e.g. a trained one)
 //! host-check info BLOB                     print what the blob holds ("4x48 actor relu f32 v1")
 //! host-check check BLOB FW_LOG             recompute the firmware's actions; bit-exact or exit 1
-//! host-check measure --variant NAME --target T --machine M --cpu C --blob BLOB
+//! host-check measure --variant NAME --target T --machine M --cpu C --blob BLOB --image SLOT_BIN
 //!                    --profile PROFILE --opt-level LEVEL --sizes SIZE_A_TXT --fw-log LOG
 //!                    [--plugin-log LOG] --out JSON
+//! host-check image BLOB OUT.bin|OUT.hex --sequence N [--address ADDR]
+//!                                          a slot record (header + blob) for a flash slot
+//! host-check damage IN OUT (--flip OFFSET | --cut LEN)
+//!                                          a copy with one byte inverted, or cut short
+//! host-check fill OUT --len N (--byte B | --random SEED)
+//!                                          N erased/blank or random bytes
+//! host-check slot-case --name NAME --expect A|B|safe [--blob BLOB] [--reason TEXT]
+//!                      --fw-log LOG [--plugin-log LOG] --out JSON
+//!                                          check one A/B boot case: the slot that runs, its
+//!                                          actions bit-exact (or the safe state's zeros)
+//! host-check slot-table OUT.md CASE_JSON...
 //! host-check report --out JSON [--meta KEY=VALUE]... VARIANT_JSON...
 //! ```
 //! Errors are one line on stderr and exit status 1.
@@ -21,6 +32,7 @@ mod measure;
 #[path = "../../src/observations.rs"]
 mod observations;
 mod report;
+mod slots;
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -78,6 +90,11 @@ fn run(args: &[String]) -> Result<()> {
             Ok(())
         }
         ("measure", []) => measure(&flags),
+        ("image", [blob, out]) => slots::image(&read(blob)?, Path::new(out), &flags),
+        ("damage", [input, out]) => slots::damage(&read(input)?, Path::new(out), &flags),
+        ("fill", [out]) => slots::fill(Path::new(out), &flags),
+        ("slot-case", []) => slots::case(&flags),
+        ("slot-table", [out, cases @ ..]) => slots::table(Path::new(out), cases),
         ("report", variants) => report(&flags, &args[1..], variants),
         _ => bail!("unknown command or wrong arguments: {} (see the usage in firmware/host-check/src/main.rs)", args.join(" ")),
     }
@@ -100,23 +117,23 @@ fn split_flags(args: &[String]) -> Result<(BTreeMap<String, String>, Vec<String>
     Ok((flags, positional))
 }
 
-fn flag<'a>(flags: &'a BTreeMap<String, String>, key: &str) -> Result<&'a str> {
+pub(crate) fn flag<'a>(flags: &'a BTreeMap<String, String>, key: &str) -> Result<&'a str> {
     flags
         .get(key)
         .map(String::as_str)
         .ok_or_else(|| anyhow!("missing --{key}"))
 }
 
-fn read(path: &str) -> Result<Vec<u8>> {
+pub(crate) fn read(path: &str) -> Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("cannot read {path}"))
 }
 
-fn read_text(path: &str) -> Result<String> {
+pub(crate) fn read_text(path: &str) -> Result<String> {
     std::fs::read_to_string(path).with_context(|| format!("cannot read {path}"))
 }
 
 /// Writes through a temporary file and a rename, so a reader never sees half a file.
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let tmp = path.with_extension("tmp");
     std::fs::write(&tmp, bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
     std::fs::rename(&tmp, path)
@@ -175,10 +192,12 @@ fn measure(flags: &BTreeMap<String, String>) -> Result<()> {
         opt_level: flag(flags, "opt-level")?.into(),
         blob_path: blob_path.into(),
     };
+    let record_len = read(flag(flags, "image")?)?.len() as u64;
     let value = measure::measure(
         &variant,
         &info,
         blob.len() as u64,
+        record_len,
         &sizes,
         &log,
         plugin.as_deref(),
