@@ -628,6 +628,13 @@ impl Agent {
         q
     }
 
+    /// The target actor's unit actions on a batch (DCP's trust region).
+    pub fn actor_target_eval(&mut self, z: &Matrix) -> Matrix {
+        self.actor_target
+            .forward(z, &mut self.scratch.target_tape, None)
+            .clone()
+    }
+
     /// The actor's unit actions on a batch, inference mode (no dropout).
     pub fn actor_eval(&mut self, z: &Matrix) -> Matrix {
         self.actor
@@ -761,4 +768,100 @@ pub fn critic_input(z: &Matrix, action: &Matrix, repeat: usize) -> Matrix {
         row[z.cols..].copy_from_slice(action.row(r));
     }
     x
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 1-observation, 1-action agent with twin critics whose target networks are set by
+    /// hand: P'(s) = 0.5, Q1'(s, a) = a, Q2'(s, a) = 0.2 − a.
+    fn hand_made(smoothing: Option<Smoothing>) -> Agent {
+        let mut config = Config::default();
+        config.hidden = "1x2".parse().unwrap();
+        let mut init = seed::stream(0, "init");
+        let mut agent = Agent::new(config, 1, &[-1.0], &[1.0], &mut init).unwrap();
+        let critics = Critics {
+            twin: true,
+            smoothing,
+            n_step: 1,
+        };
+        agent.set_critics(critics, &mut init);
+        let linear = |net: &mut Net, slope: f32, offset: f32| {
+            net.layers[0].w.iter_mut().for_each(|w| *w = 0.0);
+            net.layers[0].b = vec![10.0, 0.0];
+            net.layers[0].w[2] = 1.0; // the action to unit 0, shifted positive for the ReLU
+            net.layers[1].w = vec![slope, 0.0];
+            net.layers[1].b = vec![offset - 10.0 * slope];
+        };
+        linear(&mut agent.critic_target, 1.0, 0.0);
+        linear(&mut agent.twin.as_mut().unwrap().critic_target, -1.0, 0.2);
+        let actor = &mut agent.actor_target;
+        actor.layers.iter_mut().for_each(|l| {
+            l.w.iter_mut().for_each(|w| *w = 0.0);
+            l.b.iter_mut().for_each(|b| *b = 0.0);
+        });
+        actor.layers[1].b = vec![0.5f32.atanh()];
+        agent
+    }
+
+    fn sample() -> Sample {
+        let z = Matrix::from_vec(3, 1, vec![0.0, 0.3, -0.3]);
+        Sample {
+            z: z.clone(),
+            action: Matrix::zeros(3, 1),
+            reward: vec![1.0, 2.0, 3.0],
+            z_next: z,
+            terminal: vec![0.0, 0.0, 1.0],
+            // One-step, a 3-step window (γ³ with γ 0.5), a terminal.
+            discount: vec![0.5, 0.125, 0.5],
+        }
+    }
+
+    #[test]
+    fn twin_targets_take_the_smaller_critic_and_each_row_its_discount() {
+        let mut agent = hand_made(None);
+        let y = agent.bellman_targets(&sample(), None);
+        // min(Q1', Q2') at a' = 0.5 is Q2' = -0.3.
+        let want = [1.0 - 0.5 * 0.3, 2.0 - 0.125 * 0.3, 3.0];
+        for (y, w) in y.iter().zip(want) {
+            assert!((y - w).abs() < 1e-5, "{y} vs {w}");
+        }
+        // Without the twin, Q1' = 0.5 is the value.
+        agent.twin = None;
+        let y = agent.bellman_targets(&sample(), None);
+        assert!((y[0] - (1.0 + 0.5 * 0.5)).abs() < 1e-5, "{}", y[0]);
+    }
+
+    #[test]
+    fn target_smoothing_noise_is_clipped() {
+        let smoothing = Smoothing {
+            sigma: 100.0,
+            clip: 0.1,
+        };
+        let mut agent = hand_made(Some(smoothing));
+        let mut rng = seed::stream(1, "smoothing");
+        let mut values = Vec::new();
+        for _ in 0..20 {
+            let y = agent.bellman_targets(&sample(), Some(&mut rng));
+            // a' in [0.4, 0.6], so min(Q1', Q2') = 0.2 − a' in [-0.4, -0.2].
+            let v = (y[0] - 1.0) / 0.5;
+            assert!((-0.4 - 1e-5..=-0.2 + 1e-5).contains(&v), "{v}");
+            values.push(v);
+        }
+        assert!(values.iter().any(|&v| (v + 0.3).abs() > 0.05), "the noise moved a'");
+        // σ = 100 saturates nearly every draw at the clip.
+        assert!(values.iter().filter(|&&v| (v + 0.4).abs() < 1e-4 || (v + 0.2).abs() < 1e-4).count() >= 18);
+    }
+
+    #[test]
+    fn a_twin_critic_takes_its_own_step_on_the_same_targets() {
+        let mut agent = hand_made(None);
+        let q1 = agent.critic.clone();
+        let q2 = agent.twin.as_ref().unwrap().critic.clone();
+        agent.critic_update(&sample(), &mut seed::stream(2, "dropout"));
+        assert_ne!(agent.twin.as_ref().unwrap().critic, q2, "Q2 took a step");
+        assert_ne!(agent.critic, q1, "Q1 took a step");
+        assert_ne!(agent.critic, agent.twin.as_ref().unwrap().critic);
+    }
 }

@@ -28,8 +28,10 @@
 //! - `cem`: cross-entropy refinement of the proposals (QT-Opt, CGP).
 //! - `state_weights`: target weights per state, over the state's own proposals: a softmax of Q
 //!   (MPO), exp(A/β) of batch-standardised advantages (AWR, CRR), or 1[A > 0] (CRR).
-//! - `trust_region`: the actor's step is shrunk until the exploration policy moved by at most a
-//!   KL bound (TRPO's backtracking), so P(s) cannot flip from one slide to the other at once.
+//! - `trust_region`: the actor's step is shrunk until the exploration policy around P(s) is
+//!   within a KL bound of the one around the slowly moving target actor P'(s) (MPO's M-step
+//!   constraint, enforced by TRPO's backtracking), so P(s) cannot flip from one slide along a
+//!   wall to the other faster than the target follows.
 
 use serde::{Deserialize, Serialize};
 
@@ -75,10 +77,13 @@ pub struct Config {
     pub cem_iterations: usize,
     /// CEM's elite fraction of the T proposals, at least one [QT-Opt: 6 of 64, about 10 %].
     pub cem_elite: f32,
-    /// A trust region on the actor step [paper: off; TRPO, Schulman et al. 2015].
+    /// A trust region on the actor step toward the target actor [paper: off; MPO's M-step KL
+    /// constraint to the target policy, Abdolmaleki et al. 2018; TRPO's backtracking line
+    /// search, Schulman et al. 2015].
     pub trust_region: bool,
-    /// The trust region's bound δ on the mean KL divergence between the exploration policies
-    /// N(P(s), σ²) before and after the step, i.e. mean ‖ΔP(s)‖² / (2σ²) ≤ δ [TRPO: 0.01].
+    /// The trust region's bound δ on the mean KL divergence between the proposal Gaussians
+    /// N(P'(s), σc²) and N(P(s), σc²), i.e. mean ‖P(s) − P'(s)‖² / (2σc²) ≤ δ [MPO's ε_μ and
+    /// TRPO's δ: 0.01].
     pub trust_region_kl: f32,
 }
 
@@ -263,14 +268,7 @@ impl Dcp {
     ) -> ActorStats {
         let a0 = agent.actor_eval(&s.z);
         let scoring = self.config.scoring;
-        let mut score = |actions: &Matrix, per: usize| {
-            let input = critic_input(&s.z, actions, per);
-            match scoring {
-                Scoring::Critic => agent.q_values(&input),
-                Scoring::Target => agent.q_target_values(&input),
-                Scoring::TwinMin => agent.q_min_values(&input),
-            }
-        };
+        let mut score = |actions: &Matrix, per: usize| score(agent, scoring, &s.z, actions, per);
         let candidates = match self.config.variant {
             Variant::Best | Variant::Weighted => self.compare_fan(&a0, &mut score, proposal_rng),
             Variant::HillClimb => self.compare_climb(&a0, &mut score, proposal_rng),
@@ -280,13 +278,17 @@ impl Dcp {
         if targets.is_empty() {
             return stats;
         }
-        let before = self.config.trust_region.then(|| (agent.actor.clone(), a0.clone()));
+        let before = self.config.trust_region.then(|| {
+            let anchor = agent.actor_target_eval(&s.z);
+            let kl = mean_kl(&a0, &anchor, self.sigma_c);
+            (agent.actor.clone(), anchor, kl)
+        });
         // The compare step ran only the critic, so the actor's last pass is still `a0`'s.
         let p = agent.actor_forward_train_after_eval(&s.z, a0, dropout_rng);
         let (loss, grad) = weighted_regression(&p, &candidates.actions, &targets);
         agent.actor_step(&grad);
-        if let Some((old, a0)) = before {
-            self.trust_region(agent, &s.z, old, &a0);
+        if let Some((old, anchor, kl)) = before {
+            self.trust_region(agent, &s.z, old, &anchor, kl);
         }
         stats.loss = loss;
         stats
@@ -448,16 +450,20 @@ impl Dcp {
     }
 
     /// TRPO's backtracking on the step just taken: while the mean KL between the proposal
-    /// Gaussians N(P(s), σc²) before and after exceeds `trust_region_kl`, halve the parameter
-    /// change (at most 10 times, then undo it). Returns the fraction of the step kept.
-    fn trust_region(&self, agent: &mut Agent, z: &Matrix, old: crate::net::Net, a0: &Matrix) -> f32 {
-        let bound = self.config.trust_region_kl;
-        let two_var = 2.0 * self.sigma_c.max(f32::MIN_POSITIVE).powi(2);
-        let kl = |agent: &mut Agent| {
-            let p = agent.actor_eval(z);
-            let sq: f32 = p.data.iter().zip(&a0.data).map(|(a, b)| (a - b) * (a - b)).sum();
-            sq / (z.rows.max(1) as f32 * two_var)
-        };
+    /// Gaussians around the target actor (`anchor` = P'(s)) and around P(s) exceeds both
+    /// `trust_region_kl` and its value before the step (`kl_before`; a step may always move back
+    /// toward P'), halve the parameter change, at most 10 times, then undo it. Returns the
+    /// fraction of the step kept.
+    fn trust_region(
+        &self,
+        agent: &mut Agent,
+        z: &Matrix,
+        old: crate::net::Net,
+        anchor: &Matrix,
+        kl_before: f32,
+    ) -> f32 {
+        let bound = self.config.trust_region_kl.max(kl_before);
+        let kl = |agent: &mut Agent| mean_kl(&agent.actor_eval(z), anchor, self.sigma_c);
         if kl(agent) <= bound {
             return 1.0;
         }
@@ -473,6 +479,24 @@ impl Dcp {
         }
         agent.actor = old;
         0.0
+    }
+}
+
+/// Mean over the rows of KL(N(b, σ²I) ‖ N(a, σ²I)) = ‖a − b‖² / (2σ²).
+fn mean_kl(a: &Matrix, b: &Matrix, sigma: f32) -> f32 {
+    let two_var = 2.0 * sigma.max(f32::MIN_POSITIVE).powi(2);
+    let sq: f32 = a.data.iter().zip(&b.data).map(|(x, y)| (x - y) * (x - y)).sum();
+    sq / (a.rows.max(1) as f32 * two_var)
+}
+
+/// The proposals' scores under the chosen critic: row r pairs `actions` row r with state
+/// r / `per` of `z`.
+fn score(agent: &mut Agent, scoring: Scoring, z: &Matrix, actions: &Matrix, per: usize) -> Vec<f32> {
+    let input = critic_input(z, actions, per);
+    match scoring {
+        Scoring::Critic => agent.q_values(&input),
+        Scoring::Target => agent.q_target_values(&input),
+        Scoring::TwinMin => agent.q_min_values(&input),
     }
 }
 
@@ -731,5 +755,342 @@ mod tests {
             .sigma_c(),
             0.1
         );
+    }
+
+    fn dcp(config: Config) -> Dcp {
+        Dcp::new(config, 0.2)
+    }
+
+    fn weights_of(t: &[Target]) -> Vec<(usize, usize, f32)> {
+        t.iter().map(|t| (t.row, t.candidate, t.weight)).collect()
+    }
+
+    /// Two states, T = 3: advantages of a0 (0) and its three proposals.
+    fn two_states() -> Candidates {
+        candidates(vec![0.0, 1.0, 3.0, -1.0, 0.0, -2.0, 0.5, -0.5], 4)
+    }
+
+    #[test]
+    fn binary_weights_keep_every_winning_proposal_with_weight_one() {
+        let d = dcp(Config {
+            t: 3,
+            state_weights: StateWeights::Binary,
+            ..Config::default()
+        });
+        let t = d.select(&two_states(), 2);
+        assert_eq!(weights_of(&t), vec![(0, 1, 1.0), (0, 2, 1.0), (1, 6, 1.0)]);
+    }
+
+    #[test]
+    fn exp_weights_are_exp_of_batch_standardised_advantages_clipped() {
+        let d = dcp(Config {
+            t: 3,
+            state_weights: StateWeights::Exp,
+            ..Config::default()
+        });
+        let c = two_states();
+        let proposals = [1.0f32, 3.0, -1.0, -2.0, 0.5, -0.5];
+        let mean = proposals.iter().sum::<f32>() / 6.0;
+        let std = (proposals.iter().map(|a| (a - mean).powi(2)).sum::<f32>() / 6.0).sqrt();
+        let t = d.select(&c, 2);
+        let rows: Vec<usize> = t.iter().map(|t| t.candidate).collect();
+        assert_eq!(rows, vec![1, 2, 3, 5, 6, 7], "every proposal, never a0");
+        for (target, a) in t.iter().zip(proposals) {
+            let want = ((a - mean) / std).exp();
+            assert!((target.weight - want).abs() < 1e-5, "{} vs {want}", target.weight);
+        }
+        // β = 0.1 makes exp(Â/β) of the best proposal exceed 20: it is clipped there.
+        let sharp = dcp(Config {
+            t: 3,
+            state_weights: StateWeights::Exp,
+            awr_beta: 0.1,
+            ..Config::default()
+        });
+        let t = sharp.select(&c, 2);
+        assert_eq!(t[1].weight, 20.0);
+        assert!(t.iter().all(|t| t.weight <= 20.0));
+    }
+
+    #[test]
+    fn softmax_weights_are_per_state_and_mpo_temperature_meets_the_kl_bound() {
+        let c = two_states();
+        // A fixed η: each state's weights are the softmax of its own proposals' advantages.
+        let w = softmax_weights(&c.advantage, 4, 2, 1.0);
+        let z0: f32 = [1.0f32, 3.0, -1.0].iter().map(|a| a.exp()).sum();
+        assert_eq!(w[0], 0.0);
+        assert!((w[2] - 3.0f32.exp() / z0).abs() < 1e-6);
+        assert!(((w[1] + w[2] + w[3]) - 1.0).abs() < 1e-6);
+        assert!(((w[5] + w[6] + w[7]) - 1.0).abs() < 1e-6);
+        // MPO's η: the mean KL from uniform equals ε.
+        let eta = mpo_temperature(&c.advantage, 4, 2, 0.1);
+        let kl = mean_kl_from_uniform(&softmax_weights(&c.advantage, 4, 2, eta), 4, 2);
+        assert!((kl - 0.1).abs() < 1e-4, "η {eta}: KL {kl}");
+        let d = dcp(Config {
+            t: 3,
+            state_weights: StateWeights::Softmax,
+            ..Config::default()
+        });
+        let t = d.select(&c, 2);
+        assert_eq!(t.len(), 6, "every proposal is a target");
+        let best = t.iter().max_by(|a, b| a.weight.total_cmp(&b.weight)).unwrap();
+        assert_eq!(best.candidate, 2, "the highest Q gets the largest weight");
+        // Weights do not depend on a shift of one state's Q values.
+        let mut shifted = two_states();
+        (4..8).for_each(|k| shifted.advantage[k] += 5.0);
+        shifted.advantage[4] = 0.0;
+        let w2 = softmax_weights(&shifted.advantage, 4, 2, 0.7);
+        let w1 = softmax_weights(&c.advantage, 4, 2, 0.7);
+        for k in 5..8 {
+            assert!((w1[k] - w2[k]).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn tied_proposals_get_uniform_softmax_weights() {
+        let c = candidates(vec![0.0, 0.5, 0.5, 0.5], 4);
+        let eta = mpo_temperature(&c.advantage, 4, 1, 0.1);
+        let w = softmax_weights(&c.advantage, 4, 1, eta);
+        assert!(w[1..].iter().all(|&w| (w - 1.0 / 3.0).abs() < 1e-6), "{w:?}");
+    }
+
+    /// A 1-observation, 1-action agent whose critics are linear in the action by hand:
+    /// Q(s, a) = slope·a + offset (a ReLU unit carries a + 10 > 0 through).
+    fn linear_critics(q1: (f32, f32), q1_target: (f32, f32), q2: (f32, f32)) -> Agent {
+        let mut config = crate::agent::Config::default();
+        config.hidden = "1x2".parse().unwrap();
+        let mut init = seed::stream(0, "init");
+        let mut agent = Agent::new(config, 1, &[-1.0], &[1.0], &mut init).unwrap();
+        let twin = crate::agent::Critics {
+            twin: true,
+            ..Default::default()
+        };
+        agent.set_critics(twin, &mut init);
+        let set = |net: &mut crate::net::Net, (slope, offset): (f32, f32)| {
+            net.layers[0].w.iter_mut().for_each(|w| *w = 0.0);
+            net.layers[0].b = vec![10.0, 0.0];
+            net.layers[0].w[2] = 1.0; // input 1 (the action) to unit 0
+            net.layers[1].w = vec![slope, 0.0];
+            net.layers[1].b = vec![offset - 10.0 * slope];
+        };
+        set(&mut agent.critic, q1);
+        set(&mut agent.critic_target, q1_target);
+        set(&mut agent.twin.as_mut().unwrap().critic, q2);
+        agent
+    }
+
+    #[test]
+    fn each_scoring_rule_reads_its_critic() {
+        // Q1 = a, Q1' = 2 − a, Q2 = 0.5 − a.
+        let mut agent = linear_critics((1.0, 0.0), (-1.0, 2.0), (-1.0, 0.5));
+        let z = Matrix::from_vec(1, 1, vec![0.0]);
+        let a = Matrix::from_vec(3, 1, vec![-0.5, 0.25, 0.75]);
+        let q = |agent: &mut Agent, rule| score(agent, rule, &z, &a, 3);
+        let close = |got: Vec<f32>, want: [f32; 3]| {
+            assert!(got.iter().zip(want).all(|(g, w)| (g - w).abs() < 1e-5), "{got:?} vs {want:?}")
+        };
+        close(q(&mut agent, Scoring::Critic), [-0.5, 0.25, 0.75]);
+        close(q(&mut agent, Scoring::Target), [2.5, 1.75, 1.25]);
+        // min(a, 0.5 − a): Q2 decides at 0.75, Q1 at -0.5, they tie at 0.25.
+        close(q(&mut agent, Scoring::TwinMin), [-0.5, 0.25, -0.25]);
+    }
+
+    #[test]
+    fn scoring_rule_changes_which_proposal_wins() {
+        let z = Matrix::from_vec(64, 1, vec![0.0; 64]);
+        let winners = |scoring| {
+            let mut agent = linear_critics((1.0, 0.0), (-1.0, 2.0), (-1.0, 0.5));
+            let d = dcp(Config {
+                scoring,
+                ..Config::default()
+            });
+            let a0 = agent.actor_eval(&z);
+            let mut rng = seed::stream(1, "proposals");
+            let mut s = |actions: &Matrix, per: usize| score(&mut agent, scoring, &z, actions, per);
+            let c = d.compare_fan(&a0, &mut s, &mut rng);
+            let t = d.select(&c, 64);
+            let moves: Vec<f32> = t
+                .iter()
+                .map(|t| c.actions.row(t.candidate)[0] - a0.row(t.row)[0])
+                .collect();
+            (t.len(), moves)
+        };
+        let (_, up) = winners(Scoring::Critic);
+        assert!(up.iter().all(|&m| m > 0.0), "Q1 = a: winners lie above a0");
+        let (_, down) = winners(Scoring::Target);
+        assert!(down.iter().all(|&m| m < 0.0), "Q1' = 2 − a: winners lie below a0");
+        // min(a, 0.5 − a) peaks at 0.25: winners move up, but none past 0.5 − a0.
+        let (n, twin) = winners(Scoring::TwinMin);
+        assert!(n > 0 && twin.iter().all(|&m| m > 0.0 && m < 0.5), "{twin:?}");
+        assert!(twin.len() < up.len() || twin != up, "twin scoring picks other winners");
+    }
+
+    #[test]
+    fn cem_refits_to_the_elite_and_climbs_a_quadratic() {
+        // Q(a) = -(a - 0.6)² per dimension, 2-D actions, 64 states all at a0 = 0.
+        let peak = 0.6f32;
+        let mut quadratic = |actions: &Matrix, _per: usize| {
+            (0..actions.rows)
+                .map(|r| -actions.row(r).iter().map(|a| (a - peak).powi(2)).sum::<f32>())
+                .collect::<Vec<f32>>()
+        };
+        let a0 = Matrix::zeros(64, 2);
+        let distance = |c: &Candidates| {
+            let per = c.per_state;
+            let mut total = 0.0;
+            for i in 0..64 {
+                let rows = i * per + 1..(i + 1) * per;
+                total += rows
+                    .map(|r| c.actions.row(r).iter().map(|a| (a - peak).powi(2)).sum::<f32>().sqrt())
+                    .sum::<f32>()
+                    / (per - 1) as f32;
+            }
+            total / 64.0
+        };
+        let mut config = Config {
+            cem: true,
+            cem_iterations: 1,
+            ..Config::default()
+        };
+        let mut last = f32::INFINITY;
+        let mut before = 0.0;
+        for iterations in 0..=3 {
+            config.cem = iterations > 0;
+            config.cem_iterations = iterations.max(1);
+            let d = dcp(config.clone());
+            let c = d.compare_fan(&a0, &mut quadratic, &mut seed::stream(2, "proposals"));
+            let dist = distance(&c);
+            if iterations == 0 {
+                before = dist;
+            }
+            assert!(dist < last, "iteration {iterations}: {dist} ≥ {last}");
+            last = dist;
+        }
+        assert!(last < 0.5 * before, "CEM moves the proposals toward the peak: {before} → {last}");
+
+        // One round, by hand: the elite of T = 16 at 10 % is the best 2; the new proposals are
+        // N(mean, std²) of those two, drawn in order from the same stream.
+        let d = dcp(Config {
+            cem: true,
+            ..Config::default()
+        });
+        let a0 = Matrix::zeros(1, 2);
+        let mut rng = seed::stream(3, "proposals");
+        let mut actions = Matrix::zeros(17, 2);
+        for r in 1..17 {
+            sample(&[0.0, 0.0], &[0.2, 0.2], actions.row_mut(r), &mut rng);
+        }
+        let q = quadratic(&actions, 17);
+        let mut order: Vec<usize> = (1..17).collect();
+        order.sort_by(|&a, &b| q[b].total_cmp(&q[a]));
+        let (e1, e2) = (actions.row(order[0]).to_vec(), actions.row(order[1]).to_vec());
+        let mean: Vec<f32> = (0..2).map(|k| (e1[k] + e2[k]) / 2.0).collect();
+        let std: Vec<f32> = (0..2).map(|k| (e1[k] - e2[k]).abs() / 2.0).collect();
+        let mut refit = actions.clone();
+        let mut same = rng.clone();
+        d.cem_round(&mut refit, &q, a0.rows, &mut rng);
+        assert_eq!(refit.row(0), actions.row(0), "a0 stays");
+        let mut want = [0.0f32; 2];
+        for r in 1..17 {
+            sample(&mean, &std, &mut want, &mut same);
+            for k in 0..2 {
+                assert!((refit.row(r)[k] - want[k]).abs() < 1e-6, "row {r}");
+            }
+        }
+    }
+
+    #[test]
+    fn fit_is_the_elite_mean_and_population_spread() {
+        let m = Matrix::from_vec(3, 2, vec![0.0, 1.0, 0.5, -1.0, 1.0, 0.0]);
+        let (mean, std) = fit(&m, &[0, 2]);
+        assert_eq!(mean, vec![0.5, 0.5]);
+        assert_eq!(std, vec![0.5, 0.5]);
+    }
+
+    #[test]
+    fn trust_region_bounds_the_actor_step() {
+        let z = Matrix::from_vec(16, 1, (0..16).map(|k| k as f32 / 8.0 - 1.0).collect());
+        let step_kl = |trust_region: bool| {
+            let mut agent = linear_critics((1.0, 0.0), (1.0, 0.0), (1.0, 0.0));
+            agent.config.lr_actor = 0.05; // a large step, to be cut back
+            agent.actor_opt = crate::adam::Adam::new(&agent.actor, 0.05, 0.0);
+            let d = dcp(Config {
+                trust_region,
+                trust_region_kl: 1e-4,
+                ..Config::default()
+            });
+            let s = Sample {
+                z: z.clone(),
+                action: Matrix::zeros(16, 1),
+                reward: vec![0.0; 16],
+                z_next: z.clone(),
+                terminal: vec![0.0; 16],
+                discount: vec![0.99; 16],
+            };
+            let before = agent.actor_eval(&z);
+            let mut rng = seed::stream(4, "proposals");
+            d.actor_update(&mut agent, &s, &mut rng, &mut seed::stream(4, "dropout"));
+            let after = agent.actor_eval(&z);
+            let sq: f32 = after.data.iter().zip(&before.data).map(|(a, b)| (a - b).powi(2)).sum();
+            sq / (16.0 * 2.0 * 0.2f32.powi(2))
+        };
+        let free = step_kl(false);
+        let bounded = step_kl(true);
+        assert!(free > 1e-4, "the unbounded step is large: KL {free}");
+        assert!(bounded <= 1e-4 && bounded > 0.0, "KL {bounded}");
+    }
+
+    #[test]
+    fn trust_region_lets_a_step_toward_the_target_actor_through() {
+        let z = Matrix::from_vec(16, 1, (0..16).map(|k| k as f32 / 8.0 - 1.0).collect());
+        let run = |trust_region: bool| {
+            let mut agent = linear_critics((1.0, 0.0), (1.0, 0.0), (1.0, 0.0));
+            agent.actor_opt = crate::adam::Adam::new(&agent.actor, 0.002, 0.0);
+            // P'(s) sits well above P(s), and Q = a pulls P(s) up: toward P'.
+            let last = agent.actor_target.layers.len() - 1;
+            agent.actor_target.layers[last].b[0] += 0.5;
+            let d = dcp(Config {
+                trust_region,
+                trust_region_kl: 1e-4,
+                ..Config::default()
+            });
+            let anchor = agent.actor_target_eval(&z);
+            let kl_before = mean_kl(&agent.actor_eval(&z), &anchor, 0.2);
+            let s = Sample {
+                z: z.clone(),
+                action: Matrix::zeros(16, 1),
+                reward: vec![0.0; 16],
+                z_next: z.clone(),
+                terminal: vec![0.0; 16],
+                discount: vec![0.99; 16],
+            };
+            let mut rng = seed::stream(4, "proposals");
+            d.actor_update(&mut agent, &s, &mut rng, &mut seed::stream(4, "dropout"));
+            let kl_after = mean_kl(&agent.actor_eval(&z), &anchor, 0.2);
+            (kl_before, kl_after, agent.actor)
+        };
+        let (before, after, bounded) = run(true);
+        assert!(before > 1e-4, "P starts outside the region: {before}");
+        assert!(after < before, "the step moved toward P': {before} → {after}");
+        assert_eq!(bounded, run(false).2, "so it was kept whole");
+    }
+
+    #[test]
+    fn options_are_off_by_default_and_checked() {
+        let c = Config::default();
+        assert_eq!(c.state_weights, StateWeights::Off);
+        assert_eq!(c.scoring, Scoring::Critic);
+        assert!(!c.cem && !c.trust_region && !c.target_smoothing);
+        assert_eq!(c.n_step, 1);
+        let bad = Config {
+            variant: Variant::HillClimb,
+            cem: true,
+            ..Config::default()
+        };
+        assert!(bad.validate().unwrap_err().to_string().contains("dcp.variant"));
+        let bad = Config {
+            n_step: 0,
+            ..Config::default()
+        };
+        assert!(bad.validate().unwrap_err().to_string().contains("dcp.n_step"));
     }
 }
