@@ -143,7 +143,11 @@ impl ActorCritic {
             return Err(format!(
                 "the config {} twin critics and the checkpoint {} them",
                 if critics.twin { "asks for" } else { "has no" },
-                if self.agent.twin.is_some() { "holds" } else { "lacks" }
+                if self.agent.twin.is_some() {
+                    "holds"
+                } else {
+                    "lacks"
+                }
             ));
         }
         self.agent.config = config.agent.clone();

@@ -212,7 +212,7 @@ fn invalid(what: &str, expected: String, found: impl fmt::Display) -> Error {
 ///
 /// ```
 /// use host_trainer::agent::Hidden;
-/// let h: Hidden = "4x48".parse().unwrap();
+/// let h: Hidden = "4x48".parse().expect("hand-made test value");
 /// assert_eq!((h.depth, h.width), (4, 48));
 /// assert_eq!(h.to_string(), "4x48");
 /// assert!("4by48".parse::<Hidden>().is_err());
@@ -777,10 +777,13 @@ mod tests {
     /// A 1-observation, 1-action agent with twin critics whose target networks are set by
     /// hand: P'(s) = 0.5, Q1'(s, a) = a, Q2'(s, a) = 0.2 − a.
     fn hand_made(smoothing: Option<Smoothing>) -> Agent {
-        let mut config = Config::default();
-        config.hidden = "1x2".parse().unwrap();
+        let config = Config {
+            hidden: "1x2".parse().expect("a shape"),
+            ..Config::default()
+        };
         let mut init = seed::stream(0, "init");
-        let mut agent = Agent::new(config, 1, &[-1.0], &[1.0], &mut init).unwrap();
+        let mut agent =
+            Agent::new(config, 1, &[-1.0], &[1.0], &mut init).expect("hand-made test value");
         let critics = Critics {
             twin: true,
             smoothing,
@@ -795,7 +798,15 @@ mod tests {
             net.layers[1].b = vec![offset - 10.0 * slope];
         };
         linear(&mut agent.critic_target, 1.0, 0.0);
-        linear(&mut agent.twin.as_mut().unwrap().critic_target, -1.0, 0.2);
+        linear(
+            &mut agent
+                .twin
+                .as_mut()
+                .expect("hand-made test value")
+                .critic_target,
+            -1.0,
+            0.2,
+        );
         let actor = &mut agent.actor_target;
         actor.layers.iter_mut().for_each(|l| {
             l.w.iter_mut().for_each(|w| *w = 0.0);
@@ -849,19 +860,40 @@ mod tests {
             assert!((-0.4 - 1e-5..=-0.2 + 1e-5).contains(&v), "{v}");
             values.push(v);
         }
-        assert!(values.iter().any(|&v| (v + 0.3).abs() > 0.05), "the noise moved a'");
+        assert!(
+            values.iter().any(|&v| (v + 0.3).abs() > 0.05),
+            "the noise moved a'"
+        );
         // σ = 100 saturates nearly every draw at the clip.
-        assert!(values.iter().filter(|&&v| (v + 0.4).abs() < 1e-4 || (v + 0.2).abs() < 1e-4).count() >= 18);
+        assert!(
+            values
+                .iter()
+                .filter(|&&v| (v + 0.4).abs() < 1e-4 || (v + 0.2).abs() < 1e-4)
+                .count()
+                >= 18
+        );
     }
 
     #[test]
     fn a_twin_critic_takes_its_own_step_on_the_same_targets() {
         let mut agent = hand_made(None);
         let q1 = agent.critic.clone();
-        let q2 = agent.twin.as_ref().unwrap().critic.clone();
+        let q2 = agent
+            .twin
+            .as_ref()
+            .expect("hand-made test value")
+            .critic
+            .clone();
         agent.critic_update(&sample(), &mut seed::stream(2, "dropout"));
-        assert_ne!(agent.twin.as_ref().unwrap().critic, q2, "Q2 took a step");
+        assert_ne!(
+            agent.twin.as_ref().expect("hand-made test value").critic,
+            q2,
+            "Q2 took a step"
+        );
         assert_ne!(agent.critic, q1, "Q1 took a step");
-        assert_ne!(agent.critic, agent.twin.as_ref().unwrap().critic);
+        assert_ne!(
+            agent.critic,
+            agent.twin.as_ref().expect("hand-made test value").critic
+        );
     }
 }

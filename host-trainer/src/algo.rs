@@ -143,9 +143,7 @@ impl Learner {
     /// holds another algorithm's state than the config names.
     pub fn configure(&mut self, config: &TrainConfig) -> Result<(), String> {
         match (self, config.algo) {
-            (Learner::ActorCritic(l), Algo::Dcp | Algo::Ddpg | Algo::Td3) => {
-                l.configure(config)?
-            }
+            (Learner::ActorCritic(l), Algo::Dcp | Algo::Ddpg | Algo::Td3) => l.configure(config)?,
             (Learner::Ppo(l), Algo::Ppo) => l.configure(config),
             (Learner::Dqn(l), Algo::Dqn) => l.configure(config),
             (_, algo) => return Err(format!("its state is not the state of a {algo} run")),

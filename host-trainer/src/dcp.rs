@@ -485,13 +485,24 @@ impl Dcp {
 /// Mean over the rows of KL(N(b, σ²I) ‖ N(a, σ²I)) = ‖a − b‖² / (2σ²).
 fn mean_kl(a: &Matrix, b: &Matrix, sigma: f32) -> f32 {
     let two_var = 2.0 * sigma.max(f32::MIN_POSITIVE).powi(2);
-    let sq: f32 = a.data.iter().zip(&b.data).map(|(x, y)| (x - y) * (x - y)).sum();
+    let sq: f32 = a
+        .data
+        .iter()
+        .zip(&b.data)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum();
     sq / (a.rows.max(1) as f32 * two_var)
 }
 
 /// The proposals' scores under the chosen critic: row r pairs `actions` row r with state
 /// r / `per` of `z`.
-fn score(agent: &mut Agent, scoring: Scoring, z: &Matrix, actions: &Matrix, per: usize) -> Vec<f32> {
+fn score(
+    agent: &mut Agent,
+    scoring: Scoring,
+    z: &Matrix,
+    actions: &Matrix,
+    per: usize,
+) -> Vec<f32> {
     let input = critic_input(z, actions, per);
     match scoring {
         Scoring::Critic => agent.q_values(&input),
@@ -512,7 +523,9 @@ fn fit(actions: &Matrix, rows: &[usize]) -> (Vec<f32>, Vec<f32>) {
     let n = rows.len() as f32;
     let mut mean = vec![0.0; actions.cols];
     for &r in rows {
-        mean.iter_mut().zip(actions.row(r)).for_each(|(m, a)| *m += a / n);
+        mean.iter_mut()
+            .zip(actions.row(r))
+            .for_each(|(m, a)| *m += a / n);
     }
     let mut var = vec![0.0f32; actions.cols];
     for &r in rows {
@@ -530,8 +543,14 @@ fn softmax_weights(adv: &[f32], per: usize, states: usize, eta: f32) -> Vec<f32>
     let mut w = vec![0.0f32; adv.len()];
     for i in 0..states {
         let rows = i * per + 1..(i + 1) * per;
-        let max = rows.clone().map(|k| adv[k]).fold(f32::NEG_INFINITY, f32::max);
-        let total: f64 = rows.clone().map(|k| f64::from((adv[k] - max) / eta).exp()).sum();
+        let max = rows
+            .clone()
+            .map(|k| adv[k])
+            .fold(f32::NEG_INFINITY, f32::max);
+        let total: f64 = rows
+            .clone()
+            .map(|k| f64::from((adv[k] - max) / eta).exp())
+            .sum();
         for k in rows {
             w[k] = (f64::from((adv[k] - max) / eta).exp() / total) as f32;
         }
@@ -560,7 +579,10 @@ fn mpo_temperature(adv: &[f32], per: usize, states: usize, epsilon: f32) -> f32 
     let spread = (0..states)
         .map(|i| {
             let rows = i * per + 1..(i + 1) * per;
-            let hi = rows.clone().map(|k| adv[k]).fold(f32::NEG_INFINITY, f32::max);
+            let hi = rows
+                .clone()
+                .map(|k| adv[k])
+                .fold(f32::NEG_INFINITY, f32::max);
             let lo = rows.map(|k| adv[k]).fold(f32::INFINITY, f32::min);
             hi - lo
         })
@@ -573,7 +595,10 @@ fn mpo_temperature(adv: &[f32], per: usize, states: usize, epsilon: f32) -> f32 
         mean_kl_from_uniform(&w, per, states)
     };
     let eps = f64::from(epsilon);
-    let (mut lo, mut hi) = ((f64::from(spread) * 1e-6).ln(), (f64::from(spread) * 1e6).ln());
+    let (mut lo, mut hi) = (
+        (f64::from(spread) * 1e-6).ln(),
+        (f64::from(spread) * 1e6).ln(),
+    );
     if kl(lo) <= eps {
         return lo.exp() as f32;
     }
@@ -591,7 +616,12 @@ fn mpo_temperature(adv: &[f32], per: usize, states: usize, epsilon: f32) -> f32 
 /// w = min(exp(Â/β), max) for every proposal row, Â = (A − mean) / std over the batch's
 /// proposals (rows 0 of each state, a0, excluded and given 0); Â = 0 when they all tie.
 fn exp_weights(adv: &[f32], per: usize, beta: f32, max: f32) -> Vec<f32> {
-    let proposals = || adv.iter().enumerate().filter(|(k, _)| k % per != 0).map(|(_, &a)| a);
+    let proposals = || {
+        adv.iter()
+            .enumerate()
+            .filter(|(k, _)| k % per != 0)
+            .map(|(_, &a)| a)
+    };
     let n = proposals().count().max(1) as f32;
     let mean = proposals().sum::<f32>() / n;
     let std = (proposals().map(|a| (a - mean) * (a - mean)).sum::<f32>() / n).sqrt();
@@ -797,7 +827,11 @@ mod tests {
         assert_eq!(rows, vec![1, 2, 3, 5, 6, 7], "every proposal, never a0");
         for (target, a) in t.iter().zip(proposals) {
             let want = ((a - mean) / std).exp();
-            assert!((target.weight - want).abs() < 1e-5, "{} vs {want}", target.weight);
+            assert!(
+                (target.weight - want).abs() < 1e-5,
+                "{} vs {want}",
+                target.weight
+            );
         }
         // β = 0.1 makes exp(Â/β) of the best proposal exceed 20: it is clipped there.
         let sharp = dcp(Config {
@@ -832,7 +866,10 @@ mod tests {
         });
         let t = d.select(&c, 2);
         assert_eq!(t.len(), 6, "every proposal is a target");
-        let best = t.iter().max_by(|a, b| a.weight.total_cmp(&b.weight)).unwrap();
+        let best = t
+            .iter()
+            .max_by(|a, b| a.weight.total_cmp(&b.weight))
+            .expect("hand-made test value");
         assert_eq!(best.candidate, 2, "the highest Q gets the largest weight");
         // Weights do not depend on a shift of one state's Q values.
         let mut shifted = two_states();
@@ -850,16 +887,22 @@ mod tests {
         let c = candidates(vec![0.0, 0.5, 0.5, 0.5], 4);
         let eta = mpo_temperature(&c.advantage, 4, 1, 0.1);
         let w = softmax_weights(&c.advantage, 4, 1, eta);
-        assert!(w[1..].iter().all(|&w| (w - 1.0 / 3.0).abs() < 1e-6), "{w:?}");
+        assert!(
+            w[1..].iter().all(|&w| (w - 1.0 / 3.0).abs() < 1e-6),
+            "{w:?}"
+        );
     }
 
     /// A 1-observation, 1-action agent whose critics are linear in the action by hand:
     /// Q(s, a) = slope·a + offset (a ReLU unit carries a + 10 > 0 through).
     fn linear_critics(q1: (f32, f32), q1_target: (f32, f32), q2: (f32, f32)) -> Agent {
-        let mut config = crate::agent::Config::default();
-        config.hidden = "1x2".parse().unwrap();
+        let config = crate::agent::Config {
+            hidden: "1x2".parse().expect("a shape"),
+            ..Default::default()
+        };
         let mut init = seed::stream(0, "init");
-        let mut agent = Agent::new(config, 1, &[-1.0], &[1.0], &mut init).unwrap();
+        let mut agent =
+            Agent::new(config, 1, &[-1.0], &[1.0], &mut init).expect("hand-made test value");
         let twin = crate::agent::Critics {
             twin: true,
             ..Default::default()
@@ -874,7 +917,10 @@ mod tests {
         };
         set(&mut agent.critic, q1);
         set(&mut agent.critic_target, q1_target);
-        set(&mut agent.twin.as_mut().unwrap().critic, q2);
+        set(
+            &mut agent.twin.as_mut().expect("hand-made test value").critic,
+            q2,
+        );
         agent
     }
 
@@ -886,7 +932,10 @@ mod tests {
         let a = Matrix::from_vec(3, 1, vec![-0.5, 0.25, 0.75]);
         let q = |agent: &mut Agent, rule| score(agent, rule, &z, &a, 3);
         let close = |got: Vec<f32>, want: [f32; 3]| {
-            assert!(got.iter().zip(want).all(|(g, w)| (g - w).abs() < 1e-5), "{got:?} vs {want:?}")
+            assert!(
+                got.iter().zip(want).all(|(g, w)| (g - w).abs() < 1e-5),
+                "{got:?} vs {want:?}"
+            )
         };
         close(q(&mut agent, Scoring::Critic), [-0.5, 0.25, 0.75]);
         close(q(&mut agent, Scoring::Target), [2.5, 1.75, 1.25]);
@@ -917,11 +966,20 @@ mod tests {
         let (_, up) = winners(Scoring::Critic);
         assert!(up.iter().all(|&m| m > 0.0), "Q1 = a: winners lie above a0");
         let (_, down) = winners(Scoring::Target);
-        assert!(down.iter().all(|&m| m < 0.0), "Q1' = 2 − a: winners lie below a0");
+        assert!(
+            down.iter().all(|&m| m < 0.0),
+            "Q1' = 2 − a: winners lie below a0"
+        );
         // min(a, 0.5 − a) peaks at 0.25: winners move up, but none past 0.5 − a0.
         let (n, twin) = winners(Scoring::TwinMin);
-        assert!(n > 0 && twin.iter().all(|&m| m > 0.0 && m < 0.5), "{twin:?}");
-        assert!(twin.len() < up.len() || twin != up, "twin scoring picks other winners");
+        assert!(
+            n > 0 && twin.iter().all(|&m| m > 0.0 && m < 0.5),
+            "{twin:?}"
+        );
+        assert!(
+            twin.len() < up.len() || twin != up,
+            "twin scoring picks other winners"
+        );
     }
 
     #[test]
@@ -930,7 +988,13 @@ mod tests {
         let peak = 0.6f32;
         let mut quadratic = |actions: &Matrix, _per: usize| {
             (0..actions.rows)
-                .map(|r| -actions.row(r).iter().map(|a| (a - peak).powi(2)).sum::<f32>())
+                .map(|r| {
+                    -actions
+                        .row(r)
+                        .iter()
+                        .map(|a| (a - peak).powi(2))
+                        .sum::<f32>()
+                })
                 .collect::<Vec<f32>>()
         };
         let a0 = Matrix::zeros(64, 2);
@@ -940,7 +1004,14 @@ mod tests {
             for i in 0..64 {
                 let rows = i * per + 1..(i + 1) * per;
                 total += rows
-                    .map(|r| c.actions.row(r).iter().map(|a| (a - peak).powi(2)).sum::<f32>().sqrt())
+                    .map(|r| {
+                        c.actions
+                            .row(r)
+                            .iter()
+                            .map(|a| (a - peak).powi(2))
+                            .sum::<f32>()
+                            .sqrt()
+                    })
                     .sum::<f32>()
                     / (per - 1) as f32;
             }
@@ -965,7 +1036,10 @@ mod tests {
             assert!(dist < last, "iteration {iterations}: {dist} ≥ {last}");
             last = dist;
         }
-        assert!(last < 0.5 * before, "CEM moves the proposals toward the peak: {before} → {last}");
+        assert!(
+            last < 0.5 * before,
+            "CEM moves the proposals toward the peak: {before} → {last}"
+        );
 
         // One round, by hand: the elite of T = 16 at 10 % is the best 2; the new proposals are
         // N(mean, std²) of those two, drawn in order from the same stream.
@@ -982,7 +1056,10 @@ mod tests {
         let q = quadratic(&actions, 17);
         let mut order: Vec<usize> = (1..17).collect();
         order.sort_by(|&a, &b| q[b].total_cmp(&q[a]));
-        let (e1, e2) = (actions.row(order[0]).to_vec(), actions.row(order[1]).to_vec());
+        let (e1, e2) = (
+            actions.row(order[0]).to_vec(),
+            actions.row(order[1]).to_vec(),
+        );
         let mean: Vec<f32> = (0..2).map(|k| (e1[k] + e2[k]) / 2.0).collect();
         let std: Vec<f32> = (0..2).map(|k| (e1[k] - e2[k]).abs() / 2.0).collect();
         let mut refit = actions.clone();
@@ -992,8 +1069,8 @@ mod tests {
         let mut want = [0.0f32; 2];
         for r in 1..17 {
             sample(&mean, &std, &mut want, &mut same);
-            for k in 0..2 {
-                assert!((refit.row(r)[k] - want[k]).abs() < 1e-6, "row {r}");
+            for (got, want) in refit.row(r).iter().zip(want) {
+                assert!((got - want).abs() < 1e-6, "row {r}");
             }
         }
     }
@@ -1030,7 +1107,12 @@ mod tests {
             let mut rng = seed::stream(4, "proposals");
             d.actor_update(&mut agent, &s, &mut rng, &mut seed::stream(4, "dropout"));
             let after = agent.actor_eval(&z);
-            let sq: f32 = after.data.iter().zip(&before.data).map(|(a, b)| (a - b).powi(2)).sum();
+            let sq: f32 = after
+                .data
+                .iter()
+                .zip(&before.data)
+                .map(|(a, b)| (a - b).powi(2))
+                .sum();
             sq / (16.0 * 2.0 * 0.2f32.powi(2))
         };
         let free = step_kl(false);
@@ -1070,7 +1152,10 @@ mod tests {
         };
         let (before, after, bounded) = run(true);
         assert!(before > 1e-4, "P starts outside the region: {before}");
-        assert!(after < before, "the step moved toward P': {before} → {after}");
+        assert!(
+            after < before,
+            "the step moved toward P': {before} → {after}"
+        );
         assert_eq!(bounded, run(false).2, "so it was kept whole");
     }
 
@@ -1086,11 +1171,19 @@ mod tests {
             cem: true,
             ..Config::default()
         };
-        assert!(bad.validate().unwrap_err().to_string().contains("dcp.variant"));
+        assert!(bad
+            .validate()
+            .expect_err("an invalid value")
+            .to_string()
+            .contains("dcp.variant"));
         let bad = Config {
             n_step: 0,
             ..Config::default()
         };
-        assert!(bad.validate().unwrap_err().to_string().contains("dcp.n_step"));
+        assert!(bad
+            .validate()
+            .expect_err("an invalid value")
+            .to_string()
+            .contains("dcp.n_step"));
     }
 }

@@ -65,13 +65,18 @@ impl Td3Config {
     /// let mut c = host_trainer::ddpg::Td3Config::default();
     /// assert!(c.validate().is_ok());
     /// c.policy_delay = 0;
-    /// assert!(c.validate().unwrap_err().to_string().contains("td3.policy_delay"));
+    /// assert!(c.validate().expect_err("an invalid value").to_string().contains("td3.policy_delay"));
     /// ```
     pub fn validate(&self) -> Result<(), crate::Error> {
         use crate::Error;
         Error::check_count("td3.policy_delay", self.policy_delay, MAX_POLICY_DELAY)?;
         Error::check_range("td3.target_noise", self.target_noise, 0.0, f32::MAX)?;
-        Error::check_range("td3.target_noise_clip", self.target_noise_clip, 0.0, f32::MAX)
+        Error::check_range(
+            "td3.target_noise_clip",
+            self.target_noise_clip,
+            0.0,
+            f32::MAX,
+        )
     }
 
     /// Target-policy smoothing with these settings.

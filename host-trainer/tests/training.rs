@@ -109,7 +109,11 @@ fn td3_smoke_run_has_twin_critics_delayed_actor_updates_and_exports_q1() {
     assert_ne!(twin.critic, ac.agent.critic, "Q2 is its own network");
     let critic = std::fs::read(run.file(run_dir::CRITIC)).expect("critic blob");
     let label = trainer.config.blob_label();
-    assert_eq!(critic, ac.agent.critic_blob(&label).expect("Q1 blob"), "Q1 is exported");
+    assert_eq!(
+        critic,
+        ac.agent.critic_blob(&label).expect("Q1 blob"),
+        "Q1 is exported"
+    );
     // Delayed updates: the actor's Adam took half as many steps as the critics'.
     assert_eq!(ac.agent.actor_opt.steps * 2, ac.agent.critic_opt.steps);
     assert_eq!(twin.critic_opt.steps, ac.agent.critic_opt.steps);
@@ -156,7 +160,11 @@ fn issue13_options() -> Vec<(&'static str, TrainConfig)> {
 fn issue13_options_are_deterministic_and_resume_exactly() {
     let out = scratch("issue13");
     let blobs = |t: &Trainer| {
-        let critic = t.algorithm().critic_blob("x").expect("a critic").expect("blob");
+        let critic = t
+            .algorithm()
+            .critic_blob("x")
+            .expect("a critic")
+            .expect("blob");
         (t.policy_blob("x").expect("blob"), critic)
     };
     let paper = {
@@ -174,7 +182,11 @@ fn issue13_options_are_deterministic_and_resume_exactly() {
         };
         let (whole, _) = train_to_end(config.clone(), &dir("a"));
         let (again, _) = train_to_end(config.clone(), &dir("b"));
-        assert_eq!(blobs(&whole), blobs(&again), "{name}: same seed, same bytes");
+        assert_eq!(
+            blobs(&whole),
+            blobs(&again),
+            "{name}: same seed, same bytes"
+        );
         assert_ne!(blobs(&whole).0, paper.0, "{name} changes the run");
 
         let mut first = config.clone();
@@ -209,8 +221,65 @@ fn a_twin_critic_checkpoint_refuses_a_config_without_twins() {
     let mut learner = trainer.checkpoint().learner;
     let mut plain = TrainConfig::smoke(Algo::Dcp, 3);
     plain.episodes = 1;
-    let err = learner.configure(&plain).expect_err("twin state, no twin config");
+    let err = learner
+        .configure(&plain)
+        .expect_err("twin state, no twin config");
     assert!(err.contains("twin critics"), "{err}");
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+/// The committed screening files of issue 13 (`experiments/dcp-variants/`): each is the
+/// pinwheel layout plus exactly one DCP option (or none, for the baselines), and each loads,
+/// validates and trains (2 episodes of the smoke network).
+#[test]
+fn dcp_variant_files_each_set_one_option_and_train() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../experiments/dcp-variants");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .expect("experiments/dcp-variants")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    assert!(
+        files.len() >= 11,
+        "nine variants and two baselines: {files:?}"
+    );
+    let out = scratch("variant-files");
+    for path in files {
+        let name = path
+            .file_stem()
+            .expect("hand-made test value")
+            .to_string_lossy()
+            .into_owned();
+        let mut config = TrainConfig::from_file(&path).expect("loads");
+        config.validate().expect("valid");
+        let defaults = TrainConfig {
+            task: config.task.clone(),
+            ..TrainConfig::default()
+        };
+        if name.starts_with("baseline") {
+            assert_eq!(config, defaults, "{name}: only the task");
+            continue;
+        }
+        assert_eq!(
+            config.task, "nav-walls",
+            "{name}: screening is on the pinwheel"
+        );
+        assert_ne!(config.dcp, defaults.dcp, "{name}: one DCP option set");
+        assert_eq!(
+            (&config.agent, config.episodes, config.algo),
+            (&defaults.agent, defaults.episodes, Algo::Dcp),
+            "{name}: nothing else changed"
+        );
+        let smoke = TrainConfig::smoke(Algo::Dcp, 0);
+        (config.agent, config.episodes, config.dcp.t) = (smoke.agent, 2, smoke.dcp.t);
+        config.eval_episodes = smoke.eval_episodes;
+        let dir = out.join(&name);
+        std::fs::create_dir_all(&dir).expect("dir");
+        let (trainer, _) = train_to_end(config, &dir);
+        let stat = trainer.last_stat("critic_loss").expect("critic_loss");
+        assert!(stat.is_finite(), "{name}: updates ran");
+    }
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
 
