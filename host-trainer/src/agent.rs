@@ -288,7 +288,7 @@ pub struct Critics {
     /// A second critic Q2 (and its target), trained on the same targets; the Bellman target
     /// takes min(Q1', Q2') [TD3, Fujimoto et al. 2018: clipped double Q]. Q1 is exported.
     pub twin: bool,
-    /// Target-policy smoothing: noise on the target action P'(s') [TD3].
+    /// Target-policy smoothing: noise on the target action P'(s') \[TD3\].
     pub smoothing: Option<Smoothing>,
     /// Rewards summed per critic target, n [1: one-step].
     pub n_step: usize,

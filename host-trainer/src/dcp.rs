@@ -27,7 +27,7 @@
 //!   target-policy smoothing in the twin critics' Bellman target (`target_smoothing`).
 //! - `cem`: cross-entropy refinement of the proposals (QT-Opt, CGP).
 //! - `state_weights`: target weights per state, over the state's own proposals: a softmax of Q
-//!   (MPO), exp(A/β) of batch-standardised advantages (AWR, CRR), or 1[A > 0] (CRR).
+//!   (MPO), exp(A/β) of batch-standardised advantages (AWR, CRR), or 1\[A > 0\] (CRR).
 //! - `trust_region`: the actor's step is shrunk until the exploration policy around P(s) is
 //!   within a KL bound of the one around the slowly moving target actor P'(s) (MPO's M-step
 //!   constraint, enforced by TRPO's backtracking), so P(s) cannot flip from one slide along a
@@ -193,7 +193,7 @@ pub enum StateWeights {
     /// w_t = min(exp(Â_t / β), max), Â the advantages standardised over the batch's B·T
     /// proposals [AWR; CRR's "exp" filter].
     Exp,
-    /// w_t = 1[A_t > 0] [CRR's "binary" filter].
+    /// w_t = 1\[A_t > 0\] [CRR's "binary" filter].
     Binary,
 }
 
@@ -201,11 +201,11 @@ pub enum StateWeights {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Scoring {
-    /// The online critic Q [paper].
+    /// The online critic Q \[paper\].
     Critic,
     /// The target critic Q', which changes slowly, so winners flip less from step to step.
     Target,
-    /// min(Q1, Q2) of twin critics trained on clipped double-Q targets [TD3].
+    /// min(Q1, Q2) of twin critics trained on clipped double-Q targets \[TD3\].
     TwinMin,
 }
 
