@@ -369,6 +369,7 @@ struct Scratch {
     target_tape: Tape,
     actor_grads: Option<Grads>,
     critic_grads: Option<Grads>,
+    twin_grads: Option<Grads>,
     /// dQ/d(critic input) of DDPG's actor step.
     d_input: Matrix,
 }
@@ -546,9 +547,10 @@ impl Agent {
             let tape = &mut self.scratch.critic_tape;
             let q = twin.critic.forward(&input, tape, Some(dropout_rng)).clone();
             let (_, grad) = squared_error(&q, &y);
-            let mut grads = twin.critic.zero_grads();
-            twin.critic.backward(tape, &grad, &mut grads);
-            twin.critic_opt.step(&mut twin.critic, &grads);
+            let grads = (self.scratch.twin_grads).get_or_insert_with(|| twin.critic.zero_grads());
+            grads.zero();
+            twin.critic.backward(tape, &grad, grads);
+            twin.critic_opt.step(&mut twin.critic, grads);
         }
         loss
     }
