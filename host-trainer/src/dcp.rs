@@ -573,7 +573,8 @@ fn mean_kl_from_uniform(w: &[f32], per: usize, states: usize) -> f64 {
 /// MPO's temperature: the η whose per-state softmax weights are, on average over the states,
 /// `epsilon` away from uniform in KL. That η minimises MPO's dual g(η) = ηε + η·mean_s
 /// log mean_t exp(Q_st/η), since g'(η) = ε − mean_s KL(w_s ‖ uniform), which rises with η;
-/// MPO takes gradient steps on it, we solve it per batch (60 bisections on log η). Where no η
+/// MPO takes gradient steps on it, we solve it per batch (30 bisections on log η in
+/// [10⁻⁴, 10⁴] × the largest spread of a state's advantages). Where no η
 /// reaches ε (all proposals tie, or ε ≥ ln T) the nearest end of the bracket is used.
 fn mpo_temperature(adv: &[f32], per: usize, states: usize, epsilon: f32) -> f32 {
     let spread = (0..states)
@@ -596,13 +597,13 @@ fn mpo_temperature(adv: &[f32], per: usize, states: usize, epsilon: f32) -> f32 
     };
     let eps = f64::from(epsilon);
     let (mut lo, mut hi) = (
-        (f64::from(spread) * 1e-6).ln(),
-        (f64::from(spread) * 1e6).ln(),
+        (f64::from(spread) * 1e-4).ln(),
+        (f64::from(spread) * 1e4).ln(),
     );
     if kl(lo) <= eps {
         return lo.exp() as f32;
     }
-    for _ in 0..60 {
+    for _ in 0..30 {
         let mid = 0.5 * (lo + hi);
         if kl(mid) > eps {
             lo = mid;
