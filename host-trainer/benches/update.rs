@@ -45,6 +45,7 @@ fn agent() -> Agent {
             reward,
             next_obs,
             terminal: false,
+            truncated: false,
         });
     }
     agent

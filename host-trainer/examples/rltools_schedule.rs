@@ -122,6 +122,7 @@ fn main() {
             reward,
             next_obs: env.observe(),
             terminal: false,
+            truncated: false,
         });
         if step >= WARMUP {
             let sample = agent.sample(replay);

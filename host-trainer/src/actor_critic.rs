@@ -1,13 +1,14 @@
-//! DCP and DDPG as a training-loop [`Algorithm`]: act with exploration noise, store every step
-//! in the replay buffer, and after the warm-up run one critic step, one actor step (DCP's or
-//! DDPG's) and the soft target update per plant step.
+//! DCP, DDPG and TD3 as a training-loop [`Algorithm`]: act with exploration noise, store every
+//! step in the replay buffer, and after the warm-up run one critic step, one actor step (DCP's
+//! or DDPG's) and the soft target update per plant step. TD3 takes the actor step and the
+//! target update after every `policy_delay`-th critic step only.
 //!
 //! The machinery both share (networks, replay, normaliser, the Bellman step) is
 //! [`crate::agent`]; the two actor updates are [`crate::dcp`] and [`crate::ddpg`].
 
 use serde::{Deserialize, Serialize};
 
-use crate::agent::Agent;
+use crate::agent::{Agent, Critics};
 use crate::algo::{Algo, Algorithm, Means, Step};
 use crate::dcp::Dcp;
 use crate::ddpg::Ddpg;
@@ -27,9 +28,27 @@ enum ActorUpdate {
 impl ActorUpdate {
     fn of(config: &TrainConfig) -> ActorUpdate {
         match config.algo {
-            Algo::Ddpg => ActorUpdate::Ddpg(Ddpg::new(config.ddpg.clone())),
+            Algo::Ddpg | Algo::Td3 => ActorUpdate::Ddpg(Ddpg::new(config.ddpg.clone())),
             _ => ActorUpdate::Dcp(Dcp::new(config.dcp.clone(), config.agent.sigma)),
         }
+    }
+}
+
+/// How the run's critic learns: TD3's twin critics and smoothing, DCP's options, or DDPG's
+/// single critic.
+fn critics(config: &TrainConfig) -> Critics {
+    match config.algo {
+        Algo::Td3 => config.td3.critics(),
+        Algo::Dcp => config.dcp.critics(&config.td3),
+        _ => Critics::default(),
+    }
+}
+
+/// Critic updates per actor update: TD3's delay, else 1.
+fn policy_delay(config: &TrainConfig) -> u64 {
+    match config.algo {
+        Algo::Td3 => config.td3.policy_delay as u64,
+        _ => 1,
     }
 }
 
@@ -44,6 +63,9 @@ struct Streams {
     dropout: Rng,
     #[serde(with = "crate::checkpoint::rng")]
     proposals: Rng,
+    /// TD3's target-policy smoothing noise.
+    #[serde(with = "crate::checkpoint::rng")]
+    smoothing: Rng,
 }
 
 /// A DCP or DDPG learner.
@@ -52,6 +74,11 @@ pub struct ActorCritic {
     /// Networks, optimisers, normaliser, replay buffer.
     pub agent: Agent,
     streams: Streams,
+    /// Critic updates so far (TD3 updates the actor on every `policy_delay`-th).
+    updates: u64,
+    /// Set from the config (new run or resume), never saved.
+    #[serde(skip, default = "one")]
+    policy_delay: u64,
     /// Set from the config (new run or resume), never saved.
     #[serde(skip, default = "placeholder_update")]
     update: ActorUpdate,
@@ -63,6 +90,10 @@ pub struct ActorCritic {
     pending: Vec<f32>,
     #[serde(skip)]
     means: Means,
+}
+
+fn one() -> u64 {
+    1
 }
 
 fn placeholder_update() -> ActorUpdate {
@@ -84,7 +115,8 @@ impl ActorCritic {
     ) -> Result<ActorCritic, Error> {
         let seed = config.seed;
         let mut init = seed::stream(seed, "init");
-        let agent = Agent::new(config.agent.clone(), obs_dim, low, high, &mut init)?;
+        let mut agent = Agent::new(config.agent.clone(), obs_dim, low, high, &mut init)?;
+        agent.set_critics(critics(config), &mut init);
         Ok(ActorCritic {
             agent,
             streams: Streams {
@@ -92,7 +124,10 @@ impl ActorCritic {
                 replay: seed::stream(seed, "replay"),
                 dropout: seed::stream(seed, "dropout"),
                 proposals: seed::stream(seed, "proposals"),
+                smoothing: seed::stream(seed, "smoothing"),
             },
+            updates: 0,
+            policy_delay: policy_delay(config),
             update: ActorUpdate::of(config),
             noise: None,
             pending: Vec::new(),
@@ -100,18 +135,42 @@ impl ActorCritic {
         })
     }
 
-    /// The run's settings, after a checkpoint load.
-    pub fn configure(&mut self, config: &TrainConfig) {
+    /// The run's settings, after a checkpoint load. Fails if the config asks for twin critics
+    /// and the checkpoint has none, or the other way round.
+    pub fn configure(&mut self, config: &TrainConfig) -> Result<(), String> {
+        let critics = critics(config);
+        if critics.twin != self.agent.twin.is_some() {
+            return Err(format!(
+                "the config {} twin critics and the checkpoint {} them",
+                if critics.twin { "asks for" } else { "has no" },
+                if self.agent.twin.is_some() {
+                    "holds"
+                } else {
+                    "lacks"
+                }
+            ));
+        }
         self.agent.config = config.agent.clone();
+        self.agent.critics = critics;
         self.update = ActorUpdate::of(config);
+        self.policy_delay = policy_delay(config);
+        Ok(())
     }
 
-    /// One critic step and one actor step on the same minibatch, then the soft target update.
+    /// One critic step and one actor step on the same minibatch, then the soft target update
+    /// (TD3: the actor step and the target update on every `policy_delay`-th call only).
     fn update(&mut self) -> Result<(), &'static str> {
         let s = self.agent.sample(&mut self.streams.replay);
-        let critic_loss = self.agent.critic_update(&s, &mut self.streams.dropout);
+        let streams = &mut self.streams;
+        let critic_loss =
+            (self.agent).critic_update_with(&s, &mut streams.dropout, Some(&mut streams.smoothing));
         if !critic_loss.is_finite() {
             return Err("critic loss");
+        }
+        self.updates += 1;
+        if self.updates % self.policy_delay != 0 {
+            self.means.add(0, critic_loss);
+            return Ok(());
         }
         let (actor_loss, kept) = match &self.update {
             ActorUpdate::Dcp(d) => {
@@ -161,6 +220,7 @@ impl Algorithm for ActorCritic {
             reward: step.reward * self.agent.config.reward_scale,
             next_obs: step.next_obs.to_vec(),
             terminal: step.terminated,
+            truncated: step.truncated,
         });
         let due = (self.agent.config).updates_due(step.total_steps, self.agent.replay.len());
         for _ in 0..due {

@@ -33,6 +33,9 @@ pub enum Algo {
     Dcp,
     /// Deep Deterministic Policy Gradient.
     Ddpg,
+    /// Twin Delayed DDPG (TD3): DDPG with twin critics, delayed actor updates and target
+    /// smoothing.
+    Td3,
     /// Proximal Policy Optimisation (continuous Gaussian policy).
     Ppo,
     /// Deep Q-Network over 8 moves.
@@ -44,6 +47,7 @@ impl fmt::Display for Algo {
         f.write_str(match self {
             Algo::Dcp => "dcp",
             Algo::Ddpg => "ddpg",
+            Algo::Td3 => "td3",
             Algo::Ppo => "ppo",
             Algo::Dqn => "dqn",
         })
@@ -88,7 +92,7 @@ pub trait Algorithm {
     fn is_finite(&self) -> bool;
     /// The policy blob (what gets flashed).
     fn policy_blob(&self, label: &str) -> Result<Vec<u8>, Error>;
-    /// The critic blob, for algorithms with a Q(s, a) critic (DCP and DDPG).
+    /// The critic blob, for algorithms with a Q(s, a) critic (DCP, DDPG and TD3; Q1 of twins).
     fn critic_blob(&self, label: &str) -> Option<Result<Vec<u8>, Error>>;
 }
 
@@ -96,7 +100,7 @@ pub trait Algorithm {
 /// Settings are not part of it; they come back from the run's config on resume.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub enum Learner {
-    /// DCP and DDPG: one actor-critic machinery, two actor updates.
+    /// DCP, DDPG and TD3: one actor-critic machinery, two actor updates.
     ActorCritic(Box<ActorCritic>),
     /// PPO.
     Ppo(Box<Ppo>),
@@ -113,7 +117,7 @@ impl Learner {
         high: &[f32],
     ) -> Result<Learner, Error> {
         Ok(match config.algo {
-            Algo::Dcp | Algo::Ddpg => {
+            Algo::Dcp | Algo::Ddpg | Algo::Td3 => {
                 Learner::ActorCritic(Box::new(ActorCritic::new(config, obs_dim, low, high)?))
             }
             Algo::Ppo => Learner::Ppo(Box::new(Ppo::new(config, obs_dim, low, high)?)),
@@ -124,8 +128,12 @@ impl Learner {
     /// Checks the algorithm's own settings.
     pub fn validate(config: &TrainConfig) -> Result<(), Error> {
         match config.algo {
-            Algo::Dcp => config.dcp.validate(),
+            Algo::Dcp => {
+                config.dcp.validate()?;
+                config.td3.validate()
+            }
             Algo::Ddpg => Ok(()),
+            Algo::Td3 => config.td3.validate(),
             Algo::Ppo => config.ppo.validate(),
             Algo::Dqn => config.dqn.validate(),
         }
@@ -135,7 +143,7 @@ impl Learner {
     /// holds another algorithm's state than the config names.
     pub fn configure(&mut self, config: &TrainConfig) -> Result<(), String> {
         match (self, config.algo) {
-            (Learner::ActorCritic(l), Algo::Dcp | Algo::Ddpg) => l.configure(config),
+            (Learner::ActorCritic(l), Algo::Dcp | Algo::Ddpg | Algo::Td3) => l.configure(config)?,
             (Learner::Ppo(l), Algo::Ppo) => l.configure(config),
             (Learner::Dqn(l), Algo::Dqn) => l.configure(config),
             (_, algo) => return Err(format!("its state is not the state of a {algo} run")),

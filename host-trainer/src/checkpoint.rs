@@ -7,7 +7,7 @@
 //! that was interrupted: a run of N episodes and a run stopped at k and resumed to N produce
 //! the same blob bytes (tested in `tests/train_runs.rs`).
 //!
-//! Layout: the 8 bytes `DCPCKPT4` (magic and version), the postcard encoding of
+//! Layout: the 8 bytes `DCPCKPT5` (magic and version), the postcard encoding of
 //! [`Checkpoint`], then the CRC-32 (policy-core's, little-endian) of everything before it, so a
 //! flipped bit anywhere is a clear error rather than a silently different run. The config and
 //! the plant are stored as TOML text: the file stays readable by `export` even if a config field
@@ -26,7 +26,7 @@ use crate::train::EpisodeRow;
 use crate::Error;
 
 /// Magic and format version at the start of every checkpoint file.
-pub const MAGIC: &[u8; 8] = b"DCPCKPT4";
+pub const MAGIC: &[u8; 8] = b"DCPCKPT5";
 /// Bytes of the trailing checksum.
 const CRC_LEN: usize = 4;
 
@@ -161,12 +161,12 @@ fn wrong_magic(bytes: &[u8]) -> String {
     let found = &bytes[..bytes.len().min(MAGIC.len())];
     if found.starts_with(b"DCPCKPT") {
         format!(
-            "written by an older build (format {:?}); this build reads DCPCKPT4 (one state per algorithm, with a checksum and the plant): export it with the build that wrote it",
+            "written by an older build (format {:?}); this build reads DCPCKPT5 (one state per algorithm, with a checksum, the plant, and the replay's episode ends and twin critics of issue 13): export it with the build that wrote it",
             String::from_utf8_lossy(found)
         )
     } else {
         format!(
-            "not a checkpoint: expected the magic \"DCPCKPT4\", found {:?}",
+            "not a checkpoint: expected the magic \"DCPCKPT5\", found {:?}",
             String::from_utf8_lossy(found)
         )
     }

@@ -341,6 +341,7 @@ impl Algorithm for Dqn {
             reward: step.reward * self.shared.reward_scale,
             next_obs: step.next_obs.to_vec(),
             terminal: step.terminated,
+            truncated: step.truncated,
         });
         for _ in 0..self.shared.updates_due(step.total_steps, self.replay.len()) {
             self.update()?;

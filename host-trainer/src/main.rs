@@ -1,7 +1,7 @@
 //! `host-trainer`: train DCP or DDPG on a firmware-sim plant, export the blob, evaluate it.
 //!
 //! ```text
-//! host-trainer train [--task nav-walls] [--algo dcp|ddpg|ppo|dqn] [--hidden 4x48] [--reward gr] [--episodes 3000]
+//! host-trainer train [--task nav-walls] [--algo dcp|ddpg|td3|ppo|dqn] [--hidden 4x48] [--reward gr] [--episodes 3000]
 //!                    [--t 16] [--sigma 0.2] [--noise gaussian|ou] [--seed 0] [--out runs] [--config FILE] [--resume RUN_DIR]
 //! host-trainer eval --blob FILE [--task nav-walls] [--episodes 100] [--seed 0] [--json FILE]
 //! host-trainer export --run RUN_DIR [--encoding f32|f16|int8]

@@ -60,8 +60,10 @@ pub struct TrainConfig {
     pub agent: agent::Config,
     /// DCP settings (used when `algo = "dcp"`).
     pub dcp: dcp::Config,
-    /// DDPG settings (used when `algo = "ddpg"`).
+    /// DDPG settings (used when `algo = "ddpg"` or `"td3"`).
     pub ddpg: ddpg::Config,
+    /// TD3 settings (used when `algo = "td3"`; DCP's `target_smoothing` takes its σ and clip).
+    pub td3: ddpg::Td3Config,
     /// PPO settings (used when `algo = "ppo"`).
     pub ppo: ppo::Config,
     /// DQN settings (used when `algo = "dqn"`).
@@ -109,6 +111,7 @@ impl Default for TrainConfig {
             agent: agent::Config::default(),
             dcp: dcp::Config::default(),
             ddpg: ddpg::Config::default(),
+            td3: ddpg::Td3Config::default(),
             ppo: ppo::Config::default(),
             dqn: dqn::Config::default(),
         }

@@ -4,7 +4,7 @@
 use host_trainer::agent::Hidden;
 use host_trainer::algo::Learner;
 use host_trainer::checkpoint::Checkpoint;
-use host_trainer::dcp::Variant;
+use host_trainer::dcp::{Scoring, StateWeights, Variant};
 use host_trainer::ddpg::ActorGradient;
 use host_trainer::run_dir::{self, RunDir};
 use host_trainer::train::{self, Algo, TrainConfig, Trainer};
@@ -87,6 +87,200 @@ fn dcp_variants_train() {
         );
         std::fs::remove_dir_all(&out).expect("cleanup");
     }
+}
+
+#[test]
+fn td3_smoke_run_has_twin_critics_delayed_actor_updates_and_exports_q1() {
+    let out = scratch("td3-smoke");
+    let (trainer, run) = train_to_end(TrainConfig::smoke(Algo::Td3, 2), &out);
+    trainer.export(&run).expect("export");
+    let stat = |name| trainer.last_stat(name);
+    assert!(
+        stat("critic_loss").is_some_and(f32::is_finite)
+            && stat("actor_loss").is_some_and(f32::is_finite),
+        "{:?}",
+        trainer.metrics.last()
+    );
+    assert_eq!(stat("dcp_kept"), None, "TD3 has DDPG's columns");
+    let Learner::ActorCritic(ac) = &trainer.learner else {
+        panic!("TD3 is an actor-critic learner")
+    };
+    let twin = ac.agent.twin.as_ref().expect("twin critics");
+    assert_ne!(twin.critic, ac.agent.critic, "Q2 is its own network");
+    let critic = std::fs::read(run.file(run_dir::CRITIC)).expect("critic blob");
+    let label = trainer.config.blob_label();
+    assert_eq!(
+        critic,
+        ac.agent.critic_blob(&label).expect("Q1 blob"),
+        "Q1 is exported"
+    );
+    // Delayed updates: the actor's Adam took half as many steps as the critics'.
+    assert_eq!(ac.agent.actor_opt.steps * 2, ac.agent.critic_opt.steps);
+    assert_eq!(twin.critic_opt.steps, ac.agent.critic_opt.steps);
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+/// Every option of issue 13 on a tiny DCP run (and TD3), each changing one setting of the
+/// paper's DCP.
+fn issue13_options() -> Vec<(&'static str, TrainConfig)> {
+    type Edit = fn(&mut TrainConfig);
+    let edits: [(&str, Edit); 10] = [
+        ("softmax", |c| c.dcp.state_weights = StateWeights::Softmax),
+        ("exp", |c| c.dcp.state_weights = StateWeights::Exp),
+        ("binary", |c| c.dcp.state_weights = StateWeights::Binary),
+        ("target", |c| c.dcp.scoring = Scoring::Target),
+        ("twin-min", |c| c.dcp.scoring = Scoring::TwinMin),
+        ("twin-min-smoothed", |c| {
+            c.dcp.scoring = Scoring::TwinMin;
+            c.dcp.target_smoothing = true;
+        }),
+        ("n-step-3", |c| c.dcp.n_step = 3),
+        ("cem", |c| c.dcp.cem = true),
+        ("trust-region", |c| {
+            // A bound small enough to bind within a 4-episode run.
+            c.dcp.trust_region = true;
+            c.dcp.trust_region_kl = 1e-6;
+        }),
+        ("td3", |c| c.algo = Algo::Td3),
+    ];
+    edits
+        .into_iter()
+        .map(|(name, edit)| {
+            let mut c = TrainConfig::smoke(Algo::Dcp, 5);
+            c.episodes = 4;
+            edit(&mut c);
+            (name, c)
+        })
+        .collect()
+}
+
+/// Each option changes the run, the same seed gives the same blob bytes (actor and critic),
+/// and stopping at the checkpoint and resuming equals the uninterrupted run.
+#[test]
+fn issue13_options_are_deterministic_and_resume_exactly() {
+    let out = scratch("issue13");
+    let blobs = |t: &Trainer| {
+        let critic = t
+            .algorithm()
+            .critic_blob("x")
+            .expect("a critic")
+            .expect("blob");
+        (t.policy_blob("x").expect("blob"), critic)
+    };
+    let paper = {
+        let dir = out.join("paper");
+        std::fs::create_dir_all(&dir).expect("dir");
+        let mut c = TrainConfig::smoke(Algo::Dcp, 5);
+        c.episodes = 4;
+        blobs(&train_to_end(c, &dir).0)
+    };
+    for (name, config) in issue13_options() {
+        let dir = |sub: &str| {
+            let d = out.join(format!("{name}-{sub}"));
+            std::fs::create_dir_all(&d).expect("dir");
+            d
+        };
+        let (whole, _) = train_to_end(config.clone(), &dir("a"));
+        let (again, _) = train_to_end(config.clone(), &dir("b"));
+        assert_eq!(
+            blobs(&whole),
+            blobs(&again),
+            "{name}: same seed, same bytes"
+        );
+        assert_ne!(blobs(&whole).0, paper.0, "{name} changes the run");
+
+        let mut first = config.clone();
+        first.episodes = 2;
+        let (_, run) = train_to_end(first, &dir("parts"));
+        let path = run.file(run_dir::CHECKPOINT);
+        let mut resumed = Trainer::resume(Checkpoint::load(&path).expect("load"), Some(4), &path)
+            .expect("resume");
+        train::run(&mut resumed, &run, &mut |_, _| {
+            std::ops::ControlFlow::Continue(())
+        })
+        .expect("resumed training");
+        assert_eq!(blobs(&resumed), blobs(&whole), "{name}: resume");
+        let bits = |t: &Trainer| {
+            (t.metrics.iter())
+                .map(|r| r.stats.iter().map(|v| v.to_bits()).collect::<Vec<_>>())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&resumed), bits(&whole), "{name}: metrics");
+    }
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+/// A checkpoint of a run with twin critics cannot continue under a config without them.
+#[test]
+fn a_twin_critic_checkpoint_refuses_a_config_without_twins() {
+    let out = scratch("twin-mismatch");
+    let mut config = TrainConfig::smoke(Algo::Dcp, 3);
+    config.dcp.scoring = Scoring::TwinMin;
+    config.episodes = 1;
+    let (trainer, _) = train_to_end(config, &out);
+    let mut learner = trainer.checkpoint().learner;
+    let mut plain = TrainConfig::smoke(Algo::Dcp, 3);
+    plain.episodes = 1;
+    let err = learner
+        .configure(&plain)
+        .expect_err("twin state, no twin config");
+    assert!(err.contains("twin critics"), "{err}");
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+/// The committed screening files of issue 13 (`experiments/dcp-variants/`): each is the
+/// pinwheel layout plus exactly one DCP option (or none, for the baselines), and each loads,
+/// validates and trains (2 episodes of the smoke network).
+#[test]
+fn dcp_variant_files_each_set_one_option_and_train() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../experiments/dcp-variants");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .expect("experiments/dcp-variants")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    assert!(
+        files.len() >= 11,
+        "nine variants and two baselines: {files:?}"
+    );
+    let out = scratch("variant-files");
+    for path in files {
+        let name = path
+            .file_stem()
+            .expect("hand-made test value")
+            .to_string_lossy()
+            .into_owned();
+        let mut config = TrainConfig::from_file(&path).expect("loads");
+        config.validate().expect("valid");
+        let defaults = TrainConfig {
+            task: config.task.clone(),
+            ..TrainConfig::default()
+        };
+        if name.starts_with("baseline") {
+            assert_eq!(config, defaults, "{name}: only the task");
+            continue;
+        }
+        assert_eq!(
+            config.task, "nav-walls",
+            "{name}: screening is on the pinwheel"
+        );
+        assert_ne!(config.dcp, defaults.dcp, "{name}: one DCP option set");
+        assert_eq!(
+            (&config.agent, config.episodes, config.algo),
+            (&defaults.agent, defaults.episodes, Algo::Dcp),
+            "{name}: nothing else changed"
+        );
+        let smoke = TrainConfig::smoke(Algo::Dcp, 0);
+        (config.agent, config.episodes, config.dcp.t) = (smoke.agent, 2, smoke.dcp.t);
+        config.eval_episodes = smoke.eval_episodes;
+        let dir = out.join(&name);
+        std::fs::create_dir_all(&dir).expect("dir");
+        let (trainer, _) = train_to_end(config, &dir);
+        let stat = trainer.last_stat("critic_loss").expect("critic_loss");
+        assert!(stat.is_finite(), "{name}: updates ran");
+    }
+    std::fs::remove_dir_all(&out).expect("cleanup");
 }
 
 const ALGOS: [Algo; 4] = [Algo::Dcp, Algo::Ddpg, Algo::Ppo, Algo::Dqn];

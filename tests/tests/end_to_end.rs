@@ -8,7 +8,7 @@ use host_trainer::train::{self, Algo, TrainConfig, Trainer};
 
 #[test]
 fn trained_blobs_of_every_algorithm_run_in_the_firmware_loop() {
-    for algo in [Algo::Dcp, Algo::Ddpg, Algo::Ppo, Algo::Dqn] {
+    for algo in [Algo::Dcp, Algo::Ddpg, Algo::Td3, Algo::Ppo, Algo::Dqn] {
         trained_blob_runs_in_the_firmware_loop(algo);
     }
 }
