@@ -28,6 +28,7 @@ pub mod json_report;
 pub mod metrics;
 pub mod nav;
 pub mod oracle;
+pub mod refine;
 pub mod scenario;
 pub mod seed;
 pub mod sensor;

@@ -22,6 +22,7 @@ use firmware_sim::harness::{
 };
 use firmware_sim::json_report::JsonReportWriter;
 use firmware_sim::metrics::EpisodeRecord;
+use firmware_sim::refine::RefiningPolicy;
 use firmware_sim::scenario::Scenario;
 use firmware_sim::sensor::SensorModel;
 use firmware_sim::slots::boot_slots;
@@ -61,6 +62,14 @@ struct RunArgs {
     /// Slot B's image (`host-trainer export --image bin --slot b`).
     #[arg(long, conflicts_with = "controller")]
     slot_b: Option<PathBuf>,
+    /// The actor's critic blob (critic.postcard): with --refine, each action is DCP's compare
+    /// step on the device (policy-core's `compare::refine_model`).
+    #[arg(long, requires = "refine", conflicts_with = "controller")]
+    critic: Option<PathBuf>,
+    /// T,SIGMA: before each action, T proposals around the actor's unit action with noise σ,
+    /// the best under the critic replacing it only if its Q is higher (needs --critic).
+    #[arg(long, requires = "critic", value_parser = parse_refine)]
+    refine: Option<(usize, f32)>,
     /// With --slot-a/--slot-b: the firmware's scratch width; a blob with a wider layer is refused
     /// as the chip refuses it [default: 64, the example firmware's].
     #[arg(long, default_value_t = firmware_sim::slots::FIRMWARE_SCRATCH_WIDTH)]
@@ -161,6 +170,8 @@ fn run(args: &RunArgs) -> Result<bool> {
     let slots = [&args.slot_a, &args.slot_b].map(|p| read_slot(p.as_deref()));
     let [slot_a, slot_b] = slots;
     let (slot_a, slot_b) = (slot_a?, slot_b?);
+    let critic = read_critic(args)?;
+    let mut counts = None;
     let (mut controller, boot_error) = if args.slot_a.is_some() || args.slot_b.is_some() {
         let boot = boot_slots(
             &slot_a,
@@ -170,6 +181,20 @@ fn run(args: &RunArgs) -> Result<bool> {
         )?;
         print!("{}", boot.describe());
         (boot.controller, boot.error)
+    } else if let (Some(bytes), Some(critic), Some((t, sigma))) =
+        (bytes.as_deref(), critic.as_deref(), args.refine)
+    {
+        let plant = PlantSizes::of(&scenario)?;
+        match firmware_sim::harness::boot(bytes, &plant) {
+            Ok(policy) => {
+                let refining =
+                    RefiningPolicy::new(policy.model().clone(), critic, t, sigma, args.seed)
+                        .context("cannot run the compare step")?;
+                counts = Some(refining.counts());
+                (Box::new(refining) as Box<dyn Controller>, None)
+            }
+            Err(_) => boot_or_safe_state(bytes, &plant),
+        }
     } else {
         controller(args, bytes.as_deref(), &scenario)?
     };
@@ -181,6 +206,10 @@ fn run(args: &RunArgs) -> Result<bool> {
         report.mark_boot_failure(e);
     }
     print!("{}", report.summary());
+    if let Some((ticks, replaced)) = counts.map(|c| c.get()) {
+        let share = replaced as f64 / ticks.max(1) as f64;
+        println!("  compare step                      a proposal replaced the actor's action on {replaced} of {ticks} ticks ({share:.3})");
+    }
     outputs.finish(&report)?;
     report_failures(&report, args.blob.as_deref());
     Ok(report.pass.passed)
@@ -217,6 +246,16 @@ fn eval_config(args: &RunArgs) -> Result<EvalConfig> {
     })
 }
 
+/// The bytes of `--critic`, if given.
+fn read_critic(args: &RunArgs) -> Result<Option<Vec<u8>>> {
+    args.critic
+        .as_ref()
+        .map(|path| {
+            files::read_blob(path).with_context(|| format!("cannot read critic {}", path.display()))
+        })
+        .transpose()
+}
+
 /// The bytes of `--blob`, if given.
 fn read_blob(args: &RunArgs) -> Result<Option<Vec<u8>>> {
     args.blob
@@ -225,6 +264,13 @@ fn read_blob(args: &RunArgs) -> Result<Option<Vec<u8>>> {
             files::read_blob(path).with_context(|| format!("cannot read blob {}", path.display()))
         })
         .transpose()
+}
+
+fn parse_refine(s: &str) -> Result<(usize, f32), String> {
+    let parsed = s
+        .split_once(',')
+        .and_then(|(t, sigma)| Some((t.trim().parse().ok()?, sigma.trim().parse().ok()?)));
+    parsed.ok_or_else(|| format!("expected T,SIGMA such as 16,0.2, found {s:?}"))
 }
 
 /// The bytes of a slot image, or none (an empty slot) when the slot is not given.

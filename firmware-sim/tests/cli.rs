@@ -530,3 +530,70 @@ fn slot_images_boot_like_the_firmware() {
         &["scratch width"],
     );
 }
+
+/// `--critic FILE --refine T,SIGMA` runs DCP's compare step before each action and reports how
+/// often a proposal won; T = 0 changes nothing; a critic of the wrong kind or size, a missing
+/// --critic or a malformed T,SIGMA is bad input.
+#[test]
+fn the_compare_step_runs_in_the_loop() {
+    let dir = scratch("refine");
+    let golden = concat!(env!("CARGO_MANIFEST_DIR"), "/../policy-core/tests/golden/");
+    let actor = format!("{golden}actor_2x32.postcard");
+    let critic = format!("{golden}critic_2x32.postcard");
+    let plain = run(&["--blob", &actor, "--episodes", "3"]);
+    let same = run(&[
+        "--blob",
+        &actor,
+        "--critic",
+        &critic,
+        "--refine",
+        "0,0.2",
+        "--episodes",
+        "3",
+    ]);
+    let text = |o: &Output| String::from_utf8_lossy(&o.stdout).into_owned();
+    let metrics = |t: &str| -> String {
+        t.lines()
+            .filter(|l| l.contains("settled error") || l.contains("stuck at margin"))
+            .collect()
+    };
+    assert_eq!(
+        metrics(&text(&plain)),
+        metrics(&text(&same)),
+        "T = 0 is the actor itself"
+    );
+    assert!(text(&same).contains("replaced the actor's action on 0 of 600 ticks"));
+    let refined = run(&[
+        "--blob",
+        &actor,
+        "--critic",
+        &critic,
+        "--refine",
+        "16,0.2",
+        "--episodes",
+        "3",
+    ]);
+    assert!(
+        text(&refined).contains("compare T 16"),
+        "{}",
+        text(&refined)
+    );
+    assert!(text(&refined).contains("replaced the actor's action on"));
+
+    assert_bad_input(
+        &run(&["--blob", &actor, "--refine", "4,0.2"]),
+        &["--critic"],
+    );
+    assert_bad_input(
+        &run(&["--blob", &actor, "--critic", &critic, "--refine", "4"]),
+        &["T,SIGMA"],
+    );
+    let wrong_kind = run(&["--blob", &actor, "--critic", &actor, "--refine", "4,0.2"]);
+    assert_eq!(wrong_kind.status.code(), Some(2), "{}", stderr(&wrong_kind));
+    assert!(
+        stderr(&wrong_kind).contains("wrong model kind"),
+        "{}",
+        stderr(&wrong_kind)
+    );
+    drop(dir);
+}

@@ -7,7 +7,8 @@
 
 use rand_core::Rng;
 
-use crate::{Critic, Policy};
+use crate::model::{Model, Scratch};
+use crate::{Critic, Error, Policy};
 
 /// The outcome of one compare step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -120,4 +121,77 @@ where
     }
     best.action = policy.bounds.scale(&best.unit);
     best
+}
+
+/// [`refine`] for runtime models: an actor and a critic of any shape, straight from their blob
+/// bytes (flash), with a caller's scratch. The same proposals, order and comparisons as
+/// [`refine`], so on the same weights and random stream it returns the same bits.
+///
+/// Errors: `actor` is not an actor, `critic` not a critic, or their sizes do not fit `obs`, `A`
+/// (the critic takes the observation and the actor's `A` actions) or the scratch.
+///
+/// ```
+/// use policy_core::compare::{refine, refine_model};
+/// use policy_core::model::{Model, Scratch};
+/// use policy_core::{Critic, Policy};
+/// use rand_core::{Infallible, TryRng};
+/// # struct Lcg(u64);
+/// # impl TryRng for Lcg {
+/// #     type Error = Infallible;
+/// #     fn try_next_u32(&mut self) -> Result<u32, Infallible> { Ok((self.try_next_u64()? >> 32) as u32) }
+/// #     fn try_next_u64(&mut self) -> Result<u64, Infallible> { self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407); Ok(self.0) }
+/// #     fn try_fill_bytes(&mut self, d: &mut [u8]) -> Result<(), Infallible> { d.fill(0); Ok(()) }
+/// # }
+/// static ACTOR: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+/// static CRITIC: &[u8] = include_bytes!("../tests/golden/critic_2x32.postcard");
+/// let (actor, critic) = (Model::from_blob(ACTOR).unwrap(), Model::from_blob(CRITIC).unwrap());
+/// let mut scratch = Scratch::<64>::new();
+/// let r = refine_model::<2, 64, _>(&actor, &critic, &[3.0, -1.0], &mut scratch, &mut Lcg(7), 16, 0.2)
+///     .unwrap();
+/// let policy = Policy::<2, 32, 1, 2>::from_blob(ACTOR).unwrap();
+/// let q = Critic::<2, 2, 32, 1>::from_blob(CRITIC).unwrap();
+/// assert_eq!(r, refine(&policy, &q, &[3.0, -1.0], &mut Lcg(7), 16, 0.2));
+/// ```
+#[allow(clippy::too_many_arguments)] // refine's arguments, plus the runtime's scratch
+pub fn refine_model<const A: usize, const W: usize, R>(
+    actor: &Model<'_>,
+    critic: &Model<'_>,
+    obs: &[f32],
+    scratch: &mut Scratch<W>,
+    rng: &mut R,
+    t: usize,
+    sigma: f32,
+) -> Result<Refined<A>, Error>
+where
+    R: Rng + ?Sized,
+{
+    let mut a0 = [0.0; A];
+    actor.act_unit(obs, scratch, &mut a0)?;
+    let q0 = critic.q(obs, &a0, scratch)?;
+    let mut best = Refined {
+        action: [0.0; A],
+        unit: a0,
+        advantage: 0.0,
+        winner: 0,
+    };
+    if sigma.is_finite() && sigma > 0.0 {
+        for winner in 1..=t {
+            let mut unit = a0;
+            for u in &mut unit {
+                *u = (*u + sigma * standard_normal(rng)).clamp(-1.0, 1.0);
+            }
+            let advantage = critic.q(obs, &unit, scratch)? - q0;
+            if advantage > best.advantage {
+                best = Refined {
+                    action: [0.0; A],
+                    unit,
+                    advantage,
+                    winner,
+                };
+            }
+        }
+    }
+    best.action = best.unit;
+    actor.scale(&mut best.action);
+    Ok(best)
 }

@@ -373,7 +373,13 @@ impl<'a> Model<'a> {
     }
 
     /// Maps a unit-box action into the bounds, as [`ActionBounds::scale`](crate::ActionBounds::scale).
-    fn scale(&self, action: &mut [f32]) {
+    /// Maps an actor's unit-box action (as [`Model::act_unit`] returns it) into the blob's
+    /// bounds in place, as [`Model::act`] does: a non-finite component becomes the middle of
+    /// its range. No effect on a critic; a discrete policy's bounds are its table's.
+    pub fn scale(&self, action: &mut [f32]) {
+        if self.header.kind == ModelKind::Critic {
+            return;
+        }
         let a = self.layout.actions;
         let (low, high) = (
             self.slice(self.layout.bounds, a),

@@ -94,3 +94,52 @@ fn standard_normal_has_unit_moments() {
     assert!((var - 1.0).abs() < 0.02, "{var}");
     assert!(xs.iter().all(|x| x.is_finite()));
 }
+
+/// The runtime compare step (actor and critic straight from their blob bytes) returns what the
+/// compiled one returns, bit for bit: same proposals, same comparisons, same scaled action.
+#[test]
+fn refine_model_equals_the_compiled_refine() {
+    use crate::support::blob_of;
+    use policy_core::compare::refine_model;
+    use policy_core::model::{Model, Scratch};
+    let mut scratch = Scratch::<64>::new();
+    for seed in 0..40u64 {
+        let (policy, critic) = models(seed, seed % 2 == 0);
+        let (pb, cb) = (blob_of(&policy, "actor"), blob_of(&critic, "critic"));
+        let (actor_m, critic_m) = (
+            Model::from_blob(&pb).expect("actor"),
+            Model::from_blob(&cb).expect("critic"),
+        );
+        let mut obs_rng = SplitMix64(seed);
+        for t in [0, 1, 4, 16] {
+            let obs = [8.0 * obs_rng.symmetric(), 8.0 * obs_rng.symmetric()];
+            let want = refine(&policy, &critic, &obs, &mut SplitMix64(seed + 99), t, 0.2);
+            let got = refine_model::<2, 64, _>(
+                &actor_m,
+                &critic_m,
+                &obs,
+                &mut scratch,
+                &mut SplitMix64(seed + 99),
+                t,
+                0.2,
+            )
+            .expect("refine_model");
+            assert_eq!(got.winner, want.winner, "seed {seed} t {t}");
+            assert_eq!(got.unit.map(f32::to_bits), want.unit.map(f32::to_bits));
+            assert_eq!(got.action.map(f32::to_bits), want.action.map(f32::to_bits));
+            assert_eq!(got.advantage.to_bits(), want.advantage.to_bits());
+        }
+    }
+    // Kinds and sizes that do not fit are errors, not panics.
+    let (policy, critic) = models(1, true);
+    let (pb, cb) = (blob_of(&policy, "actor"), blob_of(&critic, "critic"));
+    let (a, c) = (
+        Model::from_blob(&pb).expect("a"),
+        Model::from_blob(&cb).expect("c"),
+    );
+    let mut rng = SplitMix64(3);
+    assert!(refine_model::<2, 64, _>(&c, &a, &[0.0; 2], &mut scratch, &mut rng, 4, 0.2).is_err());
+    assert!(refine_model::<3, 64, _>(&a, &c, &[0.0; 2], &mut scratch, &mut rng, 4, 0.2).is_err());
+    let mut narrow = Scratch::<8>::new();
+    assert!(refine_model::<2, 8, _>(&a, &c, &[0.0; 2], &mut narrow, &mut rng, 4, 0.2).is_err());
+}
