@@ -13,4 +13,13 @@ fn main() {
     }
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed=memory.x");
+
+    // Feature `refine`: the number of proposals per tick, a build input like memory.x.
+    println!("cargo:rerun-if-env-changed=REFINE_T");
+    let t = env::var("REFINE_T").unwrap_or_else(|_| "16".into());
+    if t.parse::<u16>().is_err() {
+        eprintln!("REFINE_T={t}: expected a number of proposals, 0..=65535");
+        exit(1);
+    }
+    println!("cargo:rustc-env=REFINE_T={t}");
 }

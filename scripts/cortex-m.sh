@@ -23,6 +23,10 @@
 #   --out FILE      JSON report path (default: <target dir>/cortex-m-report.json).
 #   --install-only  install the toolchain and QEMU, then stop.
 #   --no-slot-cases skip the A/B slot cases (they run by default).
+#   --refine-run DIR a run folder with policy.postcard and critic.postcard: the *-refine*
+#                   variants run that actor with DCP's compare step on the device (feature
+#                   `refine`, the critic in the CRITIC region), T = 4 and 16 proposals per tick
+#                   (skipped without it).
 # Environment: PREFIX (private compiler prefix, default /opt/rust-web), RUST_WEB_VERSION (pin a
 # Debian rustc-web version), VARIANTS (space-separated subset of the names below), EXTRA_FEATURES
 # (firmware features, if any), QEMU_TIMEOUT (seconds, default 60), SIZE_OPT_LEVEL (opt-level of
@@ -50,10 +54,13 @@ OUT=$BASE/cortex-m-report.json
 BLOB=
 INSTALL_ONLY=0
 SLOT_CASES=1
+REFINE_RUN=
 QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
-# name:target:qemu machine:qemu cpu:blob[:profile]. blob: trained (= --blob) or
+# name:target:qemu machine:qemu cpu:blob[:profile[:refine T]]. blob: trained (= --blob) or
 # DEPTHxWIDTH-ACTIVATION (host-check gen), either with an optional -f16 or -int8 (re-encoded;
-# default f32). profile: a cargo profile of firmware/Cargo.toml, default release.
+# default f32), or refine-actor (--refine-run's policy). profile: a cargo profile of
+# firmware/Cargo.toml, default release. refine T: the firmware's feature `refine` with
+# REFINE_T=T, --refine-run's critic in its CRITIC region.
 M4F=thumbv7em-none-eabihf:mps2-an386:cortex-m4
 M3=thumbv7m-none-eabi:mps2-an385:cortex-m3
 ALL_VARIANTS=(
@@ -82,6 +89,9 @@ ALL_VARIANTS=(
   m3-6x64-relu-f16:$M3:6x64-relu-f16
   m3-6x64-relu-int8:$M3:6x64-relu-int8
   m4f-4x48-relu-int8-size:$M4F:4x48-relu-int8:release-size
+  m4f-refine-actor:$M4F:refine-actor
+  m4f-refine4:$M4F:refine-actor:release:4
+  m4f-refine16:$M4F:refine-actor:release:16
 )
 # The opt-level of each profile the variants use (firmware/Cargo.toml; release-size's is set
 # here, through cargo's CARGO_PROFILE_RELEASE_SIZE_OPT_LEVEL), for the report.
@@ -104,11 +114,17 @@ while [ $# -gt 0 ]; do
     --out) [ $# -ge 2 ] || die "--out needs a file"; OUT=$(realpath -m "$2"); shift 2 ;;
     --install-only) INSTALL_ONLY=1; shift ;;
     --no-slot-cases) SLOT_CASES=0; shift ;;
-    -h|--help) sed -n '2,33p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --refine-run) [ $# -ge 2 ] || die "--refine-run needs a run folder"; REFINE_RUN=$(realpath "$2"); shift 2 ;;
+    -h|--help) sed -n '2,36p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) die "unknown argument $1 (see --help)" ;;
   esac
 done
 [ -z "$BLOB" ] || [ -f "$BLOB" ] || die "--blob $BLOB: no such file"
+CRITIC_BLOB=
+if [ -n "$REFINE_RUN" ]; then
+  for f in policy critic; do [ -f "$REFINE_RUN/$f.postcard" ] || die "--refine-run $REFINE_RUN: no $f.postcard"; done
+  CRITIC_BLOB=$REFINE_RUN/critic.postcard
+fi
 case $PREFIX in ""|/|/usr|/usr/*|/opt|/bin|/etc|/home|/root) die "refusing PREFIX=$PREFIX (it is replaced on reinstall)" ;; esac
 command -v cargo >/dev/null || die "cargo (rustup) not found on PATH"
 SUDO=; [ "$(id -u)" = 0 ] || SUDO=sudo
@@ -221,6 +237,7 @@ blob_for() { # trained[-ENC] | DEPTHxWIDTH-ACTIVATION[-ENC] -> blob path (given,
   local which=$1 enc=f32
   case $which in *-f16|*-int8) enc=${which##*-}; which=${which%-*} ;; esac
   local out=$WORK/blobs/actor_$which-$enc.postcard
+  [ "$which" = refine-actor ] && { echo "$REFINE_RUN/policy.postcard"; return; }
   if [ "$which" = trained ]; then
     [ "$enc" = f32 ] && { echo "$BLOB"; return; }
     "$HC" encode "$BLOB" "$out" --encoding "$enc" >&2
@@ -238,7 +255,9 @@ FW_ENV=(env -u RUSTFLAGS -u CARGO_ENCODED_RUSTFLAGS -u CARGO_BUILD_RUSTFLAGS RUS
   CARGO_PROFILE_RELEASE_SIZE_OPT_LEVEL="$SIZE_OPT_LEVEL")
 QEMU_BASE=(qemu-system-arm -nographic -semihosting-config enable=on,target=native -icount shift=0)
 # The address of a slot (a or b) in a firmware ELF: memory.x's _slot_a / _slot_b symbols.
-slot_addr() { local a; a=$(nm "$1" | awk -v s="_slot_$2" '$3==s{print $1}'); [ -n "$a" ] || die "no _slot_$2 symbol in $1"; echo "0x$a"; }
+slot_addr() { # ELF a|b|critic -> memory.x's _slot_a, _slot_b or _critic address
+  local sym=_slot_$2; [ "$2" = critic ] && sym=_critic
+  local a; a=$(nm "$1" | awk -v s="$sym" '$3==s{print $1}'); [ -n "$a" ] || die "no $sym symbol in $1"; echo "0x$a"; }
 # run_qemu DIR MACHINE CPU [ADDR IMAGE]...: boots DIR/firmware.elf with each IMAGE loaded at its
 # ADDR (a flasher's job on a board); the firmware's output goes to DIR/firmware.log and the
 # plugin's counts to DIR/plugin.log (plugin_log is set for host-check). Returns QEMU's status.
@@ -259,16 +278,19 @@ run_qemu() {
 SELECTED=(${VARIANTS:-$(printf '%s\n' "${ALL_VARIANTS[@]}" | cut -d: -f1)})
 FAILED=(); JSONS=()
 for spec in "${ALL_VARIANTS[@]}"; do
-  IFS=: read -r name target machine cpu which profile <<<"$spec"
+  IFS=: read -r name target machine cpu which profile refine <<<"$spec"
   profile=${profile:-release}
   printf '%s\n' "${SELECTED[@]}" | grep -qx "$name" || continue
   case $which in trained|trained-*) [ -n "$BLOB" ] || { echo "=== $name: skipped (no --blob)"; continue; } ;; esac
+  case $which in refine-actor) [ -n "$REFINE_RUN" ] || { echo "=== $name: skipped (no --refine-run)"; continue; } ;; esac
+  features=${EXTRA_FEATURES:-}; refine_env=()
+  if [ -n "$refine" ]; then features=${features:+$features,}refine; refine_env=(REFINE_T="$refine"); fi
   dir=$WORK/variants/$name; mkdir -p "$dir"; rm -f "$dir"/*.log "$dir/resources.json"
   blob=$(blob_for "$which")
 
   step "$name: build ($target, profile $profile; no blob inside)"
-  if ! (cd "$ROOT/firmware" && "${FW_ENV[@]}" cargo build --profile "$profile" --locked -Zbuild-std=core \
-        --target "$target" ${EXTRA_FEATURES:+--features "$EXTRA_FEATURES"} 2>&1 \
+  if ! (cd "$ROOT/firmware" && "${FW_ENV[@]}" "${refine_env[@]}" cargo build --profile "$profile" --locked -Zbuild-std=core \
+        --target "$target" ${features:+--features "$features"} 2>&1 \
         | { grep -vE '^ +(Compiling|Downloaded|Downloading|Locking|Adding|Updating|Finished)' || true; } ); then
     FAILED+=("$name: build"); continue
   fi
@@ -279,8 +301,13 @@ for spec in "${ALL_VARIANTS[@]}"; do
 
   step "$name: run under QEMU ($machine, $cpu; $(basename "$blob") in slot A; timeout ${QEMU_TIMEOUT}s)"
   "$HC" image "$blob" "$dir/slot-a.bin" --sequence 1 >/dev/null
+  loads=("$(slot_addr "$dir/firmware.elf" a)" "$dir/slot-a.bin"); critic_args=()
+  if [ -n "$refine" ]; then
+    "$HC" image "$CRITIC_BLOB" "$dir/critic.bin" --sequence 1 >/dev/null
+    loads+=("$(slot_addr "$dir/firmware.elf" critic)" "$dir/critic.bin"); critic_args=(--critic "$CRITIC_BLOB")
+  fi
   set +e
-  run_qemu "$dir" "$machine" "$cpu" "$(slot_addr "$dir/firmware.elf" a)" "$dir/slot-a.bin"
+  run_qemu "$dir" "$machine" "$cpu" "${loads[@]}"
   rc=$?
   set -e
   if [ $rc != 0 ]; then
@@ -289,9 +316,9 @@ for spec in "${ALL_VARIANTS[@]}"; do
   fi
 
   step "$name: compare with policy-core on the host (bit-exact) and measure"
-  if ! "$HC" check "$blob" "$dir/firmware.log"; then FAILED+=("$name: actions differ from the host"); continue; fi
+  if ! "$HC" check "$blob" "$dir/firmware.log" "${critic_args[@]}"; then FAILED+=("$name: actions differ from the host"); continue; fi
   if ! "$HC" measure --variant "$name" --target "$target" --machine "$machine" --cpu "$cpu" --blob "$blob" --image "$dir/slot-a.bin" \
-        --profile "$profile" --opt-level "${OPT_LEVEL[$profile]}" --sizes "$dir/sizes.txt" --fw-log "$dir/firmware.log" "${plugin_log[@]}" --out "$dir/resources.json"; then
+        --profile "$profile" --opt-level "${OPT_LEVEL[$profile]}" --sizes "$dir/sizes.txt" --fw-log "$dir/firmware.log" "${plugin_log[@]}" "${critic_args[@]}" --out "$dir/resources.json"; then
     FAILED+=("$name: measurement"); continue
   fi
   JSONS+=("$dir/resources.json")
@@ -383,7 +410,7 @@ mkdir -p "$(dirname "$OUT")"
   --meta "qemu=$(qemu-system-arm --version | head -1)" \
   --meta "profile=release: opt-level 3, fat LTO, codegen-units 1, panic abort, -Zbuild-std=core; release-size: the same at opt-level $SIZE_OPT_LEVEL (per variant: the profile column)" \
   --meta "instructions=exact counts from a TCG plugin between fw_mark calls (mark cost subtracted)" \
-  --meta "command=${VARIANTS:+VARIANTS=\"$VARIANTS\" }${SIZE_OPT_LEVEL_SET:+SIZE_OPT_LEVEL=$SIZE_OPT_LEVEL }${EXTRA_FEATURES:+EXTRA_FEATURES=$EXTRA_FEATURES }bash scripts/cortex-m.sh${BLOB:+ --blob $BLOB}" \
+  --meta "command=${VARIANTS:+VARIANTS=\"$VARIANTS\" }${SIZE_OPT_LEVEL_SET:+SIZE_OPT_LEVEL=$SIZE_OPT_LEVEL }${EXTRA_FEATURES:+EXTRA_FEATURES=$EXTRA_FEATURES }bash scripts/cortex-m.sh${BLOB:+ --blob $BLOB}${REFINE_RUN:+ --refine-run $REFINE_RUN}" \
   "${JSONS[@]}"
 if [ ${#SLOT_JSONS[@]} -gt 0 ]; then
   echo "slot cases (M4F, release; boot = choosing and verifying, in instructions):"

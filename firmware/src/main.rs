@@ -28,6 +28,10 @@
 
 mod console;
 mod observations;
+#[cfg(feature = "refine")]
+mod proposals;
+#[cfg(feature = "refine")]
+mod refine;
 mod slots;
 mod stack;
 
@@ -43,12 +47,12 @@ use observations::OBSERVATIONS;
 use slots::slots;
 
 /// Observations the firmware's sensors give (x, y: the navigation task).
-const OBS: usize = 2;
+pub(crate) const OBS: usize = 2;
 /// Actions the firmware's actuators take (a step in x and y).
-const ACT: usize = 2;
+pub(crate) const ACT: usize = 2;
 /// Width of the activation scratch: the widest layer a blob may have to run here. It costs
 /// 2 x `W` x 4 bytes of RAM (512 B for 64); a wider blob is refused at boot (safe state).
-const W: usize = 64;
+pub(crate) const W: usize = 64;
 
 /// Arguments for the tanhf timing span: 64 points spread over [-3, 3], where hidden
 /// pre-activations of a trained actor mostly fall.
@@ -113,12 +117,24 @@ fn main() -> ! {
     let boot_stack = stack::used_below(sp);
     let model = booted.running.as_ref().map(|(_, model)| model);
 
+    #[cfg(feature = "refine")]
+    let mut refiner = match refine::Refiner::boot(slots::critic_region()) {
+        Ok(r) => r,
+        Err(e) => fail_critic(&e),
+    };
+    #[cfg(feature = "refine")]
+    Line::new("REFINE").dec(refine::T as u32).emit();
+
     stack::paint(sp);
     let mut actions = [[0.0f32; ACT]; OBSERVATIONS.len()];
     let t0 = ticks();
     for (obs, action) in OBSERVATIONS.iter().zip(&mut actions) {
         fw_mark(4);
         *action = control_step(model, black_box(obs), SCRATCH);
+        #[cfg(feature = "refine")]
+        if let Some(refined) = model.and_then(|m| refiner.step(m, obs, SCRATCH)) {
+            *action = refined;
+        }
         fw_mark(5);
     }
     let act_ticks = elapsed(t0);
@@ -277,6 +293,16 @@ fn calibrate() -> (u32, u32) {
         core::arch::asm!("1:", "subs {0}, {0}, #1", "bne 1b", inout(reg) TURNS => _, options(nomem, nostack));
     }
     (2 * TURNS, elapsed(t0))
+}
+
+/// Ends a run whose critic (feature `refine`) cannot be used, with policy-core's reason.
+#[cfg(feature = "refine")]
+fn fail_critic(e: &policy_core::Error) -> ! {
+    use core::fmt::Write;
+    let mut line = Line::new("FAIL critic: ");
+    let _ = write!(line, "{e}");
+    line.emit();
+    exit_failure()
 }
 
 /// Ends a run in which no slot could run (the `SLOT` lines above say why, with policy-core's

@@ -8,6 +8,10 @@ extern "C" {
     static _slot_a: u8;
     static _slot_b: u8;
     static _slot_size: u8;
+    #[cfg(feature = "refine")]
+    static _critic: u8;
+    #[cfg(feature = "refine")]
+    static _critic_size: u8;
 }
 
 /// Slots A and B as byte slices of flash.
@@ -21,5 +25,16 @@ pub fn slots() -> (&'static [u8], &'static [u8]) {
             core::slice::from_raw_parts(core::ptr::addr_of!(_slot_a), size),
             core::slice::from_raw_parts(core::ptr::addr_of!(_slot_b), size),
         )
+    }
+}
+
+/// The critic region (feature `refine`) as a byte slice of flash.
+#[cfg(feature = "refine")]
+pub fn critic_region() -> &'static [u8] {
+    // SAFETY: as in `slots`: memory.x places CRITIC in flash, outside every Rust object, and
+    // nothing writes it while the firmware runs.
+    unsafe {
+        let size = core::ptr::addr_of!(_critic_size) as usize;
+        core::slice::from_raw_parts(core::ptr::addr_of!(_critic), size)
     }
 }

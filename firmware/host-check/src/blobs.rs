@@ -131,6 +131,36 @@ pub fn actions(bytes: &[u8], observations: &[[f32; S]]) -> Result<Vec<[f32; A]>>
         .collect()
 }
 
+/// The actions the firmware built with feature `refine` computes: the compare step with `t`
+/// proposals at σ = 0.2 and the critic blob, one proposal stream (firmware/src/proposals.rs,
+/// included here) over the observations in order, as the firmware draws it.
+pub fn refined_actions(
+    actor: &[u8],
+    critic: &[u8],
+    observations: &[[f32; S]],
+    t: usize,
+) -> Result<Vec<[f32; A]>> {
+    use crate::proposals::{Proposals, SEED};
+    let (actor, critic) = (Model::from_blob(actor)?, Model::from_blob(critic)?);
+    let mut scratch = Box::new(Scratch::<MAX_WIDTH>::new());
+    let mut rng = Proposals(SEED);
+    observations
+        .iter()
+        .map(|obs| {
+            let r = policy_core::compare::refine_model::<A, MAX_WIDTH, _>(
+                &actor,
+                &critic,
+                obs,
+                &mut scratch,
+                &mut rng,
+                t,
+                0.2,
+            )?;
+            Ok(r.action)
+        })
+        .collect()
+}
+
 /// An actor blob of `shape` with the given hidden activation and deterministic random weights:
 /// one ChaCha8 stream per shape, derived from `seed`, so the same seed gives the same bytes on
 /// every machine. Written with policy-core's runtime writer: no compiled type is involved. The

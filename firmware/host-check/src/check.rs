@@ -21,8 +21,24 @@ pub struct Comparison {
 /// Compares every action the firmware printed with the host's; fails on any differing bit, on an
 /// observation that is not the shared list's, or on a missing case. With `print`, one line per case.
 pub fn compare(blob: &[u8], log: &FirmwareLog, print: bool) -> Result<Comparison> {
+    compare_with(blob, None, log, print)
+}
+
+/// [`compare`], for a firmware that may have run DCP's compare step (a `REFINE t` line): then
+/// the host recomputes it with the `critic` blob.
+pub fn compare_with(
+    blob: &[u8],
+    critic: Option<&[u8]>,
+    log: &FirmwareLog,
+    print: bool,
+) -> Result<Comparison> {
     log.require_success()?;
-    let host = blobs::actions(blob, &OBSERVATIONS)?;
+    let host = match (log.refine, critic) {
+        (None, None) => blobs::actions(blob, &OBSERVATIONS)?,
+        (Some(t), Some(critic)) => blobs::refined_actions(blob, critic, &OBSERVATIONS, t)?,
+        (Some(t), None) => bail!("the firmware ran the compare step (T = {t}): give --critic"),
+        (None, Some(_)) => bail!("--critic given but the firmware ran no compare step"),
+    };
     if log.observations.len() != OBSERVATIONS.len() || log.actions.len() != OBSERVATIONS.len() {
         bail!(
             "expected {} observations and actions from the firmware, found {} and {}",
@@ -118,6 +134,33 @@ mod tests {
             )
             .is_err());
         }
+    }
+
+    /// A firmware log of the compare step (`REFINE t`) is checked against the refined actions
+    /// and needs the critic; the plain actions do not pass for it.
+    #[test]
+    fn a_refining_firmware_is_checked_with_its_critic() {
+        let actor = include_bytes!("../../../policy-core/tests/golden/actor_2x32.postcard");
+        let critic = include_bytes!("../../../policy-core/tests/golden/critic_2x32.postcard");
+        let refined = blobs::refined_actions(actor, critic, &OBSERVATIONS, 16).unwrap();
+        let plain = blobs::actions(actor, &OBSERVATIONS).unwrap();
+        assert_ne!(refined, plain, "16 proposals change some action");
+        let log_of = |acts: &[[f32; 2]]| {
+            let mut out = String::from("REFINE 16\n");
+            for (k, (o, a)) in OBSERVATIONS.iter().zip(acts).enumerate() {
+                out += &format!(
+                    "OBS {k} {:08x} {:08x}\nACT {k} {:08x} {:08x}\n",
+                    o[0].to_bits(),
+                    o[1].to_bits(),
+                    a[0].to_bits(),
+                    a[1].to_bits()
+                );
+            }
+            FirmwareLog::parse(&(out + "DONE\n")).unwrap()
+        };
+        assert!(compare_with(actor, Some(critic), &log_of(&refined), false).is_ok());
+        assert!(compare_with(actor, Some(critic), &log_of(&plain), false).is_err());
+        assert!(compare_with(actor, None, &log_of(&refined), false).is_err());
     }
 
     #[test]

@@ -34,6 +34,9 @@ pub struct FirmwareLog {
     pub slots: BTreeMap<String, String>,
     /// `RUNNING A`, `RUNNING B` or `RUNNING safe`: the slot the firmware runs.
     pub running: Option<String>,
+    /// `REFINE t`: the firmware ran DCP's compare step with `t` proposals per tick (feature
+    /// `refine`).
+    pub refine: Option<usize>,
     /// The firmware reached its end.
     pub done: bool,
     /// `FAIL ...` lines.
@@ -113,6 +116,7 @@ impl FirmwareLog {
                     let rest = f.collect::<Vec<_>>().join(" ");
                     log.slots.insert(id.to_string(), rest);
                 }
+                Some("REFINE") => log.refine = Some(num(f.next(), line)? as usize),
                 Some("RUNNING") => log.running = f.next().map(str::to_string),
                 Some("DONE") => log.done = true,
                 Some("FAIL") => log.failures.push(line.to_string()),

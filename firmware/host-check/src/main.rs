@@ -6,7 +6,9 @@
 //! host-check encode IN OUT --encoding f32|f16|int8
 //!                                          re-encode an f32 blob (e.g. a trained one)
 //! host-check info BLOB                     print what the blob holds ("4x48 actor relu f32 v1")
-//! host-check check BLOB FW_LOG             recompute the firmware's actions; bit-exact or exit 1
+//! host-check check BLOB FW_LOG [--critic CRITIC]
+//!                                          recompute the firmware's actions (with the compare
+//!                                          step if it ran one); bit-exact or exit 1
 //! host-check measure --variant NAME --target T --machine M --cpu C --blob BLOB --image SLOT_BIN
 //!                    --profile PROFILE --opt-level LEVEL --sizes SIZE_A_TXT --fw-log LOG
 //!                    [--plugin-log LOG] --out JSON
@@ -31,6 +33,8 @@ mod log;
 mod measure;
 #[path = "../../src/observations.rs"]
 mod observations;
+#[path = "../../src/proposals.rs"]
+mod proposals;
 mod report;
 mod slots;
 
@@ -85,7 +89,8 @@ fn run(args: &[String]) -> Result<()> {
         }
         ("check", [blob, fw_log]) => {
             let log = FirmwareLog::parse(&read_text(fw_log)?)?;
-            let cmp = check::compare(&read(blob)?, &log, true)?;
+            let critic = flags.get("critic").map(|c| read(c)).transpose()?;
+            let cmp = check::compare_with(&read(blob)?, critic.as_deref(), &log, true)?;
             println!("MATCH: {} cases bit-exact with policy-core on the host", cmp.cases);
             Ok(())
         }
@@ -180,7 +185,8 @@ fn measure(flags: &BTreeMap<String, String>) -> Result<()> {
     let blob = read(blob_path)?;
     let info = BlobInfo::of(&blob)?;
     let log = FirmwareLog::parse(&read_text(flag(flags, "fw-log")?)?)?;
-    let cmp = check::compare(&blob, &log, false)?;
+    let critic = flags.get("critic").map(|c| read(c)).transpose()?;
+    let cmp = check::compare_with(&blob, critic.as_deref(), &log, false)?;
     let plugin = flags.get("plugin-log").map(|p| read_text(p)).transpose()?;
     let sizes = measure::parse_sizes(&read_text(flag(flags, "sizes")?)?);
     let variant = measure::Variant {

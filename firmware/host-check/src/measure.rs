@@ -144,6 +144,7 @@ pub fn measure(
             "boot": round(boot, 0), "boot_per_blob_byte": round(boot / blob_len as f64, 2),
             "mark_overhead": spans.get("overhead").map(|o| round(*o, 0)),
         },
+        "refine": log.refine,
         "check": { "cases": cmp.cases, "bit_exact": cmp.max_abs_diff == 0.0, "max_abs_diff": cmp.max_abs_diff },
     }))
 }

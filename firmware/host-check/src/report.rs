@@ -30,7 +30,13 @@ fn aim(v: &Value, what: &str, ptr: &str, limit: f64) -> Value {
 /// Evaluates the aims (reported, never asserted): instructions per MAC of every ReLU variant on
 /// the M4F against its encoding's limit, and flash and RAM of every int8 4x48 M4F firmware.
 pub fn aims(variants: &[Value]) -> Value {
-    let m4f = || variants.iter().filter(|v| v["target"] == M4F_TARGET);
+    // A firmware running the compare step (`refine`) does T + 1 critic passes per act: its
+    // instructions per actor MAC and its flash are not the plain policy's, so no aim applies.
+    let m4f = || {
+        variants
+            .iter()
+            .filter(|v| v["target"] == M4F_TARGET && v["refine"].is_null())
+    };
     let per_mac: Vec<Value> = m4f()
         .filter(|v| v["blob"]["activation"] == "relu")
         .filter_map(|v| {
