@@ -95,7 +95,32 @@ where
     let a0 = policy.act_unit(obs);
     let z = critic.normalizer.normalize(obs);
     let z = &z.data.0[0];
-    let q0 = critic.q_normalized(z, &a0);
+    let score = |unit: &[f32; A]| Ok::<f32, Error>(critic.q_normalized(z, unit));
+    // The compiled critic cannot fail.
+    let mut best = best_of(a0, rng, t, sigma, score).unwrap_or(Refined {
+        action: [0.0; A],
+        unit: a0,
+        advantage: 0.0,
+        winner: 0,
+    });
+    best.action = policy.bounds.scale(&best.unit);
+    best
+}
+
+/// The compare rule itself, for any critic: `t` proposals around `a0`, each replacing the best
+/// so far only when its Q beats it strictly (Q(a0) is the first incumbent). `action` is left
+/// for the caller to scale.
+fn best_of<const A: usize, R, E>(
+    a0: [f32; A],
+    rng: &mut R,
+    t: usize,
+    sigma: f32,
+    mut q: impl FnMut(&[f32; A]) -> Result<f32, E>,
+) -> Result<Refined<A>, E>
+where
+    R: Rng + ?Sized,
+{
+    let q0 = q(&a0)?;
     let mut best = Refined {
         action: [0.0; A],
         unit: a0,
@@ -108,7 +133,7 @@ where
             for u in &mut unit {
                 *u = (*u + sigma * standard_normal(rng)).clamp(-1.0, 1.0);
             }
-            let advantage = critic.q_normalized(z, &unit) - q0;
+            let advantage = q(&unit)? - q0;
             if advantage > best.advantage {
                 best = Refined {
                     action: [0.0; A],
@@ -119,8 +144,7 @@ where
             }
         }
     }
-    best.action = policy.bounds.scale(&best.unit);
-    best
+    Ok(best)
 }
 
 /// [`refine`] for runtime models: an actor and a critic of any shape, straight from their blob
@@ -167,30 +191,7 @@ where
 {
     let mut a0 = [0.0; A];
     actor.act_unit(obs, scratch, &mut a0)?;
-    let q0 = critic.q(obs, &a0, scratch)?;
-    let mut best = Refined {
-        action: [0.0; A],
-        unit: a0,
-        advantage: 0.0,
-        winner: 0,
-    };
-    if sigma.is_finite() && sigma > 0.0 {
-        for winner in 1..=t {
-            let mut unit = a0;
-            for u in &mut unit {
-                *u = (*u + sigma * standard_normal(rng)).clamp(-1.0, 1.0);
-            }
-            let advantage = critic.q(obs, &unit, scratch)? - q0;
-            if advantage > best.advantage {
-                best = Refined {
-                    action: [0.0; A],
-                    unit,
-                    advantage,
-                    winner,
-                };
-            }
-        }
-    }
+    let mut best = best_of(a0, rng, t, sigma, |unit| critic.q(obs, unit, scratch))?;
     best.action = best.unit;
     actor.scale(&mut best.action);
     Ok(best)
