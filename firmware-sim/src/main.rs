@@ -1,6 +1,7 @@
 //! `firmware-sim run`: the closed-loop test of a policy blob (or a reference controller) as a
-//! CI gate. Exit codes: 0 the scenario's pass criteria hold, 1 they fail (or the blob did not
-//! boot), 2 bad input (one line on stderr).
+//! CI gate; `firmware-sim match`: a badminton match between two players. Exit codes: 0 the
+//! scenario's pass criteria hold, 1 they fail (or the blob did not boot), 2 bad input (one line
+//! on stderr).
 //!
 //! Every input is checked, and every output path probed, before the first episode runs. Memory
 //! does not grow with `--episodes`: the summary comes from running totals, and each episode's
@@ -15,6 +16,7 @@ use anyhow::{Context, Result};
 use clap::{Args, CommandFactory, Parser, Subcommand};
 
 use firmware_sim::actuator::ActuatorModel;
+use firmware_sim::badminton::{self, play::Length, reference::PlayerKind};
 use firmware_sim::controller::{reference, Controller};
 use firmware_sim::files::{self, AtomicFile};
 use firmware_sim::harness::{
@@ -41,6 +43,33 @@ struct Cli {
 enum Command {
     /// Boot a blob (or a reference controller) and run the scenario's test protocol.
     Run(RunArgs),
+    /// Play a badminton match between two players and judge it by the scenario's criteria.
+    Match(MatchArgs),
+}
+
+#[derive(Args, Debug)]
+struct MatchArgs {
+    /// Player 0: scripted or random.
+    #[arg(long)]
+    p0: PlayerKind,
+    /// Player 1: scripted or random.
+    #[arg(long)]
+    p1: PlayerKind,
+    /// Games to play, 1..=1000.
+    #[arg(long, default_value_t = 1)]
+    games: u32,
+    /// Seed of the players' random streams.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// The badminton scenario: "badminton" (built in) or a TOML file.
+    #[arg(long, default_value = "badminton")]
+    scenario: String,
+    /// Write the match report as JSON here.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Draw one rally (the longest of the match) from above and from the side to this SVG file.
+    #[arg(long)]
+    svg: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -100,8 +129,11 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let Command::Run(args) = cli.command;
-    match run(&args) {
+    let outcome = match &cli.command {
+        Command::Run(args) => run(args),
+        Command::Match(args) => play(args),
+    };
+    match outcome {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::from(1),
         Err(e) => {
@@ -157,6 +189,82 @@ fn run(args: &RunArgs) -> Result<bool> {
     outputs.finish(&report)?;
     report_failures(&report, args.blob.as_deref());
     Ok(report.pass.passed)
+}
+
+/// The most games one `match` plays (a larger count is almost surely a typo).
+const MAX_GAMES: u32 = 1000;
+
+/// Plays the match; `Ok(passed)`. Inputs and output paths are checked before the first point.
+fn play(args: &MatchArgs) -> Result<bool> {
+    if !(1..=MAX_GAMES).contains(&args.games) {
+        anyhow::bail!("--games must be in 1..={MAX_GAMES}, found {}", args.games);
+    }
+    outputs_differ(args.json.as_deref(), args.svg.as_deref())?;
+    let config = badminton::Config::resolve(&args.scenario)?;
+    let kinds = [args.p0.clone(), args.p1.clone()];
+    let mut longest: Option<badminton::game::Rally> = None;
+    let mut game_rally = |game: &badminton::Badminton| {
+        let rally = game
+            .rally()
+            .filter(|r| r.hits.len() > longest.as_ref().map_or(0, |l| l.hits.len()));
+        if let Some(r) = rally {
+            longest = Some(r.clone());
+        }
+    };
+    let record = args.svg.is_some();
+    let report = play_match_recording(&config, &kinds, args, record, &mut game_rally)?;
+    print!("{}", report.summary());
+    if let Some(path) = &args.json {
+        let text = serde_json::to_string_pretty(&report)?;
+        written(files::write_atomic(path, text.as_bytes()), path)?;
+    }
+    if let (Some(path), Some(rally)) = (&args.svg, &longest) {
+        let title = format!(
+            "{} | p0 {} (blue) vs p1 {} (red) | seed {} | the longest rally: {} hits",
+            config.name,
+            kinds[0],
+            kinds[1],
+            args.seed,
+            rally.hits.len()
+        );
+        let svg = badminton::figure::rally_svg(rally, &config, &title);
+        written(files::write_atomic(path, svg.as_bytes()), path)?;
+    }
+    if !report.pass.passed {
+        eprintln!("FAIL: {}", report.pass.failures.join("; "));
+    }
+    Ok(report.pass.passed)
+}
+
+fn play_match_recording(
+    config: &badminton::Config,
+    kinds: &[PlayerKind; 2],
+    args: &MatchArgs,
+    record: bool,
+    on_point: &mut dyn FnMut(&badminton::Badminton),
+) -> Result<badminton::play::MatchReport> {
+    let mut game = badminton::Badminton::new(config)?;
+    game.record_rallies(record);
+    let mut players = [0, 1].map(|seat| kinds[seat].build(config, args.seed, seat));
+    let length = Length::Games(args.games);
+    let mut report = badminton::play::play(&mut game, &mut players, length, on_point);
+    report.seed = args.seed;
+    let judged = kinds.each_ref().map(PlayerKind::is_judged);
+    report.pass = badminton::play::judge(&report, &config.pass, judged);
+    Ok(report)
+}
+
+/// Two outputs must be two files; each must be writable, checked before any work.
+fn outputs_differ(json: Option<&Path>, svg: Option<&Path>) -> Result<()> {
+    if let (Some(json), Some(svg)) = (json, svg) {
+        if json == svg {
+            anyhow::bail!("--json and --svg name the same file {}", json.display());
+        }
+    }
+    for path in json.iter().chain(svg.iter()) {
+        files::check_output(path).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(())
 }
 
 /// A path that cannot be written is reported before the work, so a long run never ends in

@@ -543,7 +543,7 @@ impl Scenario {
 }
 
 /// A one-line parse error with the line and column of the offending key.
-fn parse_error(e: &toml::de::Error, text: &str, origin: &str) -> Error {
+pub(crate) fn parse_error(e: &toml::de::Error, text: &str, origin: &str) -> Error {
     let mut message = e.message().trim().replace('\n', " ");
     let location = match e.span() {
         Some(span) => {
