@@ -16,7 +16,8 @@ use anyhow::{Context, Result};
 use clap::{Args, CommandFactory, Parser, Subcommand};
 
 use firmware_sim::actuator::ActuatorModel;
-use firmware_sim::badminton::{self, play::Length, reference::PlayerKind};
+use firmware_sim::badminton::play::{play_match, Length};
+use firmware_sim::badminton::{self, reference::PlayerKind};
 use firmware_sim::controller::{reference, Controller};
 use firmware_sim::files::{self, AtomicFile};
 use firmware_sim::harness::{
@@ -203,16 +204,18 @@ fn play(args: &MatchArgs) -> Result<bool> {
     let config = badminton::Config::resolve(&args.scenario)?;
     let kinds = [args.p0.clone(), args.p1.clone()];
     let mut longest: Option<badminton::game::Rally> = None;
-    let mut game_rally = |game: &badminton::Badminton| {
-        let rally = game
+    let keep_longest = |game: &badminton::Badminton| {
+        let hits = |r: &badminton::game::Rally| r.hits.len();
+        if let Some(r) = game
             .rally()
-            .filter(|r| r.hits.len() > longest.as_ref().map_or(0, |l| l.hits.len()));
-        if let Some(r) = rally {
+            .filter(|r| hits(r) > longest.as_ref().map_or(0, hits))
+        {
             longest = Some(r.clone());
         }
     };
+    let length = Length::Games(args.games);
     let record = args.svg.is_some();
-    let report = play_match_recording(&config, &kinds, args, record, &mut game_rally)?;
+    let report = play_match(&config, &kinds, length, args.seed, record, keep_longest)?;
     print!("{}", report.summary());
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&report)?;
@@ -234,24 +237,6 @@ fn play(args: &MatchArgs) -> Result<bool> {
         eprintln!("FAIL: {}", report.pass.failures.join("; "));
     }
     Ok(report.pass.passed)
-}
-
-fn play_match_recording(
-    config: &badminton::Config,
-    kinds: &[PlayerKind; 2],
-    args: &MatchArgs,
-    record: bool,
-    on_point: &mut dyn FnMut(&badminton::Badminton),
-) -> Result<badminton::play::MatchReport> {
-    let mut game = badminton::Badminton::new(config)?;
-    game.record_rallies(record);
-    let mut players = [0, 1].map(|seat| kinds[seat].build(config, args.seed, seat));
-    let length = Length::Games(args.games);
-    let mut report = badminton::play::play(&mut game, &mut players, length, on_point);
-    report.seed = args.seed;
-    let judged = kinds.each_ref().map(PlayerKind::is_judged);
-    report.pass = badminton::play::judge(&report, &config.pass, judged);
-    Ok(report)
 }
 
 /// Two outputs must be two files; each must be writable, checked before any work.

@@ -15,7 +15,8 @@ fn scripted_beats_random_on_at_least_90_percent_of_non_let_points() {
         [PlayerKind::Random, PlayerKind::Scripted],
     ] {
         let seat = usize::from(kinds[0] == PlayerKind::Random);
-        let r = play_match(&config, &kinds, Length::Points(1000), SEED, |_| {}).expect("match");
+        let r =
+            play_match(&config, &kinds, Length::Points(1000), SEED, false, |_| {}).expect("match");
         let decided = r.points - r.lets;
         let won = f64::from(r.players[seat].points_won) / f64::from(decided);
         println!("scripted in seat {seat}: won {won:.4} of {decided} non-let points");
@@ -56,7 +57,7 @@ fn scripted_serve_error_rate_is_at_most_8_percent() {
 fn scripted_against_scripted_ends_at_least_half_its_points_by_a_fault() {
     let config = Config::builtin();
     let kinds = [PlayerKind::Scripted, PlayerKind::Scripted];
-    let r = play_match(&config, &kinds, Length::Points(1000), SEED, |_| {}).expect("match");
+    let r = play_match(&config, &kinds, Length::Points(1000), SEED, false, |_| {}).expect("match");
     let faults = f64::from(r.points - r.lets) / f64::from(r.points);
     println!(
         "scripted vs scripted: {} of {} points by a fault ({faults:.4}), {} lets, {} hits",

@@ -321,7 +321,8 @@ fn players_stay_in_their_halves_at_their_speed_limit_in_random_play() {
 fn the_same_seed_gives_the_same_match_bit_for_bit() {
     let config = Config::builtin();
     let kinds = [PlayerKind::Scripted, PlayerKind::Scripted];
-    let run = |seed| play_match(&config, &kinds, Length::Games(1), seed, |_| {}).expect("match");
+    let run =
+        |seed| play_match(&config, &kinds, Length::Games(1), seed, false, |_| {}).expect("match");
     let (a, b) = (run(5), run(5));
     assert_eq!(a, b);
     assert_eq!(

@@ -23,5 +23,7 @@ mod determinism;
 mod faults;
 /// Wall geometry properties: never crosses or leaves through a wall, slides parallel.
 mod geometry;
+/// `firmware-sim match`: summary, JSON and SVG, exit codes, one-line errors.
+mod match_cli;
 /// Reference controllers: `straight` is caught stuck, `oracle` follows the gaps.
 mod reference;

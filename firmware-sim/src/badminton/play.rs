@@ -8,7 +8,7 @@
 //! use firmware_sim::badminton::Config;
 //! let config = Config::builtin();
 //! let kinds = [PlayerKind::Scripted, PlayerKind::Random];
-//! let report = play_match(&config, &kinds, Length::Games(1), 3, |_| {}).unwrap();
+//! let report = play_match(&config, &kinds, Length::Games(1), 3, false, |_| {}).unwrap();
 //! assert_eq!(report.games[0] + report.games[1], 1);
 //! assert!(report.players[0].points_won > report.players[1].points_won);
 //! ```
@@ -104,16 +104,18 @@ pub struct MatchReport {
 }
 
 /// Plays a match between two players built from their kinds (seats 0 and 1) and judges it by
-/// the scenario's pass criteria; `on_point` sees the plant after every point (to keep a rally
-/// for drawing).
+/// the scenario's pass criteria; `on_point` sees the plant after every point (with
+/// `record_rallies`, its [`Badminton::rally`] holds the point's rally, to keep one for drawing).
 pub fn play_match(
     config: &Config,
     kinds: &[PlayerKind; 2],
     length: Length,
     seed: u64,
+    record_rallies: bool,
     on_point: impl FnMut(&Badminton),
 ) -> Result<MatchReport, Error> {
     let mut game = Badminton::new(config)?;
+    game.record_rallies(record_rallies);
     let mut players = [0, 1].map(|seat| kinds[seat].build(config, seed, seat));
     let mut report = play(&mut game, &mut players, length, on_point);
     report.seed = seed;
