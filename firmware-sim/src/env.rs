@@ -133,7 +133,7 @@ pub struct Turn {
 /// assert_eq!(turn.decide.unwrap().agent, 0);
 /// assert_eq!(turn.closed[0].observation, first.observation);
 /// ```
-pub trait Plant {
+pub trait Plant: std::fmt::Debug {
     /// The agents, each with its boxes.
     fn agents(&self) -> Vec<AgentSpec>;
     /// Starts a new episode; the same seed gives the same start.
@@ -144,7 +144,7 @@ pub trait Plant {
 }
 
 /// Every one-agent [`Env`] is a [`Plant`] whose agent decides every step.
-impl<E: Env> Plant for E {
+impl<E: Env + std::fmt::Debug> Plant for E {
     fn agents(&self) -> Vec<AgentSpec> {
         vec![AgentSpec {
             name: "agent".into(),

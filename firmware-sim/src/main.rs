@@ -68,7 +68,8 @@ struct MatchArgs {
     /// Write the match report as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
-    /// Draw one rally (the longest of the match) from above and from the side to this SVG file.
+    /// Draw one rally (the first of at least 4 hits, else the longest) from above and from the
+    /// side to this SVG file.
     #[arg(long)]
     svg: Option<PathBuf>,
 }
@@ -192,6 +193,9 @@ fn run(args: &RunArgs) -> Result<bool> {
     Ok(report.pass.passed)
 }
 
+/// `--svg` draws the first rally of at least this many hits.
+const DRAWN_HITS: usize = 4;
+
 /// The most games one `match` plays (a larger count is almost surely a typo).
 const MAX_GAMES: u32 = 1000;
 
@@ -203,27 +207,34 @@ fn play(args: &MatchArgs) -> Result<bool> {
     outputs_differ(args.json.as_deref(), args.svg.as_deref())?;
     let config = badminton::Config::resolve(&args.scenario)?;
     let kinds = [args.p0.clone(), args.p1.clone()];
-    let mut longest: Option<badminton::game::Rally> = None;
-    let keep_longest = |game: &badminton::Badminton| {
+    let mut drawn: Option<badminton::game::Rally> = None;
+    let keep_rally = |game: &badminton::Badminton| {
         let hits = |r: &badminton::game::Rally| r.hits.len();
+        let current = drawn.as_ref().map_or(0, hits);
+        // The first rally of DRAWN_HITS hits or more (a readable figure), else the longest.
         if let Some(r) = game
             .rally()
-            .filter(|r| hits(r) > longest.as_ref().map_or(0, hits))
+            .filter(|r| current < DRAWN_HITS && hits(r) > current)
         {
-            longest = Some(r.clone());
+            drawn = Some(r.clone());
         }
     };
     let length = Length::Games(args.games);
     let record = args.svg.is_some();
-    let report = play_match(&config, &kinds, length, args.seed, record, keep_longest)?;
+    let report = play_match(&config, &kinds, length, args.seed, record, keep_rally)?;
     print!("{}", report.summary());
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&report)?;
         written(files::write_atomic(path, text.as_bytes()), path)?;
     }
-    if let (Some(path), Some(rally)) = (&args.svg, &longest) {
+    if let (Some(path), Some(rally)) = (&args.svg, &drawn) {
+        let end = rally.end.map_or("-".to_string(), |e| {
+            let cause = serde_json::to_string(&e.cause).unwrap_or_default();
+            let winner = e.winner.map_or("none".to_string(), |w| format!("p{w}"));
+            format!("{}, point to {winner}", cause.trim_matches('"'))
+        });
         let title = format!(
-            "{} | p0 {} (blue) vs p1 {} (red) | seed {} | the longest rally: {} hits",
+            "{} | p0 {} (blue) vs p1 {} (red) | seed {} | a rally of {} hits, ended by {end}",
             config.name,
             kinds[0],
             kinds[1],

@@ -358,6 +358,19 @@ impl Scenario {
         Self::load(path)
     }
 
+    /// The plant this scenario describes, behind the interface every caller uses (training and
+    /// tools name [`crate::env::Plant`], not a plant type).
+    ///
+    /// ```
+    /// use firmware_sim::scenario::Scenario;
+    /// let plant = Scenario::builtin("nav-walls").unwrap().plant().unwrap();
+    /// let agents = plant.agents();
+    /// assert_eq!((agents.len(), agents[0].observation_space.dim()), (1, 2));
+    /// ```
+    pub fn plant(&self) -> Result<Box<dyn crate::env::Plant>, Error> {
+        Ok(Box::new(crate::nav::NavEnv::new(self)?))
+    }
+
     /// The walls as geometry segments.
     ///
     /// ```
