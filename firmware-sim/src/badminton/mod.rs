@@ -6,9 +6,11 @@
 //!   quadratic drag and the events of a flight; [`player`]: bodies with their speed limit and
 //!   margins, and how actions map onto targets and hits; [`rules`]: points, games, who serves;
 //! - [`game`]: the plant ([`Badminton`], a [`crate::env::Plant`]);
-//! - [`reference`]: the `random` and `scripted` players; [`play`]: matches and the paper's
+//! - [`mod@reference`]: the `random` and `scripted` players ([`clear`]: the scripted clear's
+//!   speed); [`play`]: matches and the paper's
 //!   measures; [`figure`]: one rally drawn from above and from the side.
 
+pub mod clear;
 pub mod config;
 pub mod court;
 pub mod figure;

@@ -18,6 +18,7 @@
 use std::fmt;
 use std::str::FromStr;
 
+use super::clear::ClearSolver;
 use super::config::Config;
 use super::court::{Court, Vec2};
 use super::game::Role;
@@ -127,6 +128,7 @@ pub struct Scripted {
     config: Config,
     court: Court,
     physics: Physics,
+    clear: ClearSolver,
     rng: SimRng,
 }
 
@@ -136,6 +138,7 @@ impl Scripted {
         Scripted {
             court: Court::of(&config.court),
             physics: Physics::of(config),
+            clear: ClearSolver::new(config),
             config: config.clone(),
             rng,
         }
@@ -173,64 +176,8 @@ impl Scripted {
         let aim = [l - s.serve_depth, side * (w - s.serve_side)];
         let (dx, dy) = (aim[0] - shuttle.p[0], aim[1] - shuttle.p[1]);
         let azimuth = dy.atan2(dx).to_degrees();
-        let speed = self.speed_for(dx.hypot(dy), shuttle.p[2], s.serve_elevation);
+        let speed = self.clear.speed_for(dx.hypot(dy), shuttle.p[2]);
         (speed, s.serve_elevation, azimuth)
-    }
-
-    /// The speed at which a hit at `elevation` degrees from height `z0` lands `distance` away
-    /// (Illinois regula falsi on the range; the range grows with the speed). The flight stays in
-    /// the vertical plane of its launch (drag acts along the velocity), so the range is a
-    /// 2-D computation.
-    fn speed_for(&self, distance: f64, z0: f64, elevation: f64) -> f64 {
-        let (lo, hi) = (self.config.hit.min_speed, self.config.hit.max_speed);
-        let miss = |speed: f64| self.range(speed, z0, elevation) - distance;
-        let (mut a, mut b) = (lo, hi);
-        let (mut fa, mut fb) = (miss(a), miss(b));
-        if fa >= 0.0 {
-            return lo;
-        }
-        if fb <= 0.0 {
-            return hi;
-        }
-        let mut side = 0;
-        for _ in 0..60 {
-            let c = (a * fb - b * fa) / (fb - fa);
-            let fc = miss(c);
-            if fc.abs() < 1e-4 {
-                return c;
-            }
-            if (fc < 0.0) == (fa < 0.0) {
-                (a, fa) = (c, fc);
-                if side == -1 {
-                    fb /= 2.0;
-                }
-                side = -1;
-            } else {
-                (b, fb) = (c, fc);
-                if side == 1 {
-                    fa /= 2.0;
-                }
-                side = 1;
-            }
-        }
-        (a + b) / 2.0
-    }
-
-    /// Horizontal distance to the landing point of a hit from height `z0`.
-    fn range(&self, speed: f64, z0: f64, elevation: f64) -> f64 {
-        let e = elevation.to_radians();
-        let mut s = Shuttle {
-            p: [0.0, 0.0, z0],
-            v: [speed * e.cos(), 0.0, speed * e.sin()],
-        };
-        loop {
-            let before = s;
-            self.physics.step(&mut s);
-            if s.p[2] <= 0.0 {
-                let t = before.p[2] / (before.p[2] - s.p[2]);
-                return before.p[0] + t * (s.p[0] - before.p[0]);
-            }
-        }
     }
 }
 

@@ -170,7 +170,18 @@ impl Flight {
     /// Judges the step from `before` to `after`: a crossing of the net plane (above the net:
     /// crossed; below: a net ball), a landing (in, out, or on the hitter's own side: net).
     /// When both happen inside one step, the earlier decides.
+    #[inline(always)]
     pub fn advance(&mut self, before: &Shuttle, after: &Shuttle, court: &Court) -> Event {
+        let (x0, x1) = (self.side * before.p[0], self.side * after.p[0]);
+        // Most steps neither cross the net plane nor reach the floor: that test stays inline.
+        if after.p[2] > 0.0 && (self.crossed || x1 <= 0.0 || x0 > 0.0) {
+            return Event::Flying;
+        }
+        self.judge(before, after, court)
+    }
+
+    #[inline(never)]
+    fn judge(&mut self, before: &Shuttle, after: &Shuttle, court: &Court) -> Event {
         let (x0, x1) = (self.side * before.p[0], self.side * after.p[0]);
         let crossing = (!self.crossed && x0 <= 0.0 && x1 > 0.0).then(|| fraction(x0, x1));
         let landing = (after.p[2] <= 0.0).then(|| fraction(before.p[2], after.p[2]));
