@@ -271,9 +271,10 @@ impl MatchReport {
     /// The table `firmware-sim match` prints.
     pub fn summary(&self) -> String {
         let [a, b] = &self.players;
+        let plural = |n: u32, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
         let length = match self.length {
-            Length::Games(n) => format!("{n} games"),
-            Length::Points(n) => format!("{n} points"),
+            Length::Games(n) => plural(n, "game"),
+            Length::Points(n) => plural(n, "point"),
         };
         let mut out = format!(
             "{} | p0 {} vs p1 {} | {length}, seed {}\n",
