@@ -356,3 +356,22 @@ fn with_the_reset_disabled_the_player_stays_where_it_hit() {
     game.act(&[1.0, 1.0]);
     assert_eq!(game.bodies()[0].position, start);
 }
+
+/// Two players who never miss let every point: a match of games must still end (after
+/// 4 · point_cap points a game), and its let rate fails the pass criteria.
+#[test]
+fn a_match_of_lets_ends_and_fails() {
+    let config = noiseless();
+    let kinds = [PlayerKind::Scripted, PlayerKind::Scripted];
+    let r = play_match(&config, &kinds, Length::Games(1), 0, false, |_| {}).expect("match");
+    assert_eq!((r.points, r.lets, r.games), (80, 80, [0, 0]));
+    assert!(!r.pass.passed);
+    assert!(
+        r.pass
+            .failures
+            .iter()
+            .any(|f| f.starts_with("let rate 1.000")),
+        "{:?}",
+        r.pass
+    );
+}

@@ -127,7 +127,8 @@ pub fn play_match(
     Ok(report)
 }
 
-/// Plays points of the plant's match (from 0–0) until `length` is reached.
+/// Plays points of the plant's match (from 0–0) until `length` is reached (see
+/// [`points_limit`] for a match of lets).
 pub fn play(
     game: &mut Badminton,
     players: &mut [Box<dyn Player>; 2],
@@ -155,13 +156,25 @@ pub fn play(
             failures: Vec::new(),
         },
     };
-    while !over(&report, length) {
+    let most_points = points_limit(length, game.config().rules.point_cap);
+    while !over(&report, length) && report.points < most_points {
         let end = play_point(game, players);
         tally(&mut report, game, end);
         on_point(game);
     }
     report.physics_steps = game.physics_steps() - steps_before;
     report
+}
+
+/// The most points a match plays. A game without lets has fewer than `2 · point_cap` points, but
+/// lets do not count: two players who never miss (scripted without noise) would let forever. So
+/// a match of `n` games stops after `4 · point_cap · n` points, unfinished; its let rate then
+/// fails the pass criteria.
+fn points_limit(length: Length, point_cap: u32) -> u32 {
+    match length {
+        Length::Games(n) => n.saturating_mul(4).saturating_mul(point_cap),
+        Length::Points(n) => n,
+    }
 }
 
 fn over(report: &MatchReport, length: Length) -> bool {
