@@ -375,3 +375,39 @@ fn a_match_of_lets_ends_and_fails() {
         r.pass
     );
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+    /// Any value in any numeric field of `badminton.toml`: a one-line error, or a scenario whose
+    /// plant plays points to their end (no panic, no endless flight).
+    #[test]
+    fn any_value_in_the_scenario_is_refused_in_one_line_or_plays(
+        field in 0usize..40,
+        value in proptest::sample::select(vec![
+            "0", "-1", "1e-300", "1e-9", "0.5", "3", "200", "1e300", "nan", "inf", "-inf", "[1.0]",
+        ]),
+    ) {
+        let lines: Vec<&str> = Config::BUILTIN.lines().collect();
+        let numeric: Vec<usize> = (0..lines.len())
+            .filter(|&i| lines[i].contains(" = ") && !lines[i].contains('"'))
+            .collect();
+        let target = numeric[field % numeric.len()];
+        let key = lines[target].split(" = ").next().unwrap_or_default();
+        let mut text: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+        text[target] = format!("{key} = {value}");
+        match Config::from_toml_str(&text.join("\n"), "fuzzed.toml") {
+            Err(e) => {
+                let e = e.to_string();
+                proptest::prop_assert!(e.starts_with("fuzzed.toml") && e.lines().count() == 1, "{e}");
+            }
+            Ok(config) => {
+                let mut game = Badminton::new(&config).expect("a valid scenario builds");
+                let mut players = [0, 1].map(|s| PlayerKind::Random.build(&config, 1, s));
+                for _ in 0..3 {
+                    play_point(&mut game, &mut players);
+                }
+            }
+        }
+    }
+}

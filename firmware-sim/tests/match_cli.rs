@@ -176,7 +176,7 @@ fn bad_arguments_are_one_line_exit_2_and_leave_no_file() {
     ]);
     assert_bad_input(
         &o,
-        "broken.toml:17: shuttle.dt: must be in (0, 0.1], found NaN",
+        "broken.toml:17: shuttle.dt: must be in [0.0001, 0.01], found NaN",
     );
     let o = play(&[
         "--p0",

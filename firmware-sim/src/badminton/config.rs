@@ -223,11 +223,15 @@ impl Config {
             .or_else(|| in_range("court.net_height", c.net_height, 0.0, 100.0, false))
     }
 
+    /// The ranges keep every flight short enough to compute: with gravity ≥ 1, a terminal
+    /// speed ≤ 100 and hits ≤ 200 m/s, no flight lasts two minutes, i.e. more than 1.2 million
+    /// steps at the smallest `dt`. (A gravity of 1e-300 would validate as "positive" and then
+    /// never bring a shuttle down.)
     fn physics_rules(&self) -> Option<Broken> {
         let s = &self.shuttle;
-        in_range("shuttle.gravity", s.gravity, 0.0, 100.0, false)
-            .or_else(|| in_range("shuttle.terminal_speed", s.terminal_speed, 0.0, 1e3, false))
-            .or_else(|| in_range("shuttle.dt", s.dt, 0.0, 0.1, false))
+        in_range("shuttle.gravity", s.gravity, 1.0, 100.0, true)
+            .or_else(|| in_range("shuttle.terminal_speed", s.terminal_speed, 0.5, 100.0, true))
+            .or_else(|| in_range("shuttle.dt", s.dt, 1e-4, 0.01, true))
     }
 
     fn player_rules(&self) -> Option<Broken> {
@@ -240,7 +244,7 @@ impl Config {
 
     fn hit_rules(&self) -> Option<Broken> {
         let h = &self.hit;
-        in_range("hit.max_speed", h.max_speed, 0.0, 1e3, false)
+        in_range("hit.max_speed", h.max_speed, 0.0, 200.0, false)
             .or_else(|| in_range("hit.min_speed", h.min_speed, 0.0, h.max_speed, false))
             .or_else(|| in_range("hit.max_elevation", h.max_elevation, -90.0, 90.0, false))
             .or_else(|| {
@@ -417,6 +421,13 @@ mod tests {
         for (from, to, key) in [
             ("gravity = 9.81", "gravity = inf", "shuttle.gravity"),
             ("dt = 0.001", "dt = -0.001", "shuttle.dt"),
+            ("gravity = 9.81", "gravity = 1e-300", "shuttle.gravity"),
+            (
+                "terminal_speed = 6.8",
+                "terminal_speed = 1e6",
+                "shuttle.terminal_speed",
+            ),
+            ("max_speed = 77.0", "max_speed = 1e4", "hit.max_speed"),
             ("dt = 0.001", "dt = nan", "shuttle.dt"),
             ("half_length = 6.7", "half_length = 0", "court.half_length"),
             ("max_speed = 4.5", "max_speed = 0.0", "player.max_speed"),
