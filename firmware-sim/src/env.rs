@@ -109,7 +109,9 @@ pub struct Turn {
     pub decide: Option<Decision>,
     /// Transitions that closed since the previous call, in agent order.
     pub closed: Vec<Outcome>,
-    /// Ground truth about the action just applied (empty after a reset).
+    /// Ground truth about the action just applied (empty after a reset): what the plant
+    /// actually carried out and whether a margin was touched. A plant's own record of what
+    /// happened between decisions (badminton's hits and how each flight ended) is on the plant.
     pub info: StepInfo,
 }
 
