@@ -93,6 +93,12 @@ pub fn to_own2(player: usize, v: Vec2) -> Vec2 {
 
 /// Euclidean distance.
 pub fn distance(a: Vec3, b: Vec3) -> f64 {
+    squared_distance(a, b).sqrt()
+}
+
+/// Squared Euclidean distance.
+#[inline]
+pub fn squared_distance(a: Vec3, b: Vec3) -> f64 {
     let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+    d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
 }

@@ -29,7 +29,7 @@ use std::collections::VecDeque;
 use serde::{Deserialize, Serialize};
 
 use super::config::Config;
-use super::court::{distance, to_own, to_own2, Court, Vec2, Vec3};
+use super::court::{distance, squared_distance, to_own, to_own2, Court, Vec2, Vec3};
 use super::player::{hit_velocity, target_of, unit, Body};
 use super::rules::{Cause, PointEnd, Score};
 use super::shuttle::{Event, Fate, Flight, Physics, Shuttle};
@@ -310,6 +310,10 @@ impl Badminton {
         let radius = self.config.player.catch_radius;
         let lets_go = self.fate.is_fault() || !self.catching_enabled[receiver];
         let max_speed = self.config.player.max_speed;
+        // Squared distances, with one square root at the end: the minimum commutes with the
+        // (monotone) square root, and the catch test takes the root only near the radius, so
+        // the result is what the distances themselves give.
+        let near = (radius * (1.0 + 1e-9)).powi(2);
         let mut closest = f64::INFINITY;
         loop {
             let before = self.shuttle;
@@ -322,13 +326,13 @@ impl Badminton {
             let reach = self.hit_point(receiver);
             if let Event::Ended(fate, at) = self.flight.advance(&before, &self.shuttle, &self.court)
             {
-                self.dead(fate, closest.min(distance(at, reach)));
+                self.dead(fate, closest.sqrt().min(distance(at, reach)));
                 return;
             }
-            let d = distance(self.shuttle.p, reach);
-            closest = closest.min(d);
-            if self.flight.crossed && !lets_go && d <= radius {
-                self.caught(closest);
+            let d2 = squared_distance(self.shuttle.p, reach);
+            closest = closest.min(d2);
+            if self.flight.crossed && !lets_go && d2 <= near && d2.sqrt() <= radius {
+                self.caught(closest.sqrt());
                 return;
             }
         }

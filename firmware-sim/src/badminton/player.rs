@@ -34,6 +34,9 @@ impl Body {
     /// distance moved. The target lies in the own half, which is convex, so the path does too.
     #[inline]
     pub fn advance(&mut self, max_speed: f64, dt: f64) -> f64 {
+        if self.position == self.target {
+            return 0.0; // standing: most steps of a flight, once the player has arrived
+        }
         let d = [
             self.target[0] - self.position[0],
             self.target[1] - self.position[1],
