@@ -100,6 +100,9 @@ pub struct Outcome {
     pub terminated: bool,
     /// The episode was cut (not a terminal state for bootstrapping).
     pub truncated: bool,
+    /// Ground truth, never shown to the agent: its body touched a hard margin during the
+    /// transition (a wall; in badminton, a line or the net under its player's feet).
+    pub margin_touched: bool,
 }
 
 /// What a [`Plant`] says after a reset or an action.
@@ -180,6 +183,7 @@ impl<E: Env + std::fmt::Debug> Plant for E {
                 observation: step.observation,
                 terminated: step.terminated,
                 truncated: step.truncated,
+                margin_touched: step.info.margin_touched,
             }],
             info: step.info,
         }

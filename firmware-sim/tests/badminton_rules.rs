@@ -411,3 +411,22 @@ proptest::proptest! {
         }
     }
 }
+
+/// The ground truth of each closed transition says whether the agent's player stood on a margin
+/// (a line or the net) during it.
+#[test]
+fn a_player_sent_to_the_net_is_reported_at_a_margin() {
+    let mut game = Badminton::new(&Config::builtin()).expect("plant");
+    // The receiver runs to the net (x' = 0) and misses the clear; the server resets inside.
+    let closed = run_point(&mut game, clear(), |player, _| {
+        if player == 1 {
+            [0.0, 0.0]
+        } else {
+            [-3.0, 0.0]
+        }
+    });
+    assert_eq!(game.point_end().map(|e| e.cause), Some(Cause::MissedCatch));
+    assert!(outcome(&closed, 1, Role::Catch).margin_touched);
+    assert!(!outcome(&closed, 0, Role::Reset).margin_touched);
+    assert!(!outcome(&closed, 0, Role::Serve).margin_touched);
+}

@@ -116,6 +116,9 @@ pub struct Badminton {
     queue: VecDeque<usize>,
     open: [bool; 6],
     earned: [f64; 6],
+    /// Physics steps each player has stood on a margin, and the count when each agent decided.
+    on_margin_steps: [u64; 2],
+    on_margin_at_open: [u64; 6],
     reset_enabled: [bool; 2],
     catching_enabled: [bool; 2],
     score: Score,
@@ -149,6 +152,8 @@ impl Badminton {
             queue: VecDeque::with_capacity(2),
             open: [false; 6],
             earned: [0.0; 6],
+            on_margin_steps: [0; 2],
+            on_margin_at_open: [0; 6],
             reset_enabled: [true; 2],
             catching_enabled: [true; 2],
             score: Score::new(),
@@ -321,6 +326,7 @@ impl Badminton {
             for body in &mut self.bodies {
                 body.advance(max_speed, self.physics.dt);
             }
+            self.count_margins();
             self.steps += 1;
             self.sample();
             let reach = self.hit_point(receiver);
@@ -424,6 +430,15 @@ impl Badminton {
             observation,
             terminated: end.is_some() && !let_,
             truncated: let_,
+            margin_touched: self.on_margin_steps[agent / 3] > self.on_margin_at_open[agent],
+        }
+    }
+
+    /// Counts the steps each player stands on a line or at the net (the margins of its motion).
+    fn count_margins(&mut self) {
+        for (p, body) in self.bodies.iter().enumerate() {
+            let own = to_own2(p, body.position);
+            self.on_margin_steps[p] += u64::from(self.court.on_margin(own));
         }
     }
 
@@ -499,6 +514,7 @@ impl Plant for Badminton {
         let (player, role) = Self::role_of(agent);
         self.open[agent] = true;
         self.earned[agent] = 0.0;
+        self.on_margin_at_open[agent] = self.on_margin_steps[player];
         let info = match role {
             Role::Serve => self.hit(player, action),
             Role::Catch | Role::Reset => self.aim(player, action),
