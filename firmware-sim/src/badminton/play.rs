@@ -127,8 +127,9 @@ pub fn play_match(
     Ok(report)
 }
 
-/// Plays points of the plant's match (from 0–0) until `length` is reached (see
-/// [`points_limit`] for a match of lets).
+/// Plays points of the plant's match (from 0–0) until `length` is reached. A match of `n` games
+/// also stops, unfinished, after `4 · point_cap · n` points: lets do not count, and two players
+/// who never miss would let forever (the let rate then fails the pass criteria).
 pub fn play(
     game: &mut Badminton,
     players: &mut [Box<dyn Player>; 2],
