@@ -430,3 +430,58 @@ fn a_player_sent_to_the_net_is_reported_at_a_margin() {
     assert!(!outcome(&closed, 0, Role::Reset).margin_touched);
     assert!(!outcome(&closed, 0, Role::Serve).margin_touched);
 }
+
+/// The interface's contract for learners, over many points: an agent's transition closes
+/// exactly once, at its next decision (with that decision's observation, neither terminal nor
+/// truncated) or at the end of the point (terminal at a dead ball, truncated at a let); nothing
+/// closes that was not open.
+#[test]
+fn every_transition_closes_exactly_once() {
+    let mut config = Config::builtin();
+    config.rules.rally_cap = 6; // some lets among the points
+    let mut game = Badminton::new(&config).expect("plant");
+    let mut players = [0, 1].map(|s| PlayerKind::Scripted.build(&config, 8, s));
+    let (mut lets, mut faults, mut transitions) = (0, 0, 0);
+    for point in 0..300 {
+        let mut open = [false; 6];
+        let mut turn = game.reset(0);
+        while let Some(d) = turn.decide.take() {
+            let (p, role) = Badminton::role_of(d.agent);
+            let mut action = vec![0.0; role.actions()];
+            players[p].act(role, &d.observation, &mut action);
+            open[d.agent] = true;
+            turn = game.act(&action);
+            let end = game.point_end();
+            for o in &turn.closed {
+                assert!(
+                    open[o.agent],
+                    "agent {} closed without an open transition",
+                    o.agent
+                );
+                open[o.agent] = false;
+                transitions += 1;
+                match (&turn.decide, end) {
+                    (Some(next), None) => {
+                        assert_eq!(o.agent, next.agent, "only the deciding agent closes");
+                        assert_eq!(o.observation, next.observation);
+                        assert!(!o.terminated && !o.truncated);
+                    }
+                    (None, Some(e)) => {
+                        let is_let = e.cause == Cause::Let;
+                        assert_eq!((o.terminated, o.truncated), (!is_let, is_let));
+                    }
+                    other => panic!("a turn either names a decision or ends: {other:?}"),
+                }
+            }
+        }
+        assert_eq!(
+            open, [false; 6],
+            "point {point}: every open transition closed at the end"
+        );
+        let is_let = game.point_end().is_some_and(|e| e.cause == Cause::Let);
+        lets += usize::from(is_let);
+        faults += usize::from(!is_let);
+    }
+    let counts = format!("{lets} lets, {faults} faults, {transitions} transitions");
+    assert!(lets > 10 && faults > 10 && transitions > 1000, "{counts}");
+}

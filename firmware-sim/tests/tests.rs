@@ -10,7 +10,7 @@ mod badminton_gates;
 /// lines, the net, and the players' margins and speed limit.
 mod badminton_physics;
 /// Badminton rules: faults, the let at the rally cap, games, who serves, mirrored frames,
-/// determinism.
+/// determinism, margins as ground truth, and the Plant interface's transition contract.
 mod badminton_rules;
 /// Booting blobs: any shape and plant size through the runtime model, discrete policies, the
 /// safe state on corrupt bytes or wrong sizes.
