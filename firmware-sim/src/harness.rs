@@ -9,6 +9,11 @@
 //! and the plant steps. Each test runs the full time limit (DESIGN.md's protocol: reaching the
 //! centre does not end a test; leaving the arena does).
 //!
+//! This protocol is navigation's own (walls that move as a fault, metrics on the true position),
+//! so its episode loop holds the navigation plant; sizes come from the plant's declared
+//! [`crate::env::Plant`] agents. Badminton's matches and measures are in
+//! [`crate::badminton::play`].
+//!
 //! [`evaluate_streaming`] is the core: it hands each episode's record to a callback as soon as
 //! the episode ends and keeps only running totals, so its memory does not depend on the episode
 //! count (the CLI streams the records into its JSON report and SVG plot). [`evaluate`] and
@@ -37,7 +42,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::actuator::{Actuator, ActuatorModel};
 use crate::controller::{BlobPolicy, Controller, SafeState};
-use crate::env::Env;
+use crate::env::{BoxSpace, Env};
 use crate::faults::Faults;
 use crate::metrics::{EpisodeMeter, EpisodeRecord, Tick};
 use crate::nav::NavEnv;
@@ -326,7 +331,11 @@ impl PlantSizes {
     /// assert_eq!((s.observations, s.actions), (2, 2));
     /// ```
     pub fn of(scenario: &Scenario) -> Result<PlantSizes, Error> {
-        Ok(PlantSizes::of_env(&NavEnv::new(scenario)?))
+        let agent = &scenario.plant()?.agents()[0];
+        Ok(PlantSizes {
+            observations: agent.observation_space.dim(),
+            actions: agent.action_space.dim(),
+        })
     }
 }
 
@@ -508,7 +517,7 @@ fn run_episode(
     let seed = episode_seed(cfg.seed, index);
     let mut truth = env.reset(seed);
     controller.reset();
-    let mut firmware = Firmware::new(env, cfg, index);
+    let mut firmware = Firmware::new(env.action_space(), cfg, index);
     let changed_walls = cfg.faults.changed_walls(env.scenario());
     let mut meter = EpisodeMeter::new(
         seed,
@@ -551,10 +560,9 @@ struct Firmware {
 }
 
 impl Firmware {
-    fn new(env: &NavEnv, cfg: &EvalConfig, index: u64) -> Self {
+    fn new(space: &BoxSpace, cfg: &EvalConfig, index: u64) -> Self {
         let noise = stream(cfg.seed, "sensor-noise", index);
         let drops = stream(cfg.seed, "sensor-dropout", index);
-        let space = env.action_space();
         Firmware {
             sensor: Sensor::new(cfg.sensor, cfg.faults.dropout, noise, drops),
             actuator: Actuator::new(&space.low, &space.high, cfg.actuator, cfg.faults.stuck),

@@ -5,6 +5,8 @@
 //! wall to the gap, or push against it forever?
 //!
 //! - [`mod@env`]: the Gymnasium-style plant interface shared with the trainer.
+//! - [`badminton`]: the badminton plant of experiment 2 (two players of three agents), its
+//!   reference players and the paper's measures.
 //! - [`nav`]: the navigation plant of experiment 1; [`scenario`]: its layouts as TOML data;
 //!   [`geometry`]: exact sliding motion among zero-thickness walls.
 //! - [`harness`]: the firmware loop (boot from a blob, sensor, actuator, faults) and its margin
@@ -17,6 +19,7 @@
 #![deny(missing_docs)]
 
 pub mod actuator;
+pub mod badminton;
 pub mod controller;
 pub mod env;
 pub mod error;

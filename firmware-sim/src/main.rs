@@ -1,6 +1,7 @@
 //! `firmware-sim run`: the closed-loop test of a policy blob (or a reference controller) as a
-//! CI gate. Exit codes: 0 the scenario's pass criteria hold, 1 they fail (or the blob did not
-//! boot), 2 bad input (one line on stderr).
+//! CI gate; `firmware-sim match`: a badminton match between two players. Exit codes: 0 the
+//! scenario's pass criteria hold, 1 they fail (or the blob did not boot), 2 bad input (one line
+//! on stderr).
 //!
 //! Every input is checked, and every output path probed, before the first episode runs. Memory
 //! does not grow with `--episodes`: the summary comes from running totals, and each episode's
@@ -15,6 +16,8 @@ use anyhow::{Context, Result};
 use clap::{Args, CommandFactory, Parser, Subcommand};
 
 use firmware_sim::actuator::ActuatorModel;
+use firmware_sim::badminton::play::{play_match, Length};
+use firmware_sim::badminton::{self, reference::PlayerKind};
 use firmware_sim::controller::{reference, Controller};
 use firmware_sim::files::{self, AtomicFile};
 use firmware_sim::harness::{
@@ -43,6 +46,34 @@ struct Cli {
 enum Command {
     /// Boot a blob (or a reference controller) and run the scenario's test protocol.
     Run(RunArgs),
+    /// Play a badminton match between two players and judge it by the scenario's criteria.
+    Match(MatchArgs),
+}
+
+#[derive(Args, Debug)]
+struct MatchArgs {
+    /// Player 0: scripted or random.
+    #[arg(long)]
+    p0: PlayerKind,
+    /// Player 1: scripted or random.
+    #[arg(long)]
+    p1: PlayerKind,
+    /// Games to play, 1..=1000.
+    #[arg(long, default_value_t = 1)]
+    games: u32,
+    /// Seed of the players' random streams.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// The badminton scenario: "badminton" (built in) or a TOML file.
+    #[arg(long, default_value = "badminton")]
+    scenario: String,
+    /// Write the match report as JSON here.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Draw one rally (the first of at least 4 hits, else the longest) from above and from the
+    /// side to this SVG file.
+    #[arg(long)]
+    svg: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -122,8 +153,11 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let Command::Run(args) = cli.command;
-    match run(&args) {
+    let outcome = match &cli.command {
+        Command::Run(args) => run(args),
+        Command::Match(args) => play(args),
+    };
+    match outcome {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::from(1),
         Err(e) => {
@@ -213,6 +247,76 @@ fn run(args: &RunArgs) -> Result<bool> {
     outputs.finish(&report)?;
     report_failures(&report, args.blob.as_deref());
     Ok(report.pass.passed)
+}
+
+/// `--svg` draws the first rally of at least this many hits.
+const DRAWN_HITS: usize = 4;
+
+/// The most games one `match` plays (a larger count is almost surely a typo).
+const MAX_GAMES: u32 = 1000;
+
+/// Plays the match; `Ok(passed)`. Inputs and output paths are checked before the first point.
+fn play(args: &MatchArgs) -> Result<bool> {
+    if !(1..=MAX_GAMES).contains(&args.games) {
+        anyhow::bail!("--games must be in 1..={MAX_GAMES}, found {}", args.games);
+    }
+    outputs_differ(args.json.as_deref(), args.svg.as_deref())?;
+    let config = badminton::Config::resolve(&args.scenario)?;
+    let kinds = [args.p0.clone(), args.p1.clone()];
+    let mut drawn: Option<badminton::game::Rally> = None;
+    let keep_rally = |game: &badminton::Badminton| {
+        let hits = |r: &badminton::game::Rally| r.hits.len();
+        let current = drawn.as_ref().map_or(0, hits);
+        // The first rally of DRAWN_HITS hits or more (a readable figure), else the longest.
+        if let Some(r) = game
+            .rally()
+            .filter(|r| current < DRAWN_HITS && hits(r) > current)
+        {
+            drawn = Some(r.clone());
+        }
+    };
+    let length = Length::Games(args.games);
+    let record = args.svg.is_some();
+    let report = play_match(&config, &kinds, length, args.seed, record, keep_rally)?;
+    print!("{}", report.summary());
+    if let Some(path) = &args.json {
+        let text = serde_json::to_string_pretty(&report)?;
+        written(files::write_atomic(path, text.as_bytes()), path)?;
+    }
+    if let (Some(path), Some(rally)) = (&args.svg, &drawn) {
+        let end = rally.end.map_or("-".to_string(), |e| {
+            let cause = serde_json::to_string(&e.cause).unwrap_or_default();
+            let winner = e.winner.map_or("none".to_string(), |w| format!("p{w}"));
+            format!("{}, point to {winner}", cause.trim_matches('"'))
+        });
+        let title = format!(
+            "{} | p0 {} (blue) vs p1 {} (red) | seed {} | a rally of {} hits, ended by {end}",
+            config.name,
+            kinds[0],
+            kinds[1],
+            args.seed,
+            rally.hits.len()
+        );
+        let svg = badminton::figure::rally_svg(rally, &config, &title);
+        written(files::write_atomic(path, svg.as_bytes()), path)?;
+    }
+    if !report.pass.passed {
+        eprintln!("FAIL: {}", report.pass.failures.join("; "));
+    }
+    Ok(report.pass.passed)
+}
+
+/// Two outputs must be two files; each must be writable, checked before any work.
+fn outputs_differ(json: Option<&Path>, svg: Option<&Path>) -> Result<()> {
+    if let (Some(json), Some(svg)) = (json, svg) {
+        if json == svg {
+            anyhow::bail!("--json and --svg name the same file {}", json.display());
+        }
+    }
+    for path in json.iter().chain(svg.iter()) {
+        files::check_output(path).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(())
 }
 
 /// A path that cannot be written is reported before the work, so a long run never ends in

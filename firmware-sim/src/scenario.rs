@@ -358,6 +358,19 @@ impl Scenario {
         Self::load(path)
     }
 
+    /// The plant this scenario describes, behind the interface every caller uses (training and
+    /// tools name [`crate::env::Plant`], not a plant type).
+    ///
+    /// ```
+    /// use firmware_sim::scenario::Scenario;
+    /// let plant = Scenario::builtin("nav-walls").unwrap().plant().unwrap();
+    /// let agents = plant.agents();
+    /// assert_eq!((agents.len(), agents[0].observation_space.dim()), (1, 2));
+    /// ```
+    pub fn plant(&self) -> Result<Box<dyn crate::env::Plant>, Error> {
+        Ok(Box::new(crate::nav::NavEnv::new(self)?))
+    }
+
     /// The walls as geometry segments.
     ///
     /// ```
@@ -543,7 +556,7 @@ impl Scenario {
 }
 
 /// A one-line parse error with the line and column of the offending key.
-fn parse_error(e: &toml::de::Error, text: &str, origin: &str) -> Error {
+pub(crate) fn parse_error(e: &toml::de::Error, text: &str, origin: &str) -> Error {
     let mut message = e.message().trim().replace('\n', " ");
     let location = match e.span() {
         Some(span) => {

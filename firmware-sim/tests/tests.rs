@@ -3,6 +3,15 @@
 /// Builders shared by the modules: random-weight policy blobs.
 mod util;
 
+/// Badminton: the reference players' gates of DESIGN.md section 3 (scripted against random
+/// and itself, the catch and serve tests).
+mod badminton_gates;
+/// Badminton physics: the closed form without drag, terminal speed, landing interpolation, the
+/// lines, the net, and the players' margins and speed limit.
+mod badminton_physics;
+/// Badminton rules: faults, the let at the rally cap, games, who serves, mirrored frames,
+/// determinism, margins as ground truth, and the Plant interface's transition contract.
+mod badminton_rules;
 /// Booting blobs: any shape and plant size through the runtime model, discrete policies, the
 /// safe state on corrupt bytes or wrong sizes.
 mod boot;
@@ -14,5 +23,7 @@ mod determinism;
 mod faults;
 /// Wall geometry properties: never crosses or leaves through a wall, slides parallel.
 mod geometry;
+/// `firmware-sim match`: summary, JSON and SVG, exit codes, one-line errors.
+mod match_cli;
 /// Reference controllers: `straight` is caught stuck, `oracle` follows the gaps.
 mod reference;

@@ -1,7 +1,9 @@
 //! The training run: configuration, the episode loop, metrics, checkpoints, divergence checks.
 //!
-//! The loop is the same for every algorithm: it asks the run's [`Algorithm`] for an action,
-//! steps the plant, hands the step back, and at the end of an episode records the metrics.
+//! The loop is the same for every algorithm: it asks the run's [`Algorithm`] for an action at
+//! the plant's decision point, lets the plant run to the next one (firmware-sim's
+//! [`Plant`] interface; navigation decides every step), hands the closed transition back, and at
+//! the end of an episode records the metrics.
 //! What an algorithm does with a step (replay, rollouts, updates) is its own business
 //! ([`crate::algo`]).
 //!
@@ -15,9 +17,9 @@ use std::ops::ControlFlow;
 use std::path::Path;
 use std::time::Instant;
 
-use firmware_sim::env::Env;
+use firmware_sim::env::Plant;
 use firmware_sim::harness::EvalConfig;
-use firmware_sim::nav::{NavEnv, Reward};
+use firmware_sim::nav::Reward;
 use firmware_sim::scenario::Scenario;
 use rand_core::Rng as _;
 use serde::{Deserialize, Serialize};
@@ -306,7 +308,7 @@ pub struct Trainer {
     pub metrics: Vec<EpisodeRow>,
     /// The plant, as resolved when the run started (before the reward and γ overrides).
     pub scenario: Scenario,
-    env: NavEnv,
+    env: Box<dyn Plant>,
     /// Episode starts.
     env_rng: Rng,
 }
@@ -330,18 +332,10 @@ impl Trainer {
         config.validate()?;
         check_eval_episodes(&config, &scenario)?;
         let env = make_env(&config, &scenario)?;
-        let space = env.action_space().clone();
-        export::check_supported(
-            env.observation_space().dim(),
-            space.dim(),
-            config.agent.hidden,
-        )?;
-        let learner = Learner::new(
-            &config,
-            env.observation_space().dim(),
-            &space.low,
-            &space.high,
-        )?;
+        let agent = &env.agents()[0];
+        let (observations, space) = (agent.observation_space.dim(), &agent.action_space);
+        export::check_supported(observations, space.dim(), config.agent.hidden)?;
+        let learner = Learner::new(&config, observations, &space.low, &space.high)?;
         Ok(Trainer {
             learner,
             env_rng: seed::stream(config.seed, "env"),
@@ -427,34 +421,36 @@ impl Trainer {
     /// dropped: its state is no longer good.
     pub fn run_episode(&mut self) -> Result<&EpisodeRow, Error> {
         let started = Instant::now();
-        let mut obs = self.env.reset(self.env_rng.next_u64());
+        let mut turn = self.env.reset(self.env_rng.next_u64());
         let (mut ret, mut steps) = (0.0f32, 0usize);
+        let (mut reached, mut final_distance) = (false, 0.0);
         let mut recent = Vec::with_capacity(SETTLE_WINDOW);
         let algo = self.learner.algorithm();
         algo.start_episode(self.episode, self.config.episodes);
-        let reached = loop {
-            let action = algo.act(&obs);
-            let step = self.env.step(&action);
-            self.total_steps += 1;
-            let learned = algo.learn(&Step {
-                obs: &obs,
-                reward: step.reward,
-                next_obs: &step.observation,
-                terminated: step.terminated,
-                truncated: step.truncated,
-                total_steps: self.total_steps,
-            });
-            if let Err(what) = learned {
-                return Err(diverged(self.episode, what));
+        while let Some(decision) = turn.decide.take() {
+            let action = algo.act(&decision.observation);
+            turn = self.env.act(&action);
+            // One agent: its transition from this decision closes with this action.
+            for outcome in &turn.closed {
+                self.total_steps += 1;
+                let learned = algo.learn(&Step {
+                    obs: &decision.observation,
+                    reward: outcome.reward,
+                    next_obs: &outcome.observation,
+                    terminated: outcome.terminated,
+                    truncated: outcome.truncated,
+                    total_steps: self.total_steps,
+                });
+                if let Err(what) = learned {
+                    return Err(diverged(self.episode, what));
+                }
+                ret += outcome.reward;
+                steps += 1;
+                final_distance = distance(&outcome.observation);
+                push_recent(&mut recent, final_distance);
+                reached = outcome.terminated && final_distance < SUCCESS_RADIUS;
             }
-            obs = step.observation;
-            ret += step.reward;
-            steps += 1;
-            push_recent(&mut recent, distance(&obs));
-            if step.terminated || step.truncated {
-                break step.terminated && distance(&obs) < SUCCESS_RADIUS;
-            }
-        };
+        }
         if !algo.is_finite() {
             return Err(diverged(self.episode, "network weights"));
         }
@@ -466,7 +462,7 @@ impl Trainer {
             ret,
             steps,
             success: reached || settled,
-            final_distance: distance(&obs),
+            final_distance,
             stats,
             total_steps: self.total_steps,
             steps_per_s: steps as f32 / started.elapsed().as_secs_f32().max(1e-9),
@@ -521,14 +517,21 @@ fn diverged(done: usize, what: &str) -> Error {
 
 /// The training plant: the run's scenario with its reward, and the learner's γ for the exit
 /// penalty (leaving the arena pays worst/(1 - γ), so leaving never pays).
-fn make_env(config: &TrainConfig, base: &Scenario) -> Result<NavEnv, Error> {
+fn make_env(config: &TrainConfig, base: &Scenario) -> Result<Box<dyn Plant>, Error> {
     let mut scenario = base.clone();
     scenario.reward = config.reward.into();
     scenario.gamma = config.agent.gamma;
-    NavEnv::new(&scenario).map_err(|e| Error::Sim {
+    let sim = |message: String| Error::Sim {
         context: format!("task {:?}", config.task),
-        message: e.to_string(),
-    })
+        message,
+    };
+    let plant = scenario.plant().map_err(|e| sim(e.to_string()))?;
+    match plant.agents().len() {
+        1 => Ok(plant),
+        n => Err(sim(format!(
+            "the trainer trains one agent; this plant has {n}"
+        ))),
+    }
 }
 
 /// The end-of-training evaluation's settings must pass firmware-sim's checks (its episode

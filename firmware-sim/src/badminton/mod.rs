@@ -1,0 +1,25 @@
+//! Experiment 2: badminton singles (DESIGN.md section 3), a plant of two players with three
+//! agents each (catch, serve, reset), and its reference players and measures.
+//!
+//! - [`config`]: every constant as data (`scenarios/badminton.toml`), validated;
+//! - [`court`]: the court, the halves and the players' frames; [`shuttle`]: f64 physics with
+//!   quadratic drag and the events of a flight; [`player`]: bodies with their speed limit and
+//!   margins, and how actions map onto targets and hits; [`rules`]: points, games, who serves;
+//! - [`game`]: the plant ([`Badminton`], a [`crate::env::Plant`]);
+//! - [`mod@reference`]: the `random` and `scripted` players ([`clear`]: the scripted clear's
+//!   speed); [`play`]: matches and the paper's
+//!   measures; [`figure`]: one rally drawn from above and from the side.
+
+pub mod clear;
+pub mod config;
+pub mod court;
+pub mod figure;
+pub mod game;
+pub mod play;
+pub mod player;
+pub mod reference;
+pub mod rules;
+pub mod shuttle;
+
+pub use config::Config;
+pub use game::{Badminton, Role};
