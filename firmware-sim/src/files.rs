@@ -212,25 +212,28 @@ pub fn check_output(path: &Path) -> io::Result<()> {
 /// # std::fs::remove_file(&path).unwrap();
 /// ```
 pub fn read_blob(path: &Path) -> io::Result<Vec<u8>> {
-    let max = policy_core::blob::MAX_BLOB_LEN;
-    let file = fs::File::open(path)?;
-    let too_large = |size: u64| {
-        io::Error::new(
-            io::ErrorKind::InvalidData,
-            format!(
-                "file is {size} bytes, larger than any blob can be ({max} bytes): not a policy blob"
-            ),
+    let max = policy_core::blob::MAX_BLOB_LEN as u64;
+    read_bounded(path, max, |size| {
+        format!(
+            "file is {size} bytes, larger than any blob can be ({max} bytes): not a policy blob"
         )
-    };
+    })
+}
+
+/// Reads at most `max` bytes of `path`; a larger file (by its size, or by what a pipe or a
+/// growing file delivers) is `InvalidData` with `too_large(size)` as the message.
+fn read_bounded(path: &Path, max: u64, too_large: impl Fn(u64) -> String) -> io::Result<Vec<u8>> {
+    let error = |size| io::Error::new(io::ErrorKind::InvalidData, too_large(size));
+    let file = fs::File::open(path)?;
     let size = file.metadata()?.len();
-    if size > max as u64 {
-        return Err(too_large(size));
+    if size > max {
+        return Err(error(size));
     }
     // The size may change under us or be unknown (a pipe): never read past the limit.
     let mut bytes = Vec::with_capacity(size as usize);
-    file.take(max as u64 + 1).read_to_end(&mut bytes)?;
-    if bytes.len() > max {
-        return Err(too_large(bytes.len() as u64));
+    file.take(max + 1).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > max {
+        return Err(error(bytes.len() as u64));
     }
     Ok(bytes)
 }
@@ -251,22 +254,9 @@ pub const MAX_SLOT_FILE: u64 = 64 << 20;
 /// # std::fs::remove_file(&path).unwrap();
 /// ```
 pub fn read_slot(path: &Path) -> io::Result<Vec<u8>> {
-    let file = fs::File::open(path)?;
-    let size = file.metadata()?.len();
-    let too_large = |size: u64| {
-        io::Error::new(
-            io::ErrorKind::InvalidData,
-            format!("file is {size} bytes, larger than any flash slot ({MAX_SLOT_FILE} bytes)"),
-        )
-    };
-    if size > MAX_SLOT_FILE {
-        return Err(too_large(size));
-    }
-    let mut bytes = Vec::with_capacity(size as usize);
-    file.take(MAX_SLOT_FILE + 1).read_to_end(&mut bytes)?;
-    if bytes.len() as u64 > MAX_SLOT_FILE {
-        return Err(too_large(bytes.len() as u64));
-    }
+    let bytes = read_bounded(path, MAX_SLOT_FILE, |size| {
+        format!("file is {size} bytes, larger than any flash slot ({MAX_SLOT_FILE} bytes)")
+    })?;
     if bytes.first() == Some(&b':') {
         return Err(io::Error::new(
             io::ErrorKind::InvalidData,

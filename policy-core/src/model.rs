@@ -253,7 +253,7 @@ impl<'a> Model<'a> {
         match self.header.kind {
             ModelKind::Actor => {
                 self.act_unit(obs, scratch, action)?;
-                self.scale(action);
+                self.scale_into_bounds(action);
                 Ok(())
             }
             ModelKind::Discrete => {
@@ -377,9 +377,13 @@ impl<'a> Model<'a> {
     /// bounds in place, as [`Model::act`] does: a non-finite component becomes the middle of
     /// its range. No effect on a critic; a discrete policy's bounds are its table's.
     pub fn scale(&self, action: &mut [f32]) {
-        if self.header.kind == ModelKind::Critic {
-            return;
+        if self.header.kind != ModelKind::Critic {
+            self.scale_into_bounds(action);
         }
+    }
+
+    /// [`Model::scale`] without the kind check, for `act`, which has already matched an actor.
+    fn scale_into_bounds(&self, action: &mut [f32]) {
         let a = self.layout.actions;
         let (low, high) = (
             self.slice(self.layout.bounds, a),
