@@ -30,7 +30,7 @@ use firmware_sim::scenario::Scenario;
 use policy_core::{Critic, Policy};
 
 type Actor = Policy<2, 48, 3, 2>;
-type Value = Critic<2, 2, 48, 3>;
+type Value = Critic<2, 48, 3, 2>;
 
 /// Grid points per action dimension for the critic's argmax.
 const GRID: usize = 41;

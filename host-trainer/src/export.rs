@@ -617,7 +617,7 @@ mod tests {
         );
 
         let critic = trained_like(4, 32, 2, 1, Activation::Tanh, Output::Linear);
-        let mut c = Box::new(policy_core::Critic::<2, 2, 32, 1>::ZERO);
+        let mut c = Box::new(policy_core::Critic::<2, 32, 1, 2>::ZERO);
         c.normalizer = norm.to_policy::<2>();
         let (obs_w, act_w) = critic.layers[0].w.split_at(2 * 32);
         c.input.w.as_mut_slice().copy_from_slice(obs_w);

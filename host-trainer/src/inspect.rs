@@ -197,7 +197,7 @@ mod tests {
 
     #[test]
     fn a_critic_has_no_bounds_and_a_bad_crc_is_an_error() {
-        let critic = policy_core::Critic::<2, 2, 8, 1> {
+        let critic = policy_core::Critic::<2, 8, 1, 2> {
             normalizer: policy_core::Normalizer::identity(3.0),
             ..policy_core::Critic::ZERO
         };

@@ -187,7 +187,7 @@ fn actor_blobs() -> (Vec<u8>, Vec<u8>) {
 fn eval_of_a_blob_that_does_not_boot_fails() {
     let base = scratch("eval-boot");
     // A valid critic (policy-core checks every parameter before the kind).
-    let critic = Critic::<2, 2, 32, 1> {
+    let critic = Critic::<2, 32, 1, 2> {
         normalizer: Normalizer::identity(5.0),
         ..Critic::ZERO
     }

@@ -19,7 +19,7 @@ static CRITIC_BLOB: &[u8] = include_bytes!("../../policy-core/tests/golden/criti
 
 /// Where a firmware keeps its models: statics loaded once at boot (about 10 KB together).
 static mut ACTOR: Policy<2, 32, 1, 2> = Policy::ZERO;
-static mut CRITIC: Critic<2, 2, 32, 1> = Critic::ZERO;
+static mut CRITIC: Critic<2, 32, 1, 2> = Critic::ZERO;
 
 /// `act([0, 0])` of the golden actor, from policy-core/tests/golden/vectors.txt.
 const GOLDEN_ORIGIN: [u32; 2] = [0x3d54_7cc0, 0x3d8b_cd00];

@@ -67,7 +67,7 @@ pub fn standard_normal<R: Rng + ?Sized>(rng: &mut R) -> f32 {
 /// static ACTOR: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
 /// static CRITIC: &[u8] = include_bytes!("../tests/golden/critic_2x32.postcard");
 /// let policy = Policy::<2, 32, 1, 2>::from_blob(ACTOR).unwrap();
-/// let critic = Critic::<2, 2, 32, 1>::from_blob(CRITIC).unwrap();
+/// let critic = Critic::<2, 32, 1, 2>::from_blob(CRITIC).unwrap();
 /// let obs = [3.0, -1.0];
 /// let r = refine(&policy, &critic, &obs, &mut Lcg(7), 16, 0.2);
 /// assert!(r.advantage >= 0.0);
@@ -83,7 +83,7 @@ pub fn refine<
     R,
 >(
     policy: &Policy<S, H, L, A>,
-    critic: &Critic<S, A, CH, CL>,
+    critic: &Critic<S, CH, CL, A>,
     obs: &[f32; S],
     rng: &mut R,
     t: usize,
@@ -173,7 +173,7 @@ where
 /// let r = refine_model::<2, 64, _>(&actor, &critic, &[3.0, -1.0], &mut scratch, &mut Lcg(7), 16, 0.2)
 ///     .unwrap();
 /// let policy = Policy::<2, 32, 1, 2>::from_blob(ACTOR).unwrap();
-/// let q = Critic::<2, 2, 32, 1>::from_blob(CRITIC).unwrap();
+/// let q = Critic::<2, 32, 1, 2>::from_blob(CRITIC).unwrap();
 /// assert_eq!(r, refine(&policy, &q, &[3.0, -1.0], &mut Lcg(7), 16, 0.2));
 /// ```
 #[allow(clippy::too_many_arguments)] // refine's arguments, plus the runtime's scratch

@@ -13,7 +13,7 @@ use crate::{Activation, Dense, Error, Normalizer, Trunk};
 /// first layer is stored as one `H × (S + A)` matrix split in two: observation columns, then
 /// action columns, which is exactly the layer a trainer builds on the concatenated input.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Critic<const S: usize, const A: usize, const H: usize, const L: usize> {
+pub struct Critic<const S: usize, const H: usize, const L: usize, const A: usize> {
     /// Observation normaliser frozen at export (the actor's).
     pub normalizer: Normalizer<S>,
     /// First layer: observation weights and the layer's biases.
@@ -24,7 +24,7 @@ pub struct Critic<const S: usize, const A: usize, const H: usize, const L: usize
     pub trunk: Trunk<H, L, 1>,
 }
 
-impl<const S: usize, const A: usize, const H: usize, const L: usize> Critic<S, A, H, L> {
+impl<const S: usize, const H: usize, const L: usize, const A: usize> Critic<S, H, L, A> {
     /// The all-zero critic: Q is 0 everywhere.
     pub const ZERO: Self = Self {
         normalizer: Normalizer::ZERO,
@@ -38,7 +38,7 @@ impl<const S: usize, const A: usize, const H: usize, const L: usize> Critic<S, A
     /// ```
     /// use policy_core::{Critic, Error, ModelKind};
     /// static ACTOR: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
-    /// let mut slot = Critic::<2, 2, 32, 1>::ZERO;
+    /// let mut slot = Critic::<2, 32, 1, 2>::ZERO;
     /// let err = slot.load_into(ACTOR).unwrap_err();
     /// assert_eq!(err, Error::WrongKind { expected: ModelKind::Critic, found: ModelKind::Actor });
     /// assert_eq!(slot, Critic::ZERO);
@@ -52,7 +52,7 @@ impl<const S: usize, const A: usize, const H: usize, const L: usize> Critic<S, A
     /// ```
     /// use policy_core::Critic;
     /// static BLOB: &[u8] = include_bytes!("../tests/golden/critic_2x32.postcard");
-    /// let critic = Critic::<2, 2, 32, 1>::from_blob(BLOB).unwrap();
+    /// let critic = Critic::<2, 32, 1, 2>::from_blob(BLOB).unwrap();
     /// assert!(critic.q(&[1.0, -2.0], &[0.5, 0.5]).is_finite());
     /// ```
     pub fn from_blob(bytes: &[u8]) -> Result<Self, Error> {
@@ -66,7 +66,7 @@ impl<const S: usize, const A: usize, const H: usize, const L: usize> Critic<S, A
     /// ```
     /// use policy_core::Critic;
     /// static BLOB: &[u8] = include_bytes!("../tests/golden/critic_2x32.postcard");
-    /// let critic = Critic::<2, 2, 32, 1>::from_blob(BLOB).unwrap();
+    /// let critic = Critic::<2, 32, 1, 2>::from_blob(BLOB).unwrap();
     /// let mut out = [0u8; 8192];
     /// let n = critic.write_blob("golden critic 2x32 relu", &mut out).unwrap();
     /// assert_eq!(&out[..n], BLOB);
@@ -79,7 +79,7 @@ impl<const S: usize, const A: usize, const H: usize, const L: usize> Critic<S, A
     ///
     /// ```
     /// use policy_core::Critic;
-    /// let blob = Critic::<2, 2, 8, 0>::ZERO.to_blob("").unwrap();
+    /// let blob = Critic::<2, 8, 0, 2>::ZERO.to_blob("").unwrap();
     /// assert_eq!(&blob[..4], b"DCPB");
     /// ```
     #[cfg(feature = "std")]
@@ -94,7 +94,7 @@ impl<const S: usize, const A: usize, const H: usize, const L: usize> Critic<S, A
     /// ```
     /// use policy_core::Critic;
     /// static BLOB: &[u8] = include_bytes!("../tests/golden/critic_2x32.postcard");
-    /// let critic = Critic::<2, 2, 32, 1>::from_blob(BLOB).unwrap();
+    /// let critic = Critic::<2, 32, 1, 2>::from_blob(BLOB).unwrap();
     /// // The action is clamped into the unit box and a NaN action component reads as 0.
     /// assert_eq!(critic.q(&[1.0, 2.0], &[5.0, f32::NAN]), critic.q(&[1.0, 2.0], &[1.0, 0.0]));
     /// ```
@@ -109,7 +109,7 @@ impl<const S: usize, const A: usize, const H: usize, const L: usize> Critic<S, A
     /// ```
     /// use policy_core::Critic;
     /// static BLOB: &[u8] = include_bytes!("../tests/golden/critic_2x32.postcard");
-    /// let critic = Critic::<2, 2, 32, 1>::from_blob(BLOB).unwrap();
+    /// let critic = Critic::<2, 32, 1, 2>::from_blob(BLOB).unwrap();
     /// let z = critic.normalizer.normalize(&[1.0, 2.0]);
     /// assert_eq!(critic.q_normalized(&z.into(), &[0.5, 0.5]), critic.q(&[1.0, 2.0], &[0.5, 0.5]));
     /// ```
@@ -130,8 +130,8 @@ impl<const S: usize, const A: usize, const H: usize, const L: usize> Critic<S, A
     }
 }
 
-impl<const S: usize, const A: usize, const H: usize, const L: usize> Compiled
-    for Critic<S, A, H, L>
+impl<const S: usize, const H: usize, const L: usize, const A: usize> Compiled
+    for Critic<S, H, L, A>
 {
     const KIND: ModelKind = ModelKind::Critic;
     const SHAPE: Shape = Shape::compiled(S, A, H, L);

@@ -7,7 +7,7 @@ use proptest::prelude::*;
 use crate::support::{nav_critic, nav_policy, SplitMix64};
 
 type Actor = Policy<2, 32, 1, 2>;
-type Q = Critic<2, 2, 32, 1>;
+type Q = Critic<2, 32, 1, 2>;
 
 fn models(seed: u64, relu: bool) -> (Actor, Q) {
     let act = if relu {

@@ -103,7 +103,7 @@ fn encoding_and_version_must_agree() {
 
 #[test]
 fn wrong_kind() {
-    let critic = blob_of(&nav_critic::<2, 2, 32, 1>(2, Activation::Tanh), "critic");
+    let critic = blob_of(&nav_critic::<2, 32, 1, 2>(2, Activation::Tanh), "critic");
     let err = load_error(&critic);
     assert_eq!(
         err,
@@ -116,7 +116,7 @@ fn wrong_kind() {
         err.to_string(),
         "wrong model kind: expected actor, found critic"
     );
-    let mut c = Critic::<2, 2, 32, 1>::ZERO;
+    let mut c = Critic::<2, 32, 1, 2>::ZERO;
     assert!(matches!(c.load_into(&good()), Err(Error::WrongKind { .. })));
     assert_eq!(c, Critic::ZERO);
 }
@@ -241,9 +241,9 @@ fn invalid_parameters_are_rejected() {
             "{err:?}"
         );
     }
-    let mut c = nav_critic::<2, 2, 32, 1>(6, Activation::Tanh);
+    let mut c = nav_critic::<2, 32, 1, 2>(6, Activation::Tanh);
     c.normalizer.clip = 0.0;
-    let mut slot = Critic::<2, 2, 32, 1>::ZERO;
+    let mut slot = Critic::<2, 32, 1, 2>::ZERO;
     let err = slot.load_into(&blob_of(&c, "")).expect_err("clip 0");
     assert!(matches!(err, Error::InvalidParameter { .. }));
 }

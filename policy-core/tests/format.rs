@@ -63,7 +63,7 @@ fn actor_blob_is_postcard_of_header_and_floats() {
 
 #[test]
 fn critic_blob_is_postcard_of_header_and_floats() {
-    let c = nav_critic::<2, 2, 32, 1>(9, Activation::Relu);
+    let c = nav_critic::<2, 32, 1, 2>(9, Activation::Relu);
     assert_eq!(blob_of(&c, "critic"), postcard_blob(&c, "critic"));
 }
 
@@ -106,9 +106,9 @@ fn param_count_agrees_with_the_types() {
     check(&Policy::<2, 32, 1, 2>::ZERO);
     check(&Policy::<2, 48, 3, 2>::ZERO);
     check(&Policy::<5, 7, 4, 3>::ZERO);
-    check(&Critic::<2, 2, 32, 1>::ZERO);
-    check(&Critic::<3, 1, 4, 0>::ZERO);
-    check(&Critic::<6, 4, 9, 2>::ZERO);
+    check(&Critic::<2, 32, 1, 2>::ZERO);
+    check(&Critic::<3, 4, 0, 1>::ZERO);
+    check(&Critic::<6, 9, 2, 4>::ZERO);
 }
 
 #[test]

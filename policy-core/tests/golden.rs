@@ -15,7 +15,7 @@ use crate::support::{blob_of, nav_critic, nav_policy, SplitMix64};
 
 type Actor2x32 = Policy<2, 32, 1, 2>;
 type Actor4x48 = Policy<2, 48, 3, 2>;
-type Critic2x32 = Critic<2, 2, 32, 1>;
+type Critic2x32 = Critic<2, 32, 1, 2>;
 
 const ACTOR_2X32: &str = "actor_2x32.postcard";
 const ACTOR_4X48: &str = "actor_4x48.postcard";
@@ -143,7 +143,7 @@ fn vectors_text() -> String {
 const HEADER: &str = "\
 # policy-core golden vectors. Every number is an f32 bit pattern in hex unless noted.
 # Models: actor_2x32.postcard (Policy<2,32,1,2>), actor_4x48.postcard (Policy<2,48,3,2>),
-# critic_2x32.postcard (Critic<2,2,32,1>). Lines:
+# critic_2x32.postcard (Critic<2,32,1,2>). Lines:
 #   act2x32 | act4x48   obs0 obs1 -> action0 action1                 (Policy::act)
 #   q2x32    obs0 obs1 unit0 unit1 -> q                            (Critic::q)
 #   refine2x32 seed(dec) t(dec) sigma obs0 obs1 -> unit0 unit1 action0 action1 advantage winner(dec)

@@ -61,7 +61,7 @@ fn runtime_actors_equal_the_compiled_ones_bit_for_bit() {
 
 #[test]
 fn runtime_critics_equal_the_compiled_ones_bit_for_bit() {
-    let compiled = nav_critic::<2, 2, 48, 3>(6, Activation::Relu);
+    let compiled = nav_critic::<2, 48, 3, 2>(6, Activation::Relu);
     let bytes = blob_of(&compiled, "critic");
     let model = Model::from_blob(&bytes).expect("loads");
     let mut scratch = Scratch::<48>::new();

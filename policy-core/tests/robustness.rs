@@ -12,7 +12,7 @@ use crate::support::{
 
 type Actor = Policy<2, 32, 1, 2>;
 type Tiny = Policy<1, 2, 0, 1>;
-type Q = Critic<2, 2, 32, 1>;
+type Q = Critic<2, 32, 1, 2>;
 
 fn actor_blob() -> Vec<u8> {
     blob_of(
@@ -93,7 +93,7 @@ fn random_byte_strings_are_rejected_without_panic() {
 #[test]
 fn every_single_bit_flip_is_rejected() {
     let actor = actor_blob();
-    let critic = blob_of(&nav_critic::<2, 2, 32, 1>(12, Activation::Relu), "critic");
+    let critic = blob_of(&nav_critic::<2, 32, 1, 2>(12, Activation::Relu), "critic");
     let (mut a, mut c) = (Actor::ZERO, Q::ZERO);
     a.load_into(&actor).expect("unflipped actor loads");
     c.load_into(&critic).expect("unflipped critic loads");
@@ -190,7 +190,7 @@ fn every_flip_and_truncation_of_every_kind_is_rejected_by_the_runtime() {
         ("actor", actor_blob()),
         (
             "critic",
-            blob_of(&nav_critic::<2, 2, 32, 1>(13, Activation::Tanh), "critic"),
+            blob_of(&nav_critic::<2, 32, 1, 2>(13, Activation::Tanh), "critic"),
         ),
         ("discrete", discrete_blob(14)),
     ];

@@ -34,9 +34,9 @@ proptest! {
 
     #[test]
     fn critics_round_trip(seed in any::<u64>(), label in "[a-z0-9 _-]{0,32}") {
-        round_trip(&arbitrary_critic::<2, 2, 32, 1>(seed), &label, Critic::ZERO);
-        round_trip(&arbitrary_critic::<3, 1, 4, 0>(seed), &label, Critic::ZERO);
-        round_trip(&arbitrary_critic::<6, 4, 9, 2>(seed), &label, Critic::ZERO);
+        round_trip(&arbitrary_critic::<2, 32, 1, 2>(seed), &label, Critic::ZERO);
+        round_trip(&arbitrary_critic::<3, 4, 0, 1>(seed), &label, Critic::ZERO);
+        round_trip(&arbitrary_critic::<6, 9, 2, 4>(seed), &label, Critic::ZERO);
     }
 }
 
@@ -45,7 +45,7 @@ proptest! {
 fn both_activations_round_trip() {
     for seed in [0, 1] {
         round_trip(&arbitrary_policy::<2, 32, 1, 2>(seed), "a", Policy::ZERO);
-        round_trip(&arbitrary_critic::<2, 2, 32, 1>(seed), "c", Critic::ZERO);
+        round_trip(&arbitrary_critic::<2, 32, 1, 2>(seed), "c", Critic::ZERO);
     }
     assert_ne!(
         arbitrary_policy::<1, 1, 0, 1>(0).trunk.activation,

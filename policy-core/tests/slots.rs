@@ -49,7 +49,7 @@ fn bad_slots() -> Vec<BadSlot> {
     // A transfer cut at half the record: the rest of the slot is still erased.
     let mut truncated = newer[..newer.len() / 2].to_vec();
     truncated.resize(SLOT, 0xFF);
-    let critic = blob_of(&nav_critic::<2, 2, 32, 1>(3, Activation::Relu), "critic");
+    let critic = blob_of(&nav_critic::<2, 32, 1, 2>(3, Activation::Relu), "critic");
     let six = blob_of(
         &nav_policy::<6, 32, 1, 2>(4, Activation::Relu),
         "other plant",

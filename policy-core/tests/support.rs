@@ -100,12 +100,12 @@ pub fn nav_policy<const S: usize, const H: usize, const L: usize, const A: usize
 }
 
 /// A critic with the same normaliser as `nav_policy(seed)` and random DDPG-scale weights.
-pub fn nav_critic<const S: usize, const A: usize, const H: usize, const L: usize>(
+pub fn nav_critic<const S: usize, const H: usize, const L: usize, const A: usize>(
     seed: u64,
     activation: Activation,
-) -> Critic<S, A, H, L> {
+) -> Critic<S, H, L, A> {
     let mut rng = SplitMix64(seed);
-    let mut c = Critic::<S, A, H, L>::ZERO;
+    let mut c = Critic::<S, H, L, A>::ZERO;
     c.normalizer
         .mean
         .iter_mut()
@@ -159,11 +159,11 @@ pub fn arbitrary_policy<const S: usize, const H: usize, const L: usize, const A:
     p
 }
 
-pub fn arbitrary_critic<const S: usize, const A: usize, const H: usize, const L: usize>(
+pub fn arbitrary_critic<const S: usize, const H: usize, const L: usize, const A: usize>(
     seed: u64,
-) -> Critic<S, A, H, L> {
+) -> Critic<S, H, L, A> {
     let mut rng = SplitMix64(seed);
-    let mut c = Critic::<S, A, H, L>::ZERO;
+    let mut c = Critic::<S, H, L, A>::ZERO;
     scramble(&mut c, &mut rng);
     c.trunk.activation = activation_from(seed);
     c.normalizer.inv_std.iter_mut().for_each(|k| *k = k.abs());

@@ -16,11 +16,11 @@ pub type Actor2x32 = Policy<2, 32, 1, 2>;
 /// The paper's 4x48 navigation actor.
 pub type Actor4x48 = Policy<2, 48, 3, 2>;
 /// The golden 2x32 critic.
-pub type Critic2x32 = Critic<2, 2, 32, 1>;
+pub type Critic2x32 = Critic<2, 32, 1, 2>;
 /// A tiny actor: small enough that a fuzzer reaches its payload checks often.
 pub type TinyActor = Policy<1, 2, 0, 1>;
 /// A tiny critic, for the same reason.
-pub type TinyCritic = Critic<1, 1, 2, 0>;
+pub type TinyCritic = Critic<1, 2, 0, 1>;
 
 /// Observation components every loaded model is asked about: ordinary, huge, infinite and NaN.
 pub const PROBES: [f32; 8] = [
