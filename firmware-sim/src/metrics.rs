@@ -158,11 +158,7 @@ impl EpisodeMeter {
     pub(crate) fn record(self) -> EpisodeRecord {
         let window = &self.settle.positions;
         let settled = mean(window).unwrap_or(self.start);
-        let success = !self.left_arena
-            && !window.is_empty()
-            && window
-                .iter()
-                .all(|p| p.norm() <= self.metrics.success_radius);
+        let success = !self.left_arena && self.metrics.settled(window.iter().map(|p| p.norm()));
         let stuck_at = self.stuck.found;
         EpisodeRecord {
             seed: self.seed,

@@ -111,6 +111,29 @@ pub struct Metrics {
     pub stuck_max_progress: f64,
 }
 
+impl Metrics {
+    /// DESIGN.md section 2's success rule on the distances from the centre over an episode's last
+    /// `settle_window` steps: there is at least one, and every one is within `success_radius`.
+    /// firmware-sim's test metrics and the trainer's training-success column both ask it.
+    ///
+    /// ```
+    /// let m = firmware_sim::scenario::Metrics::default();
+    /// assert!(m.settled([0.5, 2.0, 1.0]));
+    /// assert!(!m.settled([0.5, 2.01]));
+    /// assert!(!m.settled([]));
+    /// ```
+    pub fn settled(&self, last_distances: impl IntoIterator<Item = f64>) -> bool {
+        let mut any = false;
+        for d in last_distances {
+            if d.is_nan() || d > self.success_radius {
+                return false;
+            }
+            any = true;
+        }
+        any
+    }
+}
+
 impl Default for Metrics {
     fn default() -> Self {
         Self {

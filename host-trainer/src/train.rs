@@ -13,6 +13,7 @@
 //! seed and configuration give the same blob bytes. Wall-clock times appear only in
 //! `metrics.csv`'s `steps_per_s` column.
 
+use std::collections::VecDeque;
 use std::ops::ControlFlow;
 use std::path::Path;
 use std::time::Instant;
@@ -313,11 +314,6 @@ pub struct Trainer {
     env_rng: Rng,
 }
 
-/// Positions over which an episode's end is judged (DESIGN.md: the last 20 steps).
-const SETTLE_WINDOW: usize = 20;
-/// "Settled near the centre" radius of the success rule.
-const SUCCESS_RADIUS: f32 = 2.0;
-
 impl Trainer {
     /// A fresh run on the plant `config.task` names: networks initialised from
     /// `seed::stream(seed, "init")`.
@@ -424,7 +420,11 @@ impl Trainer {
         let mut turn = self.env.reset(self.env_rng.next_u64());
         let (mut ret, mut steps) = (0.0f32, 0usize);
         let (mut reached, mut final_distance) = (false, 0.0);
-        let mut recent = Vec::with_capacity(SETTLE_WINDOW);
+        // The success rule is the scenario's (firmware-sim's `Metrics::settled`), on the
+        // distances of the last `settle_window` steps.
+        let rule = &self.scenario.metrics;
+        let window = rule.settle_window as usize;
+        let mut recent = VecDeque::with_capacity(window);
         let algo = self.learner.algorithm();
         algo.start_episode(self.episode, self.config.episodes);
         while let Some(decision) = turn.decide.take() {
@@ -447,15 +447,18 @@ impl Trainer {
                 ret += outcome.reward;
                 steps += 1;
                 final_distance = distance(&outcome.observation);
-                push_recent(&mut recent, final_distance);
-                reached = outcome.terminated && final_distance < SUCCESS_RADIUS;
+                if recent.len() == window {
+                    recent.pop_front();
+                }
+                recent.push_back(final_distance);
+                reached = outcome.terminated && rule.settled([f64::from(final_distance)]);
             }
         }
         if !algo.is_finite() {
             return Err(diverged(self.episode, "network weights"));
         }
         let stats = algo.episode_stats();
-        let settled = recent.iter().all(|&d| d < SUCCESS_RADIUS);
+        let settled = rule.settled(recent.iter().map(|&d| f64::from(d)));
         self.episode += 1;
         self.metrics.push(EpisodeRow {
             episode: self.episode,
@@ -558,13 +561,6 @@ pub fn scenario_toml(scenario: &Scenario) -> String {
 /// Distance of a navigation observation (the position) from the goal at the origin.
 fn distance(obs: &[f32]) -> f32 {
     obs.iter().map(|x| x * x).sum::<f32>().sqrt()
-}
-
-fn push_recent(recent: &mut Vec<f32>, d: f32) {
-    if recent.len() == SETTLE_WINDOW {
-        recent.remove(0);
-    }
-    recent.push(d);
 }
 
 /// How a call to [`run`] ended.
