@@ -97,7 +97,7 @@ fn updates(c: &mut Criterion) {
         let dcp = Dcp::new(
             dcp::Config {
                 t,
-                ..dcp::Config::default()
+                ..dcp::Config::paper()
             },
             0.2,
         );

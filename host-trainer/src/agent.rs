@@ -6,9 +6,10 @@
 //! action box, the critic's Bellman update and the soft target updates. `ddpg.rs` and `dcp.rs`
 //! each add one function: how the actor learns.
 //!
-//! Two options change the critic, both off by default (the paper's single critic, one-step
+//! Two options change the critic (the paper's DDPG and DCP have neither: one critic, one-step
 //! targets): [`Critics`] adds TD3's twin critic with clipped double-Q targets and target-policy
-//! smoothing (used by `--algo td3` and DCP's twin scoring), and n-step returns.
+//! smoothing (used by `--algo td3` and DCP's twin scoring, DCP's default since issue 13), and
+//! n-step returns (3 in DCP's defaults since issue 13).
 //!
 //! Conventions: the actor outputs a *unit* action in `[-1, 1]^n` (tanh output); the plant's
 //! bounds are applied only when acting, exactly as policy-core's `act` does. The critic scores

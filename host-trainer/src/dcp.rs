@@ -18,8 +18,10 @@
 //! proposal wins: the regression target slides along the wall instead of into it.
 //!
 //! Issue 13 adds variants from methods that also train an actor by comparing sampled actions
-//! under a critic. Each is one setting, off by default, so the paper's DCP is unchanged bit for
-//! bit; each setting's value is its source's usual default. In the order the update runs:
+//! under a critic. Each is one setting, off in the paper's DCP ([`Config::paper`], unchanged bit
+//! for bit); each setting's value is its source's usual default. Two of them together won the
+//! issue's fixed protocol and are DCP's defaults since (twin-min scoring with target smoothing,
+//! 3-step returns; [`Config::default`]). In the order the update runs:
 //!
 //! - `n_step` (the critic's target, [`crate::agent::Critics`]): n-step returns.
 //! - `scoring`: which critic scores the proposals: the online one (paper), the target critic,
@@ -62,12 +64,14 @@ pub struct Config {
     pub awr_beta: f32,
     /// `exp`: the largest weight [AWR: 20; CRR, Wang et al. 2020: 20].
     pub awr_max_weight: f32,
-    /// Which critic scores the proposals [paper: the online critic].
+    /// Which critic scores the proposals [paper: the online critic; default since issue 13:
+    /// `twin-min`].
     pub scoring: Scoring,
     /// TD3's target-policy smoothing in the critic's Bellman target, with the `[td3]`
-    /// section's σ and clip [TD3, Fujimoto et al. 2018: on with twin critics; ours: off].
+    /// section's σ and clip [TD3, Fujimoto et al. 2018: on with twin critics; paper: off; default
+    /// since issue 13: on].
     pub target_smoothing: bool,
-    /// Rewards summed per critic target, n [paper: 1; the variant's setting is 3, Rainbow's
+    /// Rewards summed per critic target, n [paper: 1; default since issue 13: 3, Rainbow's
     /// (Hessel et al. 2018) and D4PG's (Barth-Maron et al. 2018) n].
     pub n_step: usize,
     /// Cross-entropy refinement of the proposals [paper: off; QT-Opt, Kalashnikov et al. 2018;
@@ -87,8 +91,32 @@ pub struct Config {
     pub trust_region_kl: f32,
 }
 
+/// DCP's defaults: the paper's DCP ([`Config::paper`]) with the winner of issue 13's fixed
+/// protocol (README, "DCP variants (issue 13)"): proposals scored by the minimum of twin critics
+/// with TD3's target-policy smoothing, and 3-step returns for the critics. It beat the paper's
+/// DCP and DDPG in settled error on the pinwheel on fresh seeds, by the protocol's rule.
 impl Default for Config {
     fn default() -> Self {
+        Config {
+            scoring: Scoring::TwinMin,
+            target_smoothing: true,
+            n_step: 3,
+            ..Config::paper()
+        }
+    }
+}
+
+impl Config {
+    /// The paper's DCP as DESIGN.md section 1 reconstructs it (DCP's defaults before issue 13):
+    /// every issue-13 option off.
+    ///
+    /// ```
+    /// use host_trainer::dcp::{Config, Scoring};
+    /// let paper = Config::paper();
+    /// assert_eq!((paper.scoring, paper.target_smoothing, paper.n_step), (Scoring::Critic, false, 1));
+    /// assert_ne!(paper, Config::default());
+    /// ```
+    pub fn paper() -> Self {
         Config {
             t: 16,
             sigma_c: None,
@@ -699,7 +727,7 @@ mod tests {
         let dcp = Dcp::new(
             Config {
                 t: 2,
-                ..Config::default()
+                ..Config::paper()
             },
             0.2,
         );
@@ -716,7 +744,7 @@ mod tests {
             Config {
                 t: 2,
                 variant: Variant::Weighted,
-                ..Config::default()
+                ..Config::paper()
             },
             0.2,
         );
@@ -779,7 +807,7 @@ mod tests {
             Dcp::new(
                 Config {
                     sigma_c: Some(0.1),
-                    ..Config::default()
+                    ..Config::paper()
                 },
                 0.7
             )
@@ -806,7 +834,7 @@ mod tests {
         let d = dcp(Config {
             t: 3,
             state_weights: StateWeights::Binary,
-            ..Config::default()
+            ..Config::paper()
         });
         let t = d.select(&two_states(), 2);
         assert_eq!(weights_of(&t), vec![(0, 1, 1.0), (0, 2, 1.0), (1, 6, 1.0)]);
@@ -817,7 +845,7 @@ mod tests {
         let d = dcp(Config {
             t: 3,
             state_weights: StateWeights::Exp,
-            ..Config::default()
+            ..Config::paper()
         });
         let c = two_states();
         let proposals = [1.0f32, 3.0, -1.0, -2.0, 0.5, -0.5];
@@ -839,7 +867,7 @@ mod tests {
             t: 3,
             state_weights: StateWeights::Exp,
             awr_beta: 0.1,
-            ..Config::default()
+            ..Config::paper()
         });
         let t = sharp.select(&c, 2);
         assert_eq!(t[1].weight, 20.0);
@@ -863,7 +891,7 @@ mod tests {
         let d = dcp(Config {
             t: 3,
             state_weights: StateWeights::Softmax,
-            ..Config::default()
+            ..Config::paper()
         });
         let t = d.select(&c, 2);
         assert_eq!(t.len(), 6, "every proposal is a target");
@@ -951,7 +979,7 @@ mod tests {
             let mut agent = linear_critics((1.0, 0.0), (-1.0, 2.0), (-1.0, 0.5));
             let d = dcp(Config {
                 scoring,
-                ..Config::default()
+                ..Config::paper()
             });
             let a0 = agent.actor_eval(&z);
             let mut rng = seed::stream(1, "proposals");
@@ -1021,7 +1049,7 @@ mod tests {
         let mut config = Config {
             cem: true,
             cem_iterations: 1,
-            ..Config::default()
+            ..Config::paper()
         };
         let mut last = f32::INFINITY;
         let mut before = 0.0;
@@ -1046,7 +1074,7 @@ mod tests {
         // N(mean, std²) of those two, drawn in order from the same stream.
         let d = dcp(Config {
             cem: true,
-            ..Config::default()
+            ..Config::paper()
         });
         let a0 = Matrix::zeros(1, 2);
         let mut rng = seed::stream(3, "proposals");
@@ -1094,7 +1122,7 @@ mod tests {
             let d = dcp(Config {
                 trust_region,
                 trust_region_kl: 1e-4,
-                ..Config::default()
+                ..Config::paper()
             });
             let s = Sample {
                 z: z.clone(),
@@ -1134,7 +1162,7 @@ mod tests {
             let d = dcp(Config {
                 trust_region,
                 trust_region_kl: 1e-4,
-                ..Config::default()
+                ..Config::paper()
             });
             let anchor = agent.actor_target_eval(&z);
             let kl_before = mean_kl(&agent.actor_eval(&z), &anchor, 0.2);
@@ -1161,16 +1189,31 @@ mod tests {
     }
 
     #[test]
-    fn options_are_off_by_default_and_checked() {
-        let c = Config::default();
+    fn options_are_off_in_the_paper_and_the_winner_is_the_default_and_checked() {
+        let c = Config::paper();
         assert_eq!(c.state_weights, StateWeights::Off);
         assert_eq!(c.scoring, Scoring::Critic);
         assert!(!c.cem && !c.trust_region && !c.target_smoothing);
         assert_eq!(c.n_step, 1);
+        let d = Config::default();
+        assert_eq!(
+            (d.scoring, d.target_smoothing, d.n_step),
+            (Scoring::TwinMin, true, 3)
+        );
+        assert_eq!(
+            Config {
+                scoring: Scoring::Critic,
+                target_smoothing: false,
+                n_step: 1,
+                ..d
+            },
+            c,
+            "the default is the paper's DCP plus the winner's three settings"
+        );
         let bad = Config {
             variant: Variant::HillClimb,
             cem: true,
-            ..Config::default()
+            ..Config::paper()
         };
         assert!(bad
             .validate()
@@ -1179,7 +1222,7 @@ mod tests {
             .contains("dcp.variant"));
         let bad = Config {
             n_step: 0,
-            ..Config::default()
+            ..Config::paper()
         };
         assert!(bad
             .validate()

@@ -120,6 +120,16 @@ fn td3_smoke_run_has_twin_critics_delayed_actor_updates_and_exports_q1() {
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
 
+/// A tiny run of the paper's DCP (every issue-13 option off).
+fn paper_smoke(seed: u64) -> TrainConfig {
+    let mut c = TrainConfig::smoke(Algo::Dcp, seed);
+    c.dcp = host_trainer::dcp::Config {
+        t: c.dcp.t,
+        ..host_trainer::dcp::Config::paper()
+    };
+    c
+}
+
 /// Every option of issue 13 on a tiny DCP run (and TD3), each changing one setting of the
 /// paper's DCP.
 fn issue13_options() -> Vec<(&'static str, TrainConfig)> {
@@ -146,7 +156,7 @@ fn issue13_options() -> Vec<(&'static str, TrainConfig)> {
     edits
         .into_iter()
         .map(|(name, edit)| {
-            let mut c = TrainConfig::smoke(Algo::Dcp, 5);
+            let mut c = paper_smoke(5);
             c.episodes = 4;
             edit(&mut c);
             (name, c)
@@ -170,7 +180,7 @@ fn issue13_options_are_deterministic_and_resume_exactly() {
     let paper = {
         let dir = out.join("paper");
         std::fs::create_dir_all(&dir).expect("dir");
-        let mut c = TrainConfig::smoke(Algo::Dcp, 5);
+        let mut c = paper_smoke(5);
         c.episodes = 4;
         blobs(&train_to_end(c, &dir).0)
     };
@@ -219,7 +229,7 @@ fn a_twin_critic_checkpoint_refuses_a_config_without_twins() {
     config.episodes = 1;
     let (trainer, _) = train_to_end(config, &out);
     let mut learner = trainer.checkpoint().learner;
-    let mut plain = TrainConfig::smoke(Algo::Dcp, 3);
+    let mut plain = paper_smoke(3);
     plain.episodes = 1;
     let err = learner
         .configure(&plain)
@@ -229,9 +239,10 @@ fn a_twin_critic_checkpoint_refuses_a_config_without_twins() {
 }
 
 /// The committed files of issue 13 (`experiments/dcp-variants/`): each is the pinwheel layout
-/// plus DCP options only (one per variant, their union for a combination, none for the
-/// baselines; `WINNER-open` on the no-walls layout), and each loads, validates and trains
-/// (2 episodes of the smoke network).
+/// plus DCP options only, on top of the paper's DCP (one option per variant, their union for a
+/// combination, none for the baselines; `WINNER-open` on the no-walls layout), and each loads,
+/// validates and trains (2 episodes of the smoke network). The winner's files are DCP's
+/// defaults since the protocol adopted it.
 #[test]
 fn dcp_variant_files_each_set_one_option_and_train() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../experiments/dcp-variants");
@@ -258,8 +269,13 @@ fn dcp_variant_files_each_set_one_option_and_train() {
             task: config.task.clone(),
             ..TrainConfig::default()
         };
+        let paper = host_trainer::dcp::Config::paper();
         if name.starts_with("baseline") {
-            assert_eq!(config, defaults, "{name}: only the task");
+            let expected = TrainConfig {
+                dcp: paper,
+                ..defaults
+            };
+            assert_eq!(config, expected, "{name}: the task and the paper's DCP");
             continue;
         }
         // Screening is on the pinwheel; the winner's copy for the no-walls confirmation
@@ -270,7 +286,10 @@ fn dcp_variant_files_each_set_one_option_and_train() {
             "nav-walls"
         };
         assert_eq!(config.task, layout, "{name}: the layout");
-        assert_ne!(config.dcp, defaults.dcp, "{name}: DCP options set");
+        assert_ne!(config.dcp, paper, "{name}: DCP options set");
+        if name.starts_with("WINNER") || name.starts_with("combo-2") {
+            assert_eq!(config.dcp, defaults.dcp, "{name}: the adopted defaults");
+        }
         assert_eq!(
             (&config.agent, config.episodes, config.algo),
             (&defaults.agent, defaults.episodes, Algo::Dcp),
@@ -511,37 +530,48 @@ fn sha256(bytes: &[u8]) -> String {
         .collect()
 }
 
-/// The pin on training: the exported blobs (actor and critic, whole files) of 20-episode DCP
-/// and DDPG runs with `TrainConfig::smoke(algo, 0)`. Any change to the arithmetic of training,
-/// the random streams or the blob format changes these; such a change must say so and show
-/// that learning did not get worse (README, "Training speed").
+/// The pin on training: the exported blobs (actor and critic, whole files) of 20-episode runs
+/// of DCP (its defaults since issue 13), the paper's DCP and DDPG with `TrainConfig::smoke`. Any
+/// change to the arithmetic of training, the random streams or the blob format changes these;
+/// such a change must say so and show that learning did not get worse (README, "Training
+/// speed").
 ///
 /// The batched training pass fuses its multiply-adds where the build has FMA (the workspace's
 /// x86-64-v3, or any newer level) and multiplies and adds without it (`-C target-cpu=x86-64`),
 /// so there are two pins; every build of one kind gives the same bytes.
 #[test]
 fn training_blobs_are_bit_identical_to_the_pinned_run() {
-    // (algo, actor, critic) with FMA, then without.
+    // (run, actor, critic) with FMA, then without.
     let fused = [
         (
-            Algo::Dcp,
+            "dcp",
+            "6229d39359239f9d09679545989e88876e5ebe4f2bb850e13c10dc24dafac217",
+            "333d39c829ea671ffe09e4a09a1c4352a0f2c8aa4876140d3f4392e61e8cdac4",
+        ),
+        (
+            "paper-dcp",
             "324c32c1485a397a7f991cfe3ebc8840873e76b4e2f39d5018d562e8298e891d",
             "bd3e4f7ca1b36826a8c1a767938a5225f5e8a6c8c03610aa5b878f32dfb64ecc",
         ),
         (
-            Algo::Ddpg,
+            "ddpg",
             "57fc6963031ab732a6eeb54687848515e5891cf5586ccde073b90e92cd868031",
             "e8922074dc4db9697b2c1199c54cb7875c0ba36058a53b0533f0cc05bf6d7ca3",
         ),
     ];
     let plain = [
         (
-            Algo::Dcp,
+            "dcp",
+            "a2c599d7365776278d489f6f672a5d4cd9fe6f0376501da59f16cabbcb8576c1",
+            "c501a2fe54f75172769d17f75eace8cb2471b0fe1a2129c75cc0ed4c28b71a72",
+        ),
+        (
+            "paper-dcp",
             "410d56d4dccfdfd73fd88a8097f04acb574cc616d8ac44c9044e89ac8ef589f6",
             "a5c1a4d696362dc327de07d12b91626f79fce9b148c4f0da0040735d9a78bfb1",
         ),
         (
-            Algo::Ddpg,
+            "ddpg",
             "3e07bd6af461136358682fe51a53a78c2fa8961a6b2bd647e3c0a4eaa83fa3ff",
             "ca0d7b4f4a7fef6cb9a994bb7a02e8991a317223064b4f92172447694649471a",
         ),
@@ -551,21 +581,25 @@ fn training_blobs_are_bit_identical_to_the_pinned_run() {
     } else {
         plain
     };
-    for (algo, actor, critic) in pinned {
-        let mut config = TrainConfig::smoke(algo, 0);
+    for (run, actor, critic) in pinned {
+        let mut config = match run {
+            "dcp" => TrainConfig::smoke(Algo::Dcp, 0),
+            "paper-dcp" => paper_smoke(0),
+            _ => TrainConfig::smoke(Algo::Ddpg, 0),
+        };
         config.episodes = 20;
         let mut trainer = Trainer::new(config).expect("trainer");
         while !trainer.done() {
             trainer.run_episode().expect("episode");
         }
         let blob = trainer.policy_blob("pin").expect("actor");
-        assert_eq!(sha256(&blob), actor, "{algo:?} actor blob");
+        assert_eq!(sha256(&blob), actor, "{run} actor blob");
         let blob = trainer
             .algorithm()
             .critic_blob("pin")
             .expect("DCP and DDPG have a critic")
             .expect("critic");
-        assert_eq!(sha256(&blob), critic, "{algo:?} critic blob");
+        assert_eq!(sha256(&blob), critic, "{run} critic blob");
     }
 }
 
