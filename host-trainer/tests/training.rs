@@ -238,11 +238,11 @@ fn a_twin_critic_checkpoint_refuses_a_config_without_twins() {
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
 
-/// The committed files of issue 13 (`experiments/dcp-variants/`): each is the pinwheel layout
-/// plus DCP options only, on top of the paper's DCP (one option per variant, their union for a
-/// combination, none for the baselines; `WINNER-open` on the no-walls layout), and each loads,
-/// validates and trains (2 episodes of the smoke network). The winner's files are DCP's
-/// defaults since the protocol adopted it.
+/// The committed files of the DCP-variant study (`experiments/dcp-variants/`): each is the
+/// pinwheel layout plus DCP options only, on top of the paper's DCP (one option per variant,
+/// their union for the adopted combination, none for the baselines; `adopted-open` on the
+/// no-walls layout), and each loads, validates and trains (2 episodes of the smoke network).
+/// The adopted files are DCP's defaults.
 #[test]
 fn dcp_variant_files_each_set_one_option_and_train() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../experiments/dcp-variants");
@@ -253,8 +253,8 @@ fn dcp_variant_files_each_set_one_option_and_train() {
         .collect();
     files.sort();
     assert!(
-        files.len() >= 11,
-        "nine variants and two baselines: {files:?}"
+        files.len() >= 13,
+        "nine variants, two baselines and the adopted pair: {files:?}"
     );
     let out = scratch("variant-files");
     for path in files {
@@ -279,15 +279,15 @@ fn dcp_variant_files_each_set_one_option_and_train() {
             continue;
         }
         // Screening is on the pinwheel; the winner's copy for the no-walls confirmation
-        // (protocol step 4) differs from `WINNER.toml` in the task alone.
-        let layout = if name == "WINNER-open" {
+        // (protocol step 4) differs from `adopted.toml` in the task alone.
+        let layout = if name == "adopted-open" {
             "nav-open"
         } else {
             "nav-walls"
         };
         assert_eq!(config.task, layout, "{name}: the layout");
         assert_ne!(config.dcp, paper, "{name}: DCP options set");
-        if name.starts_with("WINNER") || name.starts_with("combo-2") {
+        if name.starts_with("adopted") {
             assert_eq!(config.dcp, defaults.dcp, "{name}: the adopted defaults");
         }
         assert_eq!(
