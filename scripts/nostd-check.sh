@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Proof that policy-core is no_std (issue 2): build nostd-check/ -- a `#![no_std]`, `#![no_main]`
+# Proof that policy-core is no_std: build nostd-check/ -- a `#![no_std]`, `#![no_main]`
 # binary with its own panic handler and `_start`, linked without the C start-up files -- for the
 # host, check that no `std` symbol made it in, then run it. It exits 0 only if the golden blobs
 # load and `act`/`refine` give finite, in-bounds, golden results.
