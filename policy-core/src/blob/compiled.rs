@@ -111,7 +111,7 @@ pub fn blob_len<M: Compiled>(model: &M, label: &str) -> Result<usize, Error> {
 
 /// Writes a compiled `model` as a blob into `out`; returns the number of bytes written.
 ///
-/// Only `out[..n]` is written. A label longer than [`LABEL_CAPACITY`] bytes is an error, as is
+/// Only `out[..n]` is written. A label longer than [`LABEL_CAPACITY`](super::LABEL_CAPACITY) bytes is an error, as is
 /// a buffer shorter than [`blob_len`].
 ///
 /// ```

@@ -7,7 +7,7 @@ use super::write::to_vec_with;
 use crate::error::Error;
 
 /// The blob `bytes` (f32 weights) with its weights stored in `encoding` instead (host side): the
-/// same kind, shape, activation, label, normaliser, bounds, action table and biases; [`write()`]
+/// same kind, shape, activation, label, normaliser, bounds, action table and biases; [`write()`](super::write())
 /// converts the weights (f16: nearest, ties to even; int8: one scale per output, max |w| / 127,
 /// `q = round(w / scale)`). Deterministic: the same f32 blob gives the same bytes. A blob that is
 /// already quantised is [`Error::WrongEncoding`] (quantising twice compounds the rounding). The

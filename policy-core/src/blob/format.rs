@@ -1,5 +1,5 @@
 //! The format's type definitions: what a blob says about itself (kind, weight encoding, shape,
-//! header) and where a layer lies in a payload. Pure arithmetic that cannot fail in a way that
+//! header), where a layer lies in a payload, and the [`Spec`] of a blob to write. Pure arithmetic that cannot fail in a way that
 //! needs an [`Error`](crate::error::Error): the reader (`read.rs`) and the limits
 //! (`limits.rs`) check, the writer (`write.rs`) builds.
 

@@ -8,27 +8,27 @@ use crate::half::{f16_to_f32, f32_to_f16};
 
 /// Where parameter `n` (in blob order) lies in a payload.
 #[derive(Clone, Copy, Debug)]
-enum Slot {
+enum Place {
     /// An f32 at this byte offset (normaliser, bounds, table, bias).
     F32(usize),
     /// Weight `i` (column-major) of a layer.
     Weight(LayerLayout, usize),
 }
 
-fn locate(kind: ModelKind, shape: Shape, encoding: Encoding, n: usize) -> Option<Slot> {
+fn locate(kind: ModelKind, shape: Shape, encoding: Encoding, n: usize) -> Option<Place> {
     let prefix = shape.prefix_count(kind);
     if n < prefix {
-        return Some(Slot::F32(4 * n));
+        return Some(Place::F32(4 * n));
     }
     let (mut first, mut start, mut l) = (prefix, 4 * prefix, 0);
     while let Some((inputs, outputs)) = shape.layer(kind, l) {
         let layout = LayerLayout::of(encoding, inputs, outputs, start)?;
         let weights = inputs * outputs;
         if n < first + weights {
-            return Some(Slot::Weight(layout, n - first));
+            return Some(Place::Weight(layout, n - first));
         }
         if n < first + weights + outputs {
-            return Some(Slot::F32(layout.bias + 4 * (n - first - weights)));
+            return Some(Place::F32(layout.bias + 4 * (n - first - weights)));
         }
         first += weights + outputs;
         start = layout.end;
@@ -65,7 +65,7 @@ pub(super) fn quantise(
         let mut n = 0usize;
         params(&mut |src| {
             for &v in src {
-                if let Some(Slot::Weight(l, i)) = locate(spec.kind, spec.shape, spec.encoding, n) {
+                if let Some(Place::Weight(l, i)) = locate(spec.kind, spec.shape, spec.encoding, n) {
                     let at = l.scales + 4 * (i % l.outputs);
                     let largest = get_f32(payload, at).max(v.abs());
                     put_f32(payload, at, largest);
@@ -98,8 +98,8 @@ pub(super) fn quantise(
                 failure = Some(Error::NonFiniteParameter { index: n });
             }
             match locate(spec.kind, spec.shape, spec.encoding, n) {
-                Some(Slot::F32(at)) => put_f32(payload, at, v),
-                Some(Slot::Weight(l, i)) => match spec.encoding {
+                Some(Place::F32(at)) => put_f32(payload, at, v),
+                Some(Place::Weight(l, i)) => match spec.encoding {
                     Encoding::F16 => {
                         let h = f32_to_f16(v);
                         if !f16_to_f32(h).is_finite() && failure.is_none() {
