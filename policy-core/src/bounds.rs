@@ -3,7 +3,7 @@
 use nalgebra::{ArrayStorage, SVector};
 
 use crate::clamp::clamp;
-use crate::Error;
+use crate::error::Error;
 
 /// Per-dimension action bounds `low[i] <= a[i] <= high[i]`.
 #[derive(Clone, Debug, PartialEq)]

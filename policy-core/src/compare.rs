@@ -7,8 +7,10 @@
 
 use rand_core::Rng;
 
+use crate::critic::Critic;
+use crate::error::Error;
 use crate::model::{Model, Scratch};
-use crate::{Critic, Error, Policy};
+use crate::policy::Policy;
 
 /// The outcome of one compare step.
 #[derive(Clone, Copy, Debug, PartialEq)]

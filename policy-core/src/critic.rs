@@ -1,10 +1,12 @@
-//! The critic Q(s, a), stored in the same blob format as the actor.
+//! The compiled critic Q(s, a), stored in the same blob format as the actor, with its sizes in
+//! the type; like [`Policy`](crate::Policy), a typed front over the runtime's kernels and the one
+//! load and write path.
 
 use nalgebra::{ArrayStorage, SMatrix};
 
 use crate::blob::{self, Compiled, ModelKind, Shape};
-use crate::mlp::accumulate;
-use crate::{Activation, Dense, Error, Normalizer, Trunk};
+use crate::mlp::{accumulate, Activation, Dense, Trunk};
+use crate::normalizer::Normalizer;
 
 /// A critic `Q(s, a)` over `S` observations and `A` actions, with hidden width `H` and `L`
 /// hidden-to-hidden layers (`L + 1` hidden layers in all).
@@ -32,60 +34,6 @@ impl<const S: usize, const H: usize, const L: usize, const A: usize> Critic<S, H
         action_w: SMatrix::from_array_storage(ArrayStorage([[0.0; H]; A])),
         trunk: Trunk::ZERO,
     };
-
-    /// Loads a blob into this slot; on error the slot is left as it was.
-    ///
-    /// ```
-    /// use policy_core::{Critic, Error, ModelKind};
-    /// static ACTOR: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
-    /// let mut slot = Critic::<2, 32, 1, 2>::ZERO;
-    /// let err = slot.load_into(ACTOR).unwrap_err();
-    /// assert_eq!(err, Error::WrongKind { expected: ModelKind::Critic, found: ModelKind::Actor });
-    /// assert_eq!(slot, Critic::ZERO);
-    /// ```
-    pub fn load_into(&mut self, bytes: &[u8]) -> Result<(), Error> {
-        blob::load_into(self, bytes)
-    }
-
-    /// Loads a blob into a new value.
-    ///
-    /// ```
-    /// use policy_core::Critic;
-    /// static BLOB: &[u8] = include_bytes!("../tests/golden/critic_2x32.postcard");
-    /// let critic = Critic::<2, 32, 1, 2>::from_blob(BLOB).unwrap();
-    /// assert!(critic.q(&[1.0, -2.0], &[0.5, 0.5]).is_finite());
-    /// ```
-    pub fn from_blob(bytes: &[u8]) -> Result<Self, Error> {
-        let mut critic = Self::ZERO;
-        critic.load_into(bytes)?;
-        Ok(critic)
-    }
-
-    /// Writes this critic as a blob into `out`; returns the bytes written.
-    ///
-    /// ```
-    /// use policy_core::Critic;
-    /// static BLOB: &[u8] = include_bytes!("../tests/golden/critic_2x32.postcard");
-    /// let critic = Critic::<2, 32, 1, 2>::from_blob(BLOB).unwrap();
-    /// let mut out = [0u8; 8192];
-    /// let n = critic.write_blob("golden critic 2x32 relu", &mut out).unwrap();
-    /// assert_eq!(&out[..n], BLOB);
-    /// ```
-    pub fn write_blob(&self, label: &str, out: &mut [u8]) -> Result<usize, Error> {
-        blob::write_into(self, label, out)
-    }
-
-    /// Writes this critic as a blob into a new vector.
-    ///
-    /// ```
-    /// use policy_core::Critic;
-    /// let blob = Critic::<2, 8, 0, 2>::ZERO.to_blob("").unwrap();
-    /// assert_eq!(&blob[..4], b"DCPB");
-    /// ```
-    #[cfg(feature = "std")]
-    pub fn to_blob(&self, label: &str) -> Result<std::vec::Vec<u8>, Error> {
-        blob::to_vec(self, label)
-    }
 
     /// Q of an observation and a unit-box action. Non-finite inputs are treated as by the
     /// normaliser (observation) or replaced by 0 (action); the result may still be large but is
@@ -129,6 +77,8 @@ impl<const S: usize, const H: usize, const L: usize, const A: usize> Critic<S, H
         self.trunk.run(pre)[0]
     }
 }
+
+blob::blob_methods!(Critic, "critic_2x32.postcard", "golden critic 2x32 relu");
 
 impl<const S: usize, const H: usize, const L: usize, const A: usize> Compiled
     for Critic<S, H, L, A>

@@ -2,7 +2,7 @@
 
 use core::fmt;
 
-use crate::blob::{Encoding, ModelKind, Shape};
+use crate::blob::format::{Encoding, ModelKind, Shape};
 
 /// Everything that can go wrong when loading or writing a blob.
 ///

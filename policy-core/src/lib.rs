@@ -9,12 +9,19 @@
 //!   flash, with a caller-provided [`model::Scratch`] for the activations: no weight is copied
 //!   to RAM and no crate needs a table of compiled shapes.
 //! - [`Policy`] / [`Critic`]: the same models with their sizes as const generics (weights in a
-//!   RAM struct), for code that wants sizes in its types; they compute the same bits.
+//!   RAM struct), for code that wants sizes in its types; their layers compute through the
+//!   runtime's kernels ([`mlp`]), so they give the same bits.
 //!   [`compare::refine`] is DCP's compare step on the device.
 //! - [`slot`]: two flash slots (A/B) for blobs and the one rule that picks the slot to run: the
 //!   newer one that verifies, else the other, else the safe state, with a reason for each.
 //! - [`blob`]: the one definition of the weight-blob format (postcard header, aligned `f32`
 //!   payload, CRC-32), read on the chip and written on the host. See `docs/blob-format.md`.
+//!
+//! Imports flow one way, shared types at the bottom: `crc32`, `half`, `tanh`, `clamp` and
+//! `mlp::activation`; the format's types (`blob::format`) and [`error`]; the normaliser, bounds
+//! and [`mlp`] kernels and layers; reading, checking and writing blobs (the rest of [`blob`]);
+//! the runtime [`model`] and the compiled [`Policy`] and [`Critic`]; [`compare`] and [`slot`]
+//! on top.
 //!
 //! Guarantees, each backed by tests in `tests/`: loading never panics and rejects every
 //! truncation and every 1- and 2-bit corruption of a blob with a typed [`Error`] (a compiled
@@ -54,6 +61,7 @@ pub mod policy;
 pub mod slot;
 pub mod tanh;
 
+// The names every user needs, at the root.
 pub use blob::{Encoding, ModelKind, Shape};
 pub use bounds::ActionBounds;
 pub use crc32::crc32;

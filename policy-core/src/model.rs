@@ -26,10 +26,12 @@
 //! assert_eq!(action, compiled.act(&[4.0, -2.5]));
 //! ```
 
-use crate::blob::{self, Header, ModelKind, Verified};
-use crate::bounds::{self, scale_value};
-use crate::normalizer::{self, normalize_value};
-use crate::{Activation, Error};
+use crate::blob::{self, Encoding, Header, LayerLayout, ModelKind, Verified};
+use crate::bounds::scale_value;
+use crate::error::Error;
+use crate::mlp::activation::activate;
+use crate::mlp::{accumulate_bytes, accumulate_f16, accumulate_int8, squash};
+use crate::normalizer::normalize_value;
 
 /// Activation buffers for [`Model`]: two vectors of `W` floats, used in turn as a layer's input
 /// and output. `W` must be at least the blob's [`Shape::scratch_width`](crate::Shape::scratch_width)
@@ -126,13 +128,12 @@ impl<'a> Model<'a> {
     /// ```
     pub fn from_blob(bytes: &'a [u8]) -> Result<Model<'a>, Error> {
         let Verified { header, payload } = blob::verify(bytes)?;
-        let model = Model {
+        blob::check_parameters(&header, payload)?;
+        Ok(Model {
             layout: Layout::of(&header),
             header,
             payload,
-        };
-        model.check_parameters()?;
-        Ok(model)
+        })
     }
 
     /// Verifies `bytes` as a policy a firmware can run: an actor or a discrete policy (not a
@@ -209,36 +210,7 @@ impl<'a> Model<'a> {
     /// weight as `scale · q` (the value the layer's arithmetic stands for; it computes
     /// `scale · Σ q x` instead), everything else as stored.
     pub fn values(&self) -> impl Iterator<Item = f32> + 'a {
-        let (kind, shape, encoding) = (self.header.kind, self.header.shape, self.header.encoding);
-        let payload = self.payload;
-        let quantised = encoding != blob::Encoding::F32;
-        let prefix = 4 * shape.prefix_count(kind);
-        // f32: the payload as it is. Quantised: the f32 prefix, then layer by layer.
-        let head = if quantised {
-            payload.get(..prefix).unwrap_or_default()
-        } else {
-            payload
-        };
-        let layers = if quantised {
-            shape.depth as usize + 1
-        } else {
-            0
-        };
-        let mut start = prefix;
-        blob::payload_values(head).chain((0..layers).flat_map(move |l| {
-            let (inputs, outputs) = shape.layer(kind, l).unwrap_or((0, 0));
-            let layer = blob::LayerLayout::of(encoding, inputs, outputs, start);
-            start = layer.map_or(start, |x| x.end);
-            layer_values(payload, encoding, layer)
-        }))
-    }
-
-    /// The f32 at byte `at` of the payload (0.0 past the end, which verified layouts never reach).
-    fn f32_at(&self, at: usize) -> f32 {
-        self.payload
-            .get(at..at + 4)
-            .and_then(|b| <[u8; 4]>::try_from(b).ok())
-            .map_or(0.0, f32::from_le_bytes)
+        blob::values(&self.header, self.payload)
     }
 
     /// The action for an observation (actor and discrete policy): finite and inside the bounds
@@ -279,7 +251,7 @@ impl<'a> Model<'a> {
         self.normalize(obs, x);
         let out = self.forward(x, y);
         for (u, &v) in unit.iter_mut().zip(out) {
-            *u = crate::mlp::squash(v);
+            *u = squash(v);
         }
         Ok(())
     }
@@ -424,7 +396,7 @@ impl<'a> Model<'a> {
     /// of the next layer.
     fn dense(&self, at: usize, inputs: usize, outputs: usize, x: &[f32], y: &mut [f32]) -> usize {
         let encoding = self.header.encoding;
-        let Some(l) = blob::LayerLayout::of(encoding, inputs, outputs, at) else {
+        let Some(l) = LayerLayout::of(encoding, inputs, outputs, at) else {
             return at; // verified layouts never overflow
         };
         let part = |from: usize, to: usize| self.payload.get(from..to).unwrap_or_default();
@@ -434,135 +406,11 @@ impl<'a> Model<'a> {
             y.get_mut(..outputs).unwrap_or_default(),
         );
         match encoding {
-            blob::Encoding::F32 => crate::mlp::accumulate_bytes(weights, bias, x, y),
-            blob::Encoding::F16 => crate::mlp::accumulate_f16(weights, bias, x, y),
-            blob::Encoding::Int8 => {
-                crate::mlp::accumulate_int8(part(l.scales, l.weights), weights, bias, x, y)
-            }
+            Encoding::F32 => accumulate_bytes(weights, bias, x, y),
+            Encoding::F16 => accumulate_f16(weights, bias, x, y),
+            Encoding::Int8 => accumulate_int8(part(l.scales, l.weights), weights, bias, x, y),
         }
         l.end
-    }
-
-    /// The parameter rules, checked once at load: finite values, then the normaliser's and the
-    /// bounds' own rules (`normalizer::check`, `bounds::check`, shared with the compiled types),
-    /// and an action table inside the bounds.
-    fn check_parameters(&self) -> Result<(), Error> {
-        if self.header.encoding == blob::Encoding::F32 {
-            let mut values = blob::payload_values(self.payload);
-            if let Some(index) = values.position(|v| !v.is_finite()) {
-                return Err(Error::NonFiniteParameter { index });
-            }
-        } else {
-            self.check_quantised()?;
-        }
-        let l = self.layout;
-        let s = l.observations;
-        normalizer::check(
-            self.slice(0, s).iter(),
-            self.slice(s, s).iter(),
-            self.value(2 * s),
-        )?;
-        if self.header.kind == ModelKind::Critic {
-            return Ok(());
-        }
-        bounds::check(
-            self.slice(l.bounds, l.actions).iter(),
-            self.slice(l.bounds + l.actions, l.actions).iter(),
-        )?;
-        if self.header.kind == ModelKind::Discrete {
-            self.check_table()?;
-        }
-        Ok(())
-    }
-
-    /// A quantised blob's parameters, layer by layer without decoding into a list: the f32
-    /// prefix and biases finite, every f16 weight finite, every int8 scale a positive number
-    /// small enough that `scale · q` stays finite (zero would silence an output, a negative one
-    /// flip it), and the padding after each
-    /// layer's weights zero, so that one model has one encoding. `NonFiniteParameter` indices
-    /// count parameters in blob order, as [`Model::values`] lists them.
-    fn check_quantised(&self) -> Result<(), Error> {
-        let h = &self.header;
-        let non_finite = |index| Error::NonFiniteParameter { index };
-        let prefix = h.shape.prefix_count(h.kind);
-        let mut head = blob::payload_values(self.payload.get(..4 * prefix).unwrap_or_default());
-        if let Some(index) = head.position(|v| !v.is_finite()) {
-            return Err(non_finite(index));
-        }
-        let (mut at, mut first, mut l) = (self.layout.layers, prefix, 0);
-        while let Some((inputs, outputs)) = h.shape.layer(h.kind, l) {
-            let layer =
-                blob::LayerLayout::of(h.encoding, inputs, outputs, at).ok_or(Error::Malformed {
-                    what: "layer does not fit in memory",
-                })?;
-            let weights = self
-                .payload
-                .get(layer.weights..layer.padding)
-                .unwrap_or_default();
-            match h.encoding {
-                blob::Encoding::Int8 => {
-                    for o in 0..outputs {
-                        let scale = self.f32_at(layer.scales + 4 * o);
-                        // Every decoded weight `scale · q` (|q| ≤ 128) must be finite too.
-                        if !(scale * 128.0).is_finite() || scale <= 0.0 {
-                            return Err(Error::InvalidParameter {
-                                what:
-                                    "int8 scale that is not a positive number below f32::MAX / 128",
-                                index: o,
-                            });
-                        }
-                    }
-                }
-                blob::Encoding::F16 => {
-                    let mut halves = weights.chunks_exact(2);
-                    let bad = halves.position(|p| {
-                        !crate::half::f16_to_f32(u16::from_le_bytes([p[0], p[1]])).is_finite()
-                    });
-                    if let Some(i) = bad {
-                        return Err(non_finite(first + i));
-                    }
-                }
-                blob::Encoding::F32 => {}
-            }
-            let mut bias =
-                blob::payload_values(self.payload.get(layer.bias..layer.end).unwrap_or_default());
-            if let Some(o) = bias.position(|v| !v.is_finite()) {
-                return Err(non_finite(first + inputs * outputs + o));
-            }
-            let padding = self
-                .payload
-                .get(layer.padding..layer.bias)
-                .unwrap_or_default();
-            if padding.iter().any(|&b| b != 0) {
-                return Err(Error::Malformed {
-                    what: "padding after a layer's weights is not zero",
-                });
-            }
-            at = layer.end;
-            first += inputs * outputs + outputs;
-            l += 1;
-        }
-        Ok(())
-    }
-
-    fn check_table(&self) -> Result<(), Error> {
-        let l = self.layout;
-        let low = self.slice(l.bounds, l.actions);
-        let high = self.slice(l.bounds + l.actions, l.actions);
-        for row in 0..l.outputs {
-            let values = self.slice(l.table + row * l.actions, l.actions);
-            let inside = values
-                .iter()
-                .zip(low.iter().zip(high.iter()))
-                .all(|(v, (lo, hi))| lo <= v && v <= hi);
-            if !inside {
-                return Err(Error::InvalidParameter {
-                    what: "action-table row outside the action bounds",
-                    index: row,
-                });
-            }
-        }
-        Ok(())
     }
 }
 
@@ -588,35 +436,6 @@ pub fn argmax(q: &[f32]) -> usize {
     best.map_or(0, |(k, _)| k)
 }
 
-/// One layer's parameters decoded, in blob order (weights, then biases); nothing for a layer
-/// that does not fit (verified blobs always fit).
-fn layer_values<'a>(
-    payload: &'a [u8],
-    encoding: blob::Encoding,
-    layer: Option<blob::LayerLayout>,
-) -> impl Iterator<Item = f32> + 'a {
-    let (weights, outputs, l) = match layer {
-        Some(l) => (l.inputs * l.outputs, l.outputs.max(1), Some(l)),
-        None => (0, 1, None),
-    };
-    let byte = move |at: usize| payload.get(at).copied().unwrap_or(0);
-    let word =
-        move |at: usize| f32::from_le_bytes([byte(at), byte(at + 1), byte(at + 2), byte(at + 3)]);
-    let (w0, s0, bias, end) = l.map_or((0, 0, 0, 0), |l| (l.weights, l.scales, l.bias, l.end));
-    (0..weights)
-        .map(move |i| match encoding {
-            blob::Encoding::F32 => word(w0 + 4 * i),
-            blob::Encoding::F16 => crate::half::f16_to_f32(u16::from_le_bytes([
-                byte(w0 + 2 * i),
-                byte(w0 + 2 * i + 1),
-            ])),
-            blob::Encoding::Int8 => word(s0 + 4 * (i % outputs)) * f32::from(byte(w0 + i) as i8),
-        })
-        .chain(blob::payload_values(
-            payload.get(bias..end).unwrap_or_default(),
-        ))
-}
-
 /// A run of little-endian `f32`s in the payload.
 #[derive(Clone, Copy, Debug)]
 struct Floats<'a>(&'a [u8]);
@@ -628,15 +447,5 @@ impl<'a> Floats<'a> {
 
     fn first(self) -> Option<f32> {
         self.iter().next()
-    }
-}
-
-/// The hidden activation of a whole layer, as the compiled trunk applies it.
-fn activate(activation: Activation, values: &mut [f32]) {
-    match activation {
-        Activation::Tanh => crate::tanh::tanh_in_place(values),
-        Activation::Relu => values
-            .iter_mut()
-            .for_each(|v| *v = Activation::Relu.apply(*v)),
     }
 }

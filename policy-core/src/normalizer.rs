@@ -3,7 +3,7 @@
 use nalgebra::{ArrayStorage, SVector};
 
 use crate::clamp::clamp;
-use crate::Error;
+use crate::error::Error;
 
 /// Per-dimension affine normalisation of observations, clipped to `[-clip, clip]`.
 ///

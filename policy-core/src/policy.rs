@@ -1,9 +1,16 @@
-//! The policy a chip runs: normaliser, actor network, action bounds.
+//! The compiled actor: normaliser, actor network and action bounds with their sizes in the type.
+//!
+//! A typed front over the runtime's pieces: its layers compute through the [`crate::mlp`]
+//! kernels, the normaliser and bounds through `normalize_value` and `scale_value`, and it loads
+//! and writes through the one path in [`crate::blob`] (`blob_methods!`), so it gives the bits
+//! the runtime [`Model`](crate::model::Model) gives on the same blob.
 
 use nalgebra::SVector;
 
 use crate::blob::{self, Compiled, ModelKind, Shape};
-use crate::{ActionBounds, Activation, Dense, Error, Normalizer, Trunk};
+use crate::bounds::ActionBounds;
+use crate::mlp::{squash, Activation, Dense, Trunk};
+use crate::normalizer::Normalizer;
 
 /// A DCP (or DDPG) actor ready to run: `act(obs) = scale(tanh(mlp(normalize(obs))))`.
 ///
@@ -31,67 +38,6 @@ impl<const S: usize, const H: usize, const L: usize, const A: usize> Policy<S, H
         input: Dense::ZERO,
         trunk: Trunk::ZERO,
     };
-
-    /// Loads a blob into this slot. On error the slot is left exactly as it was.
-    ///
-    /// ```
-    /// use policy_core::{Error, Policy};
-    /// static BLOB: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
-    /// let mut slot = Policy::<2, 32, 1, 2>::ZERO;
-    /// slot.load_into(BLOB).unwrap();
-    /// let mut wrong = Policy::<2, 48, 3, 2>::ZERO;
-    /// assert!(matches!(wrong.load_into(BLOB), Err(Error::ShapeMismatch { .. })));
-    /// assert_eq!(wrong, Policy::ZERO);
-    /// ```
-    pub fn load_into(&mut self, bytes: &[u8]) -> Result<(), Error> {
-        blob::load_into(self, bytes)
-    }
-
-    /// Loads a blob into a new value (convenient on the host; on a chip prefer
-    /// [`Policy::load_into`] into a `static`).
-    ///
-    /// ```
-    /// use policy_core::{Error, Policy};
-    /// static BLOB: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
-    /// let policy = Policy::<2, 32, 1, 2>::from_blob(BLOB).unwrap();
-    /// assert_eq!(policy.bounds.high[0], 0.25);
-    /// let truncated = Policy::<2, 32, 1, 2>::from_blob(&BLOB[..100]);
-    /// assert!(matches!(truncated, Err(Error::Truncated { needed: 4952, found: 100 })));
-    /// ```
-    pub fn from_blob(bytes: &[u8]) -> Result<Self, Error> {
-        let mut policy = Self::ZERO;
-        policy.load_into(bytes)?;
-        Ok(policy)
-    }
-
-    /// Writes this policy as a blob into `out`; returns the bytes written. The label (at most
-    /// 32 bytes) is free text stored in the header, e.g. task, algorithm and seed.
-    ///
-    /// ```
-    /// use policy_core::{blob, ActionBounds, Policy};
-    /// let mut policy = Policy::<2, 8, 0, 2>::ZERO;
-    /// policy.bounds = ActionBounds::symmetric(0.25);
-    /// let mut flash = [0u8; 512];
-    /// let n = policy.write_blob("nav dcp seed 1", &mut flash).unwrap();
-    /// assert_eq!(n, blob::blob_len(&policy, "nav dcp seed 1").unwrap());
-    /// assert_eq!(blob::verify(&flash[..n]).unwrap().header.label.as_str(), "nav dcp seed 1");
-    /// ```
-    pub fn write_blob(&self, label: &str, out: &mut [u8]) -> Result<usize, Error> {
-        blob::write_into(self, label, out)
-    }
-
-    /// Writes this policy as a blob into a new vector.
-    ///
-    /// ```
-    /// use policy_core::Policy;
-    /// static BLOB: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
-    /// let policy = Policy::<2, 32, 1, 2>::from_blob(BLOB).unwrap();
-    /// assert_eq!(policy.to_blob("golden actor 2x32 tanh").unwrap(), BLOB);
-    /// ```
-    #[cfg(feature = "std")]
-    pub fn to_blob(&self, label: &str) -> Result<std::vec::Vec<u8>, Error> {
-        blob::to_vec(self, label)
-    }
 
     /// The actor's output in the unit box `[-1, 1]^A`, before scaling. Always finite.
     ///
@@ -128,7 +74,7 @@ impl<const S: usize, const H: usize, const L: usize, const A: usize> Policy<S, H
         let out = self.trunk.run(pre);
         let mut unit = [0.0; A];
         for (u, &y) in unit.iter_mut().zip(out.iter()) {
-            *u = crate::mlp::squash(y);
+            *u = squash(y);
         }
         unit
     }
@@ -150,6 +96,8 @@ impl<const S: usize, const H: usize, const L: usize, const A: usize> Policy<S, H
         self.bounds.scale(&self.act_unit(obs))
     }
 }
+
+blob::blob_methods!(Policy, "actor_2x32.postcard", "golden actor 2x32 tanh");
 
 impl<const S: usize, const H: usize, const L: usize, const A: usize> Compiled
     for Policy<S, H, L, A>

@@ -1,6 +1,6 @@
 //! No byte string makes the loader panic, and every corruption of a real blob is rejected.
 //!
-//! DESIGN.md §5: "no input makes policy-core panic (fuzzed); every 1- and 2-bit corruption of a
+//! docs/design.md §5: "no input makes policy-core panic (fuzzed); every 1- and 2-bit corruption of a
 //! blob is rejected". A panic fails these tests by itself; the asserts check rejection.
 
 use policy_core::model::Model;

@@ -41,7 +41,9 @@ fn runs(boot: &Boot<Model<'_>>) -> Option<SlotId> {
 /// A bad slot: its name, its bytes, and the test its error must pass.
 type BadSlot = (&'static str, Vec<u8>, fn(&Error) -> bool);
 
-/// Every bad slot B the issue names, with the error it must give.
+/// Every kind of bad slot B a device can meet (random bytes, a cut transfer, a record that
+/// overflows, a critic, another plant's blob, a too-wide model, a flipped bit, an erased or
+/// blank slot), with the error it must give.
 fn bad_slots() -> Vec<BadSlot> {
     let mut rng = SplitMix64(0x5107);
     let random: Vec<u8> = (0..SLOT).map(|_| rng.next() as u8).collect();

@@ -1,10 +1,10 @@
-//! The combined report: every variant, the aims of the Cortex-M issue, and a Markdown table.
+//! The combined report: every variant, the Cortex-M aims, and a Markdown table.
 
 use anyhow::Result;
 use serde_json::{json, Value};
 
-/// Instructions per multiply-accumulate allowed on the Cortex-M4F, per weight encoding (issue 15;
-/// ReLU networks, so that the figure is the multiply-accumulates' cost, not tanhf's).
+/// Instructions per multiply-accumulate allowed on the Cortex-M4F, per weight encoding (ReLU
+/// networks, so that the figure is the multiply-accumulates' cost, not tanhf's).
 const PER_MAC_AIMS: [(&str, f64); 3] = [("f32", 3.5), ("int8", 5.0), ("f16", 6.0)];
 
 /// Flash (with the blob) and RAM in all (static + peak stack) allowed for an int8 4x48 firmware.

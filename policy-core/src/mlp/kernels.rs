@@ -1,74 +1,8 @@
-//! The fixed-size multilayer perceptron: dense layers in nalgebra static matrices.
-//!
-//! The forward pass fixes its summation order (bias first, then input columns in increasing
-//! order) so that the host trainer can reproduce it bit for bit: what the trainer evaluates and
-//! what the chip runs is the same arithmetic, not merely the same maths.
+//! The layer kernels, `y = b + W x`, for weights in any form: f32 words or bytes (a blob's
+//! payload, or a compiled [`Dense`](super::Dense)'s matrix), f16 and int8. Every kernel fixes
+//! the same summation order, so every form of the same numbers gives the same bits.
 
-use nalgebra::{ArrayStorage, SMatrix, SVector};
-use serde::{Deserialize, Serialize};
-
-/// Activation of the hidden layers. The actor's output is always squashed by tanh; the critic's
-/// output is linear.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Activation {
-    /// Hyperbolic tangent (`libm::tanhf`).
-    Tanh,
-    /// Rectified linear unit, `max(x, 0)`; NaN maps to 0.
-    Relu,
-}
-
-impl Activation {
-    /// Applies the activation to one value.
-    ///
-    /// ```
-    /// use policy_core::Activation;
-    /// assert_eq!(Activation::Relu.apply(-2.0), 0.0);
-    /// assert_eq!(Activation::Relu.apply(1.5), 1.5);
-    /// assert_eq!(Activation::Tanh.apply(0.0), 0.0);
-    /// ```
-    #[inline]
-    pub fn apply(self, x: f32) -> f32 {
-        match self {
-            Activation::Tanh => libm::tanhf(x),
-            Activation::Relu => {
-                if x > 0.0 {
-                    x
-                } else {
-                    0.0
-                }
-            }
-        }
-    }
-}
-
-impl core::fmt::Display for Activation {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(match self {
-            Activation::Tanh => "tanh",
-            Activation::Relu => "relu",
-        })
-    }
-}
-
-/// The actor's output squashing: `tanh(y)` (`libm::tanhf`), and 0 where that is not finite.
-/// The one definition the compiled [`Policy`](crate::Policy), the runtime model and the trainer
-/// use.
-///
-/// ```
-/// use policy_core::mlp::squash;
-/// assert_eq!(squash(0.0), 0.0);
-/// assert_eq!(squash(f32::NAN), 0.0);
-/// assert_eq!(squash(50.0), 1.0);
-/// ```
-#[inline]
-pub fn squash(y: f32) -> f32 {
-    let t = libm::tanhf(y);
-    if t.is_finite() {
-        t
-    } else {
-        0.0
-    }
-}
+use nalgebra::{SMatrix, SVector};
 
 /// Adds `W x` to `y`, one input column at a time in increasing order:
 /// `y[o] += W[o, j] * x[j]` for `j = 0, 1, ...`.
@@ -95,24 +29,8 @@ pub fn accumulate<const I: usize, const O: usize>(
     x: &[f32],
     y: &mut SVector<f32, O>,
 ) {
-    // Work on the raw `[[f32; O]; I]` storage rather than nalgebra's strided iterators, so
-    // lengths are compile-time constants and there are no bounds checks in the hot loop.
-    let cols = &w.data.0;
-    let y = &mut y.data.0[0];
-    let mut start = 0;
-    while start + WIDE_BLOCK <= O {
-        accumulate_block::<I, O, WIDE_BLOCK>(cols, x, y, start);
-        start += WIDE_BLOCK;
-    }
-    if WIDE_BLOCK > 16 && start + 16 <= O {
-        accumulate_block::<I, O, 16>(cols, x, y, start);
-        start += 16;
-    }
-    for (col, &xj) in cols.iter().zip(x) {
-        for (yo, &wo) in y.iter_mut().zip(col).skip(start) {
-            *yo += wo * xj;
-        }
-    }
+    // nalgebra stores the matrix column-major, as a blob does: the same kernel as a payload's.
+    accumulate_columns(w.as_slice(), x, y.as_mut_slice(), |v: &f32| *v);
 }
 
 /// Outputs whose partial sums stay in registers for a whole pass: 32 on hosts (eight SSE
@@ -123,33 +41,6 @@ pub fn accumulate<const I: usize, const O: usize>(
 const WIDE_BLOCK: usize = 32;
 #[cfg(target_arch = "arm")]
 const WIDE_BLOCK: usize = 16;
-
-/// [`accumulate`] for outputs `start..start + B`: the block's partial sums live in registers for
-/// the whole pass over the inputs instead of going through memory once per input, which is
-/// what bounds the naive loop. `B = 32` is eight SSE registers of independent sums, enough to
-/// hide the add latency and keep both add units busy, with registers left for the weights and
-/// the broadcast input; a 16 block picks up widths like 48.
-#[inline(always)]
-fn accumulate_block<const I: usize, const O: usize, const B: usize>(
-    cols: &[[f32; O]; I],
-    x: &[f32],
-    y: &mut [f32; O],
-    start: usize,
-) {
-    let Some(Ok(out)) = y.get_mut(start..start + B).map(<&mut [f32; B]>::try_from) else {
-        return;
-    };
-    let mut acc = *out;
-    for (col, &xj) in cols.iter().zip(x) {
-        let Some(Ok(wb)) = col.get(start..start + B).map(<&[f32; B]>::try_from) else {
-            return;
-        };
-        for (a, &wo) in acc.iter_mut().zip(wb) {
-            *a += wo * xj;
-        }
-    }
-    *out = acc;
-}
 
 /// `y = b + W x` with the weights and biases read from little-endian `f32` bytes (a blob's
 /// payload): `weights` holds `x.len()` columns of `y.len()` values, `bias` `y.len()` values. The
@@ -227,11 +118,11 @@ fn accumulate_columns<T>(
     }
     let mut start = 0;
     while start + WIDE_BLOCK <= y.len() {
-        accumulate_values_block::<T, WIDE_BLOCK>(weights, column, x, y, start, value);
+        accumulate_block::<T, WIDE_BLOCK>(weights, column, x, y, start, value);
         start += WIDE_BLOCK;
     }
     if WIDE_BLOCK > 16 && start + 16 <= y.len() {
-        accumulate_values_block::<T, 16>(weights, column, x, y, start, value);
+        accumulate_block::<T, 16>(weights, column, x, y, start, value);
         start += 16;
     }
     let rest = y.get_mut(start..).unwrap_or_default();
@@ -300,10 +191,13 @@ pub fn accumulate_int8(scales: &[u8], weights: &[u8], bias: &[u8], x: &[f32], y:
     }
 }
 
-/// [`accumulate_values`] for outputs `start..start + B`, their sums kept in registers for the
-/// whole pass (see [`accumulate_block`]).
+/// [`accumulate_columns`] for outputs `start..start + B`: the block's partial sums live in
+/// registers for the whole pass over the inputs instead of going through memory once per input,
+/// which is what bounds the naive loop. `B = 32` is eight SSE registers of independent sums,
+/// enough to hide the add latency and keep both add units busy, with registers left for the
+/// weights and the broadcast input; a 16 block picks up widths like 48.
 #[inline(always)]
-fn accumulate_values_block<T, const B: usize>(
+fn accumulate_block<T, const B: usize>(
     weights: &[T],
     column: usize,
     x: &[f32],
@@ -326,149 +220,10 @@ fn accumulate_values_block<T, const B: usize>(
     *out = acc;
 }
 
-/// A dense layer `y = b + W x` with `I` inputs and `O` outputs.
-///
-/// `w` is stored column-major (nalgebra's layout): column `j` holds the weights from input `j`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Dense<const I: usize, const O: usize> {
-    /// Weights, `O` rows by `I` columns.
-    pub w: SMatrix<f32, O, I>,
-    /// Biases.
-    pub b: SVector<f32, O>,
-}
-
-impl<const I: usize, const O: usize> Dense<I, O> {
-    /// The all-zero layer; usable in `const` and `static` initialisers.
-    pub const ZERO: Self = Self {
-        w: SMatrix::from_array_storage(ArrayStorage([[0.0; O]; I])),
-        b: SVector::from_array_storage(ArrayStorage([[0.0; O]; 1])),
-    };
-
-    /// Adds `W x` to `y`; see [`accumulate`].
-    #[inline]
-    pub fn accumulate(&self, x: &[f32], y: &mut SVector<f32, O>) {
-        accumulate(&self.w, x, y);
-    }
-
-    /// `b + W x`.
-    ///
-    /// ```
-    /// use policy_core::mlp::Dense;
-    /// let mut d = Dense::<2, 1>::ZERO;
-    /// d.w[(0, 0)] = 2.0;
-    /// d.w[(0, 1)] = -1.0;
-    /// d.b[0] = 0.5;
-    /// let y = d.affine(&[3.0, 4.0]);
-    /// assert_eq!(y[0], 0.5 + 6.0 - 4.0);
-    /// ```
-    #[inline]
-    pub fn affine(&self, x: &[f32; I]) -> SVector<f32, O> {
-        let mut y = self.b;
-        self.accumulate(x, &mut y);
-        y
-    }
-
-    /// The parameters as slices, in blob order: weights (column-major), then biases.
-    ///
-    /// ```
-    /// use policy_core::Dense;
-    /// let mut d = Dense::<2, 3>::ZERO;
-    /// d.w[(2, 0)] = 7.0; // output 2, input 0: third value of column 0
-    /// assert_eq!(d.params()[0][2], 7.0);
-    /// assert_eq!(d.params()[1].len(), 3);
-    /// ```
-    pub fn params(&self) -> [&[f32]; 2] {
-        [self.w.as_slice(), self.b.as_slice()]
-    }
-
-    /// The parameters as mutable slices, in the same order as [`Dense::params`].
-    pub fn params_mut(&mut self) -> [&mut [f32]; 2] {
-        [self.w.as_mut_slice(), self.b.as_mut_slice()]
-    }
-}
-
-/// Everything after the first layer's pre-activation: `L` hidden `H → H` layers and the output
-/// layer `H → O`, all with one hidden activation.
-///
-/// The first layer is kept outside so the critic can take its observation and action inputs
-/// through one layer without const-generic arithmetic (`S + A` is not a stable const expression).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Trunk<const H: usize, const L: usize, const O: usize> {
-    /// Activation after every hidden layer.
-    pub activation: Activation,
-    /// Hidden-to-hidden layers.
-    pub hidden: [Dense<H, H>; L],
-    /// Output layer (linear).
-    pub output: Dense<H, O>,
-}
-
-impl<const H: usize, const L: usize, const O: usize> Trunk<H, L, O> {
-    /// The all-zero trunk with tanh activations.
-    pub const ZERO: Self = Self {
-        activation: Activation::Tanh,
-        hidden: [Dense::ZERO; L],
-        output: Dense::ZERO,
-    };
-
-    /// Runs the trunk on the first layer's pre-activation; returns the linear output.
-    ///
-    /// ```
-    /// use nalgebra::SVector;
-    /// use policy_core::{Activation, Trunk};
-    /// let mut t = Trunk::<2, 0, 1>::ZERO;
-    /// t.activation = Activation::Relu;
-    /// t.output.w[(0, 0)] = 1.0;
-    /// t.output.w[(0, 1)] = 1.0;
-    /// assert_eq!(t.run(SVector::from([3.0, -2.0]))[0], 3.0); // relu(-2) = 0
-    /// ```
-    ///
-    /// Two `H`-vectors live on the stack whatever the depth, so stack use is bounded by the
-    /// width alone.
-    #[inline]
-    pub fn run(&self, mut pre: SVector<f32, H>) -> SVector<f32, O> {
-        for layer in &self.hidden {
-            let act = self.activate(&pre);
-            pre = layer.b;
-            layer.accumulate(act.as_slice(), &mut pre);
-        }
-        let act = self.activate(&pre);
-        let mut out = self.output.b;
-        self.output.accumulate(act.as_slice(), &mut out);
-        out
-    }
-
-    /// The hidden activation of a whole layer; the `match` is outside the loop so each case
-    /// vectorises (tanh through [`crate::tanh`], bit-identical to `libm::tanhf`).
-    #[inline]
-    fn activate(&self, pre: &SVector<f32, H>) -> SVector<f32, H> {
-        let mut out = *pre;
-        match self.activation {
-            Activation::Tanh => crate::tanh::tanh_in_place(&mut out.data.0[0]),
-            Activation::Relu => out.iter_mut().for_each(|v| *v = Activation::Relu.apply(*v)),
-        }
-        out
-    }
-
-    /// Visits every parameter slice in blob order.
-    pub fn params<'a>(&'a self, f: &mut dyn FnMut(&'a [f32])) {
-        for layer in &self.hidden {
-            layer.params().into_iter().for_each(&mut *f);
-        }
-        self.output.params().into_iter().for_each(f);
-    }
-
-    /// Visits every parameter slice mutably, in the order of [`Trunk::params`].
-    pub fn params_mut(&mut self, f: &mut dyn FnMut(&mut [f32])) {
-        for layer in &mut self.hidden {
-            layer.params_mut().into_iter().for_each(&mut *f);
-        }
-        self.output.params_mut().into_iter().for_each(f);
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mlp::Dense;
 
     /// Deterministic values with every sign and a wide range of magnitudes.
     fn values(n: usize, seed: u32) -> Vec<f32> {
