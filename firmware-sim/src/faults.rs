@@ -30,7 +30,7 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
-use crate::scenario::{Scenario, Wall};
+use crate::nav::scenario::{Scenario, Wall};
 use crate::Error;
 
 /// Every fault of one evaluation (none by default).
@@ -88,7 +88,7 @@ impl Faults {
     ///
     /// ```
     /// use firmware_sim::faults::Faults;
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let s = Scenario::builtin("nav-walls").unwrap();
     /// let ok: Faults = "wall:10@-1/-3/1/-3@8".parse().unwrap();
     /// assert!(ok.validate(&s, 2).is_ok());

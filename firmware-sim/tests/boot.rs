@@ -1,6 +1,7 @@
+use firmware_sim::boot::{boot, PlantSizes};
 use firmware_sim::controller::{BlobPolicy, Controller};
-use firmware_sim::harness::{boot, evaluate, EvalConfig, PlantSizes};
-use firmware_sim::scenario::Scenario;
+use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::test_protocol::{evaluate, EvalConfig};
 use firmware_sim::Error;
 use policy_core::model::{Model, Scratch};
 use policy_core::{Activation, ModelKind, Policy, Shape};

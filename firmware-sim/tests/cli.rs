@@ -1,10 +1,10 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use firmware_sim::controller::reference;
-use firmware_sim::harness::{evaluate_controller, EvalConfig};
-use firmware_sim::scenario::Scenario;
-use firmware_sim::svg;
+use firmware_sim::nav::reference::reference;
+use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::svg;
+use firmware_sim::nav::test_protocol::{evaluate_controller, EvalConfig};
 
 use policy_core::{Activation, ModelKind, Shape};
 

@@ -1,6 +1,6 @@
-use firmware_sim::controller::reference;
-use firmware_sim::harness::{evaluate_controller, EvalConfig, Report};
-use firmware_sim::scenario::Scenario;
+use firmware_sim::nav::reference::reference;
+use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::test_protocol::{evaluate_controller, EvalConfig, Report};
 
 fn run(controller: &str, scenario: &str, episodes: usize) -> Report {
     let s = Scenario::builtin(scenario).expect("builtin");

@@ -16,7 +16,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::scenario::parse_error;
+use crate::error::parse_error;
 use crate::Error;
 
 /// The whole game.

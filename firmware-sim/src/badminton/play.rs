@@ -21,7 +21,7 @@ use super::reference::{Player, PlayerKind};
 use super::rules::{Cause, PointEnd};
 use super::shuttle::Fate;
 use crate::env::Plant;
-use crate::harness::PassOutcome;
+use crate::pass::PassOutcome;
 use crate::Error;
 
 /// How long a match lasts.

@@ -7,7 +7,7 @@
 //!
 //! ```
 //! use firmware_sim::nav::Reward;
-//! use firmware_sim::scenario::Scenario;
+//! use firmware_sim::nav::scenario::Scenario;
 //! let mut s = Scenario::builtin("nav-walls").unwrap();
 //! assert_eq!((s.arena_half_size, s.max_step, s.time_limit), (6.0, 0.25, 200));
 //! assert_eq!(s.walls.len(), 13);
@@ -20,8 +20,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::{Segment, Vec2};
-use crate::nav::Reward;
+use super::geometry::{Segment, Vec2};
+use super::reward::Reward;
+use crate::boot::PlantSizes;
+use crate::error::parse_error;
 use crate::Error;
 
 /// The default scenario: the pinwheel of DESIGN.md section 2.
@@ -39,8 +41,8 @@ pub const MAX_TIME_LIMIT: u32 = 100_000;
 /// Names accepted by [`Scenario::builtin`].
 pub const BUILTIN_NAMES: [&str; 2] = ["nav-walls", "nav-open"];
 
-const NAV_WALLS: &str = include_str!("../scenarios/nav-walls.toml");
-const NAV_OPEN: &str = include_str!("../scenarios/nav-open.toml");
+const NAV_WALLS: &str = include_str!("../../scenarios/nav-walls.toml");
+const NAV_OPEN: &str = include_str!("../../scenarios/nav-open.toml");
 
 /// One navigation task.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -117,7 +119,7 @@ impl Metrics {
     /// firmware-sim's test metrics and the trainer's training-success column both ask it.
     ///
     /// ```
-    /// let m = firmware_sim::scenario::Metrics::default();
+    /// let m = firmware_sim::nav::scenario::Metrics::default();
     /// assert!(m.settled([0.5, 2.0, 1.0]));
     /// assert!(!m.settled([0.5, 2.01]));
     /// assert!(!m.settled([]));
@@ -160,7 +162,7 @@ pub struct PassCriteria {
 /// A wall segment as written in a scenario: each end is exactly two numbers `[x, y]`.
 ///
 /// ```
-/// use firmware_sim::scenario::Wall;
+/// use firmware_sim::nav::scenario::Wall;
 /// let w: Wall = serde_json::from_str(r#"{ "from": [0, 1], "to": [2.5, 1] }"#).unwrap();
 /// assert_eq!(w.to, [2.5, 1.0]);
 /// let err = serde_json::from_str::<Wall>(r#"{ "from": [0, 1, 7], "to": [2, 1] }"#).unwrap_err();
@@ -309,7 +311,7 @@ impl Scenario {
     /// Parses and validates a scenario from TOML text.
     ///
     /// ```
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let text = r#"
     /// name = "corridor"
     /// arena_half_size = 3.0
@@ -333,7 +335,7 @@ impl Scenario {
     /// Reads, parses and validates a scenario file; errors name the file, line and column.
     ///
     /// ```
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let path = std::env::temp_dir().join("firmware-sim-doc-load.toml");
     /// let text = std::fs::read_to_string("scenarios/nav-open.toml").unwrap();
     /// std::fs::write(&path, text.replace("time_limit = 200", "time_limit = 50")).unwrap();
@@ -363,7 +365,7 @@ impl Scenario {
     /// A built-in name, else a file path (what the CLI's `--scenario` takes).
     ///
     /// ```
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// assert_eq!(Scenario::resolve("nav-open").unwrap().name, "nav-open");
     /// let err = Scenario::resolve("nav-mars").unwrap_err().to_string();
     /// assert!(err.contains("nav-mars") && err.contains("nav-walls"), "{err}");
@@ -376,6 +378,7 @@ impl Scenario {
         if !path.exists() {
             return Err(Error::UnknownScenario {
                 name: name_or_path.to_string(),
+                builtin: &BUILTIN_NAMES,
             });
         }
         Self::load(path)
@@ -385,19 +388,19 @@ impl Scenario {
     /// tools name [`crate::env::Plant`], not a plant type).
     ///
     /// ```
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let plant = Scenario::builtin("nav-walls").unwrap().plant().unwrap();
     /// let agents = plant.agents();
     /// assert_eq!((agents.len(), agents[0].observation_space.dim()), (1, 2));
     /// ```
     pub fn plant(&self) -> Result<Box<dyn crate::env::Plant>, Error> {
-        Ok(Box::new(crate::nav::NavEnv::new(self)?))
+        Ok(Box::new(super::plant::NavEnv::new(self)?))
     }
 
     /// The walls as geometry segments.
     ///
     /// ```
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let walls = Scenario::builtin("nav-walls").unwrap().segments();
     /// assert_eq!(walls[0].length(), 4.5); // outer south wall, west of its gap
     /// ```
@@ -414,7 +417,7 @@ impl Scenario {
     /// Checks every rule; the error names the field and the value.
     ///
     /// ```
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let mut s = Scenario::builtin("nav-walls").unwrap();
     /// s.walls[2].to = [3.5, 8.0];
     /// let err = s.validate().unwrap_err().to_string();
@@ -578,26 +581,22 @@ impl Scenario {
     }
 }
 
-/// A one-line parse error with the line and column of the offending key.
-pub(crate) fn parse_error(e: &toml::de::Error, text: &str, origin: &str) -> Error {
-    let mut message = e.message().trim().replace('\n', " ");
-    let location = match e.span() {
-        Some(span) => {
-            let start = span.start.min(text.len());
-            let before = &text[..start];
-            let line = before.matches('\n').count() + 1;
-            let line_start = before.rfind('\n').map_or(0, |i| i + 1);
-            let column = start - line_start + 1;
-            // The serde message may not name the key (`invalid value: integer -5`), the line does.
-            let source = text[line_start..].lines().next().unwrap_or("").trim();
-            if !source.is_empty() {
-                message = format!("{message} (in `{source}`)");
-            }
-            format!("{origin}:{line}:{column}")
-        }
-        None => origin.to_string(),
-    };
-    Error::Parse { location, message }
+impl PlantSizes {
+    /// The sizes of the plant a scenario builds.
+    ///
+    /// ```
+    /// use firmware_sim::boot::PlantSizes;
+    /// use firmware_sim::nav::scenario::Scenario;
+    /// let s = PlantSizes::of(&Scenario::builtin("nav-walls").unwrap()).unwrap();
+    /// assert_eq!((s.observations, s.actions), (2, 2));
+    /// ```
+    pub fn of(scenario: &Scenario) -> Result<PlantSizes, Error> {
+        let agent = &scenario.plant()?.agents()[0];
+        Ok(PlantSizes {
+            observations: agent.observation_space.dim(),
+            actions: agent.action_space.dim(),
+        })
+    }
 }
 
 #[cfg(test)]

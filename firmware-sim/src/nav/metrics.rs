@@ -21,8 +21,8 @@ use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::Vec2;
-use crate::scenario::{Metrics, Scenario};
+use super::geometry::Vec2;
+use super::scenario::{Metrics, Scenario};
 
 /// What the loop saw at one tick.
 #[derive(Clone, Copy, Debug, PartialEq)]
