@@ -13,7 +13,7 @@
 //!
 //! At most one fault of each kind per run: one dropout (`dropout-nan` or `dropout-stale`, they
 //! share the sensor), one stuck actuator, one wall change. A kind given twice is an error
-//! rather than the last one silently winning (issue 9, item 8).
+//! rather than the last one silently winning.
 //!
 //! ```
 //! use firmware_sim::faults::{DropoutMode, Faults};
@@ -248,7 +248,7 @@ fn unknown(item: &str) -> Error {
 mod tests {
     use super::*;
 
-    /// Regression (issue 9, item 8): `wall:…,wall:…,dropout-nan:1,dropout-stale:0` was accepted
+    /// Regression: `wall:…,wall:…,dropout-nan:1,dropout-stale:0` was accepted
     /// and only the last wall and the last dropout applied. A kind given twice is refused, and
     /// the two dropout modes share one slot.
     #[test]

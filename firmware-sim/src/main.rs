@@ -320,7 +320,7 @@ fn outputs_differ(json: Option<&Path>, svg: Option<&Path>) -> Result<()> {
 }
 
 /// A path that cannot be written is reported before the work, so a long run never ends in
-/// "cannot write" with its results lost (issue 9, item 13).
+/// "cannot write" with its results lost.
 fn check_outputs(args: &RunArgs) -> Result<()> {
     if let (Some(json), Some(svg)) = (&args.json, &args.svg) {
         if json == svg {

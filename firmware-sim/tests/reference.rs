@@ -22,7 +22,7 @@ fn straight_is_caught_stuck_at_the_outer_wall_of_the_pinwheel() {
         .iter()
         .filter(|e| e.stuck && (e.end[0].abs().max(e.end[1].abs()) - 3.5).abs() < 0.01)
         .count();
-    // DESIGN.md: about two starts in three stop at the outer ring.
+    // docs/design.md §2: about two starts in three stop at the outer ring.
     assert!(
         at_outer as f64 >= 0.5 * r.episodes.len() as f64,
         "{at_outer} of {}",

@@ -1,6 +1,6 @@
 //! The badminton plant: two players of three agents each, one point per episode.
 //!
-//! Decision points (DESIGN.md section 3): the server's *serve* agent at the start of a point;
+//! Decision points (docs/design.md §3): the server's *serve* agent at the start of a point;
 //! after every hit, the hitter's *reset* agent and then the receiver's *catch* agent; at a
 //! catch, the catcher's *serve* agent. Between them the plant runs the physics at `dt`: the
 //! shuttle, both players moving toward their targets, the net, the floor, the catch. Rewards
@@ -346,7 +346,7 @@ impl Badminton {
         }
     }
 
-    /// The catch reward of DESIGN.md eq. 18 (without its miss/catch term): the closer the
+    /// The catch reward of docs/design.md §3, eq. 18 (without its miss/catch term): the closer the
     /// shuttle came to the hitting point, the nearer to 1.
     fn closeness(&self, closest: f64) -> f64 {
         let r = self.config.player.catch_radius;

@@ -135,7 +135,7 @@ mod tests {
         dir
     }
 
-    /// Regression (issue 9, streaming): the CLI kept every record in memory to print the
+    /// Regression: the CLI kept every record in memory to print the
     /// report. The streamed file must be byte for byte the pretty-printed full report, with
     /// trajectories, faults and one or many episodes.
     #[test]

@@ -1,4 +1,4 @@
-//! The navigation plant of experiment 1 (DESIGN.md section 2): blind navigation among walls.
+//! The navigation plant of experiment 1 (docs/design.md §2): blind navigation among walls.
 //!
 //! The agent sees only its position and moves by a step in the box `[-0.25, 0.25]²`. Walls are
 //! zero-thickness segments resolved exactly by [`super::geometry`]: moving into one keeps only
@@ -23,7 +23,8 @@ use rand_core::SeedableRng;
 
 use super::geometry::{push_out, resolve, Segment, Vec2};
 use super::scenario::{Scenario, StartRule};
-use crate::env::{BoxSpace, Env, Step, StepInfo};
+use crate::boot::PlantSizes;
+use crate::env::{BoxSpace, Env, Plant, Step, StepInfo};
 use crate::seed::{uniform, SimRng};
 use crate::Error;
 
@@ -247,6 +248,41 @@ impl Env for NavEnv {
             truncated,
             info,
         }
+    }
+}
+
+// A scenario builds its plant here, where the plant is, so that the layout's data does not
+// depend on the plant that runs it.
+impl Scenario {
+    /// The plant this scenario describes, behind the interface every caller uses (training and
+    /// tools name [`crate::env::Plant`], not a plant type).
+    ///
+    /// ```
+    /// use firmware_sim::nav::scenario::Scenario;
+    /// let plant = Scenario::builtin("nav-walls").unwrap().plant().unwrap();
+    /// let agents = plant.agents();
+    /// assert_eq!((agents.len(), agents[0].observation_space.dim()), (1, 2));
+    /// ```
+    pub fn plant(&self) -> Result<Box<dyn Plant>, Error> {
+        Ok(Box::new(NavEnv::new(self)?))
+    }
+}
+
+impl PlantSizes {
+    /// The sizes of the plant a scenario builds.
+    ///
+    /// ```
+    /// use firmware_sim::boot::PlantSizes;
+    /// use firmware_sim::nav::scenario::Scenario;
+    /// let s = PlantSizes::of(&Scenario::builtin("nav-walls").unwrap()).unwrap();
+    /// assert_eq!((s.observations, s.actions), (2, 2));
+    /// ```
+    pub fn of(scenario: &Scenario) -> Result<PlantSizes, Error> {
+        let agent = &scenario.plant()?.agents()[0];
+        Ok(PlantSizes {
+            observations: agent.observation_space.dim(),
+            actions: agent.action_space.dim(),
+        })
     }
 }
 

@@ -22,19 +22,18 @@ use serde::{Deserialize, Serialize};
 
 use super::geometry::{Segment, Vec2};
 use super::reward::Reward;
-use crate::boot::PlantSizes;
 use crate::error::parse_error;
 use crate::Error;
 
-/// The default scenario: the pinwheel of DESIGN.md section 2.
+/// The default scenario: the pinwheel of docs/design.md §2.
 pub const DEFAULT_SCENARIO: &str = "nav-walls";
 
-/// The longest episode a scenario may ask for, in ticks (100,000: 500 times the shipped
-/// scenarios' 200). A test runs the full time limit, so a typo such as `time_limit =
 /// The largest arena half-size: a million units, far beyond any plant here, and small enough that
 /// every position in the arena is a finite `f32` with room to spare.
 pub const MAX_ARENA_HALF_SIZE: f64 = 1e6;
 
+/// The longest episode a scenario may ask for, in ticks (100,000: 500 times the shipped
+/// scenarios' 200). A test runs the full time limit, so a typo such as `time_limit =
 /// 4294967295` would otherwise run for hours.
 pub const MAX_TIME_LIMIT: u32 = 100_000;
 
@@ -83,7 +82,7 @@ pub struct Scenario {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "rule", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum StartRule {
-    /// A uniform point on the arena boundary, moved `inset` inside it (DESIGN: one step, 0.25).
+    /// A uniform point on the arena boundary, moved `inset` inside it (docs/design.md §2: one step, 0.25).
     Boundary {
         /// Distance inside the boundary.
         inset: f64,
@@ -95,7 +94,7 @@ pub enum StartRule {
     },
 }
 
-/// Thresholds of the test metrics (DESIGN.md section 2 and the stuck-at-margin rule).
+/// Thresholds of the test metrics (docs/design.md §2 and the stuck-at-margin rule).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Metrics {
@@ -114,7 +113,7 @@ pub struct Metrics {
 }
 
 impl Metrics {
-    /// DESIGN.md section 2's success rule on the distances from the centre over an episode's last
+    /// docs/design.md §2's success rule on the distances from the centre over an episode's last
     /// `settle_window` steps: there is at least one, and every one is within `success_radius`.
     /// firmware-sim's test metrics and the trainer's training-success column both ask it.
     ///
@@ -178,8 +177,8 @@ pub struct Wall {
 }
 
 /// A wall as written, before its points are checked. serde reads `[f64; 2]` from the first two
-/// values of a TOML array and ignores the rest (issue 9, item 6), so the ends are read as lists
-/// of any values and checked here.
+/// values of a TOML array and silently ignores the rest, so the ends are read as lists of any
+/// values and checked here.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawWall {
@@ -384,19 +383,6 @@ impl Scenario {
         Self::load(path)
     }
 
-    /// The plant this scenario describes, behind the interface every caller uses (training and
-    /// tools name [`crate::env::Plant`], not a plant type).
-    ///
-    /// ```
-    /// use firmware_sim::nav::scenario::Scenario;
-    /// let plant = Scenario::builtin("nav-walls").unwrap().plant().unwrap();
-    /// let agents = plant.agents();
-    /// assert_eq!((agents.len(), agents[0].observation_space.dim()), (1, 2));
-    /// ```
-    pub fn plant(&self) -> Result<Box<dyn crate::env::Plant>, Error> {
-        Ok(Box::new(super::plant::NavEnv::new(self)?))
-    }
-
     /// The walls as geometry segments.
     ///
     /// ```
@@ -581,24 +567,6 @@ impl Scenario {
     }
 }
 
-impl PlantSizes {
-    /// The sizes of the plant a scenario builds.
-    ///
-    /// ```
-    /// use firmware_sim::boot::PlantSizes;
-    /// use firmware_sim::nav::scenario::Scenario;
-    /// let s = PlantSizes::of(&Scenario::builtin("nav-walls").unwrap()).unwrap();
-    /// assert_eq!((s.observations, s.actions), (2, 2));
-    /// ```
-    pub fn of(scenario: &Scenario) -> Result<PlantSizes, Error> {
-        let agent = &scenario.plant()?.agents()[0];
-        Ok(PlantSizes {
-            observations: agent.observation_space.dim(),
-            actions: agent.action_space.dim(),
-        })
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -701,8 +669,20 @@ mod tests {
         }
     }
 
-    /// Regression (issue 9, item 5): `time_limit = 4294967295` validated, then the test grew
+    /// Regression: `time_limit = 4294967295` validated, then the test grew
     /// memory for 28 s and aborted. The limit is now refused, in one line, before any work.
+    #[test]
+    fn a_time_limit_beyond_the_maximum_is_refused() {
+        let huge = NAV_OPEN.replace("time_limit = 200", "time_limit = 4294967295");
+        let e = Scenario::from_toml_str(&huge)
+            .expect_err("must be refused")
+            .to_string();
+        assert!(
+            e.contains("time_limit: must be in 1..=100000, found 4294967295"),
+            "{e}"
+        );
+    }
+
     /// Regression (fuzz finding, `fuzz/regressions/scenario/arena-beyond-f32.toml`): an
     /// `arena_half_size` above `f32::MAX` validated, and the plant then observed infinities.
     #[test]
@@ -748,7 +728,7 @@ mod tests {
         );
     }
 
-    /// Regression (issue 9, item 6): a wall end written with extra values
+    /// Regression: a wall end written with extra values
     /// (`from = [-2.0, 1.0, 77.0]`) was accepted and the extra values silently ignored.
     #[test]
     fn a_wall_end_must_be_exactly_two_numbers() {

@@ -512,7 +512,7 @@ mod tests {
     use super::super::straight::Straight;
     use super::*;
 
-    /// Regression (issue 9, item 2): `episodes = usize::MAX` panicked (`capacity overflow`) and
+    /// Regression: `episodes = usize::MAX` panicked (`capacity overflow`) and
     /// 10^12 aborted on a 152 TB allocation. Counts above `MAX_EPISODES` are refused by
     /// `validate`, before anything is allocated or run.
     #[test]
