@@ -24,7 +24,7 @@ use rand_core::SeedableRng;
 use super::geometry::{push_out, resolve, Segment, Vec2};
 use super::scenario::{Scenario, StartRule};
 use crate::boot::PlantSizes;
-use crate::env::{BoxSpace, Env, Plant, Step, StepInfo};
+use crate::env::{BoxSpace, Env, Step, StepInfo};
 use crate::seed::{uniform, SimRng};
 use crate::Error;
 
@@ -263,7 +263,7 @@ impl Scenario {
     /// let agents = plant.agents();
     /// assert_eq!((agents.len(), agents[0].observation_space.dim()), (1, 2));
     /// ```
-    pub fn plant(&self) -> Result<Box<dyn Plant>, Error> {
+    pub fn plant(&self) -> Result<Box<dyn crate::env::Plant>, Error> {
         Ok(Box::new(NavEnv::new(self)?))
     }
 }
