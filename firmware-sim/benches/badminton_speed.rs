@@ -1,4 +1,4 @@
-//! How fast the badminton plant runs (the aim: 1,000 points of scripted against
+//! How fast the badminton plant runs (the aim: 1,000 points of scripted against
 //! scripted in under a second on one core, so that training is bound by learning).
 //!
 //! - `badminton/physics-step`: one shuttle step (`Physics::step`) alone: physics steps per

@@ -14,11 +14,12 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use firmware_sim::controller::{BlobPolicy, Controller, Straight};
+use firmware_sim::controller::{BlobPolicy, Controller};
 use firmware_sim::env::Env;
-use firmware_sim::harness::{evaluate, evaluate_controller, EvalConfig};
+use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::straight::Straight;
+use firmware_sim::nav::test_protocol::{evaluate, evaluate_controller, EvalConfig};
 use firmware_sim::nav::NavEnv;
-use firmware_sim::scenario::Scenario;
 use policy_core::{ActionBounds, Normalizer, Policy};
 
 /// A 4×48 actor with fixed pseudo-random weights, as a blob.

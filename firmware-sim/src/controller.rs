@@ -1,13 +1,11 @@
 //! What drives the actuator: a policy booted from a blob (policy-core's runtime model, any
-//! shape), the safe state, or a reference controller (`straight`, `oracle`) used to check the
-//! harness and its metrics.
+//! shape) or the safe state. Each plant's reference controllers (navigation's `straight` and
+//! `oracle`) implement the same [`Controller`] trait in the plant's folder.
 
 use policy_core::blob::{self, Header};
 use policy_core::model::{Model, Scratch};
 use policy_core::ModelKind;
 
-use crate::oracle::Oracle;
-use crate::scenario::Scenario;
 use crate::Error;
 
 /// A controller in the firmware loop: observation in, action out.
@@ -48,78 +46,6 @@ impl Controller for SafeState {
     }
     fn act(&mut self, _obs: &[f32], action: &mut [f32]) {
         action.fill(0.0);
-    }
-}
-
-/// Heads straight for the centre at full speed: the naive policy a wall catches.
-#[derive(Clone, Copy, Debug)]
-pub struct Straight {
-    /// Largest step per axis.
-    pub max_step: f32,
-}
-
-impl Controller for Straight {
-    fn name(&self) -> String {
-        "straight".into()
-    }
-    fn observations(&self) -> usize {
-        2
-    }
-    fn actions(&self) -> usize {
-        2
-    }
-    fn act(&mut self, obs: &[f32], action: &mut [f32]) {
-        let to = step_toward([obs[0], obs[1]], [0.0, 0.0], self.max_step);
-        action.copy_from_slice(&to);
-    }
-}
-
-/// The step from `from` toward `to`: the full step along the direction (largest component
-/// `max_step`, so the direction is kept exactly inside the box), or exactly the remaining
-/// offset when it is shorter. A non-finite input gives no motion.
-///
-/// ```
-/// use firmware_sim::controller::step_toward;
-/// assert_eq!(step_toward([4.0, 2.0], [0.0, 0.0], 0.25), [-0.25, -0.125]);
-/// assert_eq!(step_toward([0.1, 0.0], [0.0, 0.0], 0.25), [-0.1, 0.0]);
-/// assert_eq!(step_toward([f32::NAN, 0.0], [0.0, 0.0], 0.25), [0.0, 0.0]);
-/// ```
-pub fn step_toward(from: [f32; 2], to: [f32; 2], max_step: f32) -> [f32; 2] {
-    let d = [to[0] - from[0], to[1] - from[1]];
-    // `f32::max` ignores NaN, so finiteness is checked per component.
-    if !d.iter().all(|v| v.is_finite()) {
-        return [0.0, 0.0];
-    }
-    let big = d[0].abs().max(d[1].abs());
-    if big <= max_step {
-        return d;
-    }
-    let k = max_step / big;
-    [d[0] * k, d[1] * k]
-}
-
-/// A reference controller by name: `straight` or `oracle`.
-///
-/// ```
-/// use firmware_sim::controller::reference;
-/// use firmware_sim::scenario::Scenario;
-/// let s = Scenario::builtin("nav-walls").unwrap();
-/// let mut c = reference("straight", &s).unwrap();
-/// let mut a = [0.0; 2];
-/// c.act(&[5.75, 0.0], &mut a);
-/// assert_eq!(a, [-0.25, 0.0]);
-/// assert!(reference("wander", &s).is_err());
-/// ```
-pub fn reference(name: &str, scenario: &Scenario) -> Result<Box<dyn Controller>, Error> {
-    match name {
-        "straight" => Ok(Box::new(Straight {
-            max_step: scenario.max_step,
-        })),
-        "oracle" => Ok(Box::new(Oracle::new(scenario))),
-        _ => Err(Error::Config {
-            field: "controller",
-            message: format!("expected straight or oracle, found {name:?}"),
-        }),
     }
 }
 

@@ -127,7 +127,7 @@ pub struct Turn {
 /// ```
 /// use firmware_sim::env::Plant;
 /// use firmware_sim::nav::NavEnv;
-/// use firmware_sim::scenario::Scenario;
+/// use firmware_sim::nav::scenario::Scenario;
 /// // Navigation is the one-agent case: the same agent decides every step.
 /// let mut nav = NavEnv::new(&Scenario::builtin("nav-open").unwrap()).unwrap();
 /// assert_eq!(Plant::agents(&nav).len(), 1);

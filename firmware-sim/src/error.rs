@@ -36,6 +36,8 @@ pub enum Error {
     UnknownScenario {
         /// The name given.
         name: String,
+        /// The built-in names it could have been.
+        builtin: &'static [&'static str],
     },
     /// A blob was rejected by policy-core.
     Blob(policy_core::Error),
@@ -82,10 +84,10 @@ impl fmt::Display for Error {
                     scenario.escape_debug()
                 )
             }
-            Error::UnknownScenario { name } => write!(
+            Error::UnknownScenario { name, builtin } => write!(
                 f,
                 "unknown scenario {name:?}: expected a built-in name ({}) or a TOML file path",
-                crate::scenario::BUILTIN_NAMES.join(", ")
+                builtin.join(", ")
             ),
             Error::Blob(e) => write!(f, "blob rejected: {e}"),
             Error::SizeMismatch {
@@ -106,7 +108,7 @@ impl fmt::Display for Error {
 
 impl std::error::Error for Error {}
 
-/// So that a streaming evaluation ([`crate::harness::evaluate_streaming`]) can write its
+/// So that a streaming evaluation ([`crate::nav::test_protocol::evaluate_streaming`]) can write its
 /// records to files and return either kind of error as an `io::Error`.
 impl From<Error> for std::io::Error {
     fn from(e: Error) -> Self {
@@ -118,4 +120,26 @@ impl From<policy_core::Error> for Error {
     fn from(e: policy_core::Error) -> Self {
         Error::Blob(e)
     }
+}
+
+/// A one-line parse error with the line and column of the offending key.
+pub(crate) fn parse_error(e: &toml::de::Error, text: &str, origin: &str) -> Error {
+    let mut message = e.message().trim().replace('\n', " ");
+    let location = match e.span() {
+        Some(span) => {
+            let start = span.start.min(text.len());
+            let before = &text[..start];
+            let line = before.matches('\n').count() + 1;
+            let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+            let column = start - line_start + 1;
+            // The serde message may not name the key (`invalid value: integer -5`), the line does.
+            let source = text[line_start..].lines().next().unwrap_or("").trim();
+            if !source.is_empty() {
+                message = format!("{message} (in `{source}`)");
+            }
+            format!("{origin}:{line}:{column}")
+        }
+        None => origin.to_string(),
+    };
+    Error::Parse { location, message }
 }

@@ -13,7 +13,7 @@
 //!
 //! At most one fault of each kind per run: one dropout (`dropout-nan` or `dropout-stale`, they
 //! share the sensor), one stuck actuator, one wall change. A kind given twice is an error
-//! rather than the last one silently winning (issue 9, item 8).
+//! rather than the last one silently winning.
 //!
 //! ```
 //! use firmware_sim::faults::{DropoutMode, Faults};
@@ -30,7 +30,7 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
-use crate::scenario::{Scenario, Wall};
+use crate::nav::scenario::{Scenario, Wall};
 use crate::Error;
 
 /// Every fault of one evaluation (none by default).
@@ -88,7 +88,7 @@ impl Faults {
     ///
     /// ```
     /// use firmware_sim::faults::Faults;
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let s = Scenario::builtin("nav-walls").unwrap();
     /// let ok: Faults = "wall:10@-1/-3/1/-3@8".parse().unwrap();
     /// assert!(ok.validate(&s, 2).is_ok());
@@ -248,7 +248,7 @@ fn unknown(item: &str) -> Error {
 mod tests {
     use super::*;
 
-    /// Regression (issue 9, item 8): `wall:…,wall:…,dropout-nan:1,dropout-stale:0` was accepted
+    /// Regression: `wall:…,wall:…,dropout-nan:1,dropout-stale:0` was accepted
     /// and only the last wall and the last dropout applied. A kind given twice is refused, and
     /// the two dropout modes share one slot.
     #[test]

@@ -309,7 +309,7 @@ mod tests {
         fs::remove_dir_all(&dir).expect("cleanup");
     }
 
-    /// Regression (issue 9, item 9): a failed write left `.NAME.tmpPID` behind.
+    /// Regression: a failed write left `.NAME.tmpPID` behind.
     #[test]
     fn failed_commit_removes_the_temporary_file() {
         let dir = scratch("failed-commit");
@@ -333,7 +333,7 @@ mod tests {
         fs::remove_dir_all(&dir).expect("cleanup");
     }
 
-    /// Regression (issue 9, item 10): temporaries of killed writers were never removed.
+    /// Regression: temporaries of killed writers were never removed.
     #[test]
     fn temporaries_of_dead_processes_are_removed_on_the_next_write() {
         let dir = scratch("stale");
@@ -359,7 +359,7 @@ mod tests {
         assert_eq!(parse_temp_name(".a.json.tmp-12"), None);
     }
 
-    /// Regression (issue 9, item 13): output paths were checked only after the work.
+    /// Regression: output paths were checked only after the work.
     #[test]
     fn check_output_catches_missing_folders_and_folders_and_leaves_nothing() {
         let dir = scratch("check");
@@ -371,7 +371,7 @@ mod tests {
         fs::remove_dir_all(&dir).expect("cleanup");
     }
 
-    /// Regression (issue 9): a 1 GB file passed as a blob was read whole before its magic was
+    /// Regression: a 1 GB file passed as a blob was read whole before its magic was
     /// checked.
     #[test]
     fn an_oversized_blob_file_is_refused_from_its_size() {

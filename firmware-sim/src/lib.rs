@@ -4,38 +4,50 @@
 //! plants with hard margins, and measures how the policy behaves there: does it slide along a
 //! wall to the gap, or push against it forever?
 //!
+//! The top-level modules hold what does not depend on the plant; each plant has its folder.
+//!
 //! - [`mod@env`]: the Gymnasium-style plant interface shared with the trainer.
+//! - [`controller`]: blob policies of any shape (policy-core's runtime model) and the safe
+//!   state; [`boot`]: booting a blob against a plant's sizes; [`slots`]: booting from the A/B
+//!   flash slots with the firmware's own rule (policy-core's `slot::choose`); [`refine`]: DCP's
+//!   compare step on the device.
+//! - [`firmware`]: the firmware's side of each tick, around the controller: [`sensor`],
+//!   [`actuator`], and the [`faults`] injected into them; [`mod@pass`]: a run's verdict.
+//! - [`files`]: atomic output files, output paths checked before work, bounded blob reads;
+//!   [`seed`]: the random streams; [`error`]: the crate's one error type.
+//! - [`nav`]: the navigation plant of experiment 1, its layouts, reference controllers and test
+//!   protocol (margin metrics, JSON report, SVG plot).
 //! - [`badminton`]: the badminton plant of experiment 2 (two players of three agents), its
 //!   reference players and the paper's measures.
-//! - [`nav`]: the navigation plant of experiment 1; [`scenario`]: its layouts as TOML data;
-//!   [`geometry`]: exact sliding motion among zero-thickness walls.
-//! - [`harness`]: the firmware loop (boot from a blob, sensor, actuator, faults) and its margin
-//!   metrics; [`controller`]: blob policies of any shape (policy-core's runtime model) and
-//!   reference controllers.
-//! - [`slots`]: booting from the A/B flash slots with the firmware's own rule (policy-core's
-//!   `slot::choose`).
-//! - [`files`]: atomic output files, output paths checked before work, bounded blob reads;
-//!   [`json_report`] and [`svg`]: the CLI's report and plot, streamed episode by episode.
 #![deny(missing_docs)]
 
 pub mod actuator;
 pub mod badminton;
+pub mod boot;
 pub mod controller;
 pub mod env;
 pub mod error;
 pub mod faults;
 pub mod files;
-pub mod geometry;
-pub mod harness;
-pub mod json_report;
-pub mod metrics;
+pub mod firmware;
 pub mod nav;
-pub mod oracle;
+pub mod pass;
 pub mod refine;
-pub mod scenario;
 pub mod seed;
 pub mod sensor;
 pub mod slots;
-pub mod svg;
 
 pub use error::Error;
+
+// Old paths, kept while the other crates move to the new ones.
+#[doc(hidden)]
+pub use nav::geometry;
+#[doc(hidden)]
+pub use nav::scenario;
+/// Old path of [`nav::test_protocol`] and [`boot`], kept while the other crates move.
+#[doc(hidden)]
+pub mod harness {
+    pub use crate::boot::{boot, boot_or_safe_state, PlantSizes};
+    pub use crate::nav::test_protocol::*;
+    pub use crate::pass::PassOutcome;
+}

@@ -18,18 +18,18 @@ use clap::{Args, CommandFactory, Parser, Subcommand};
 use firmware_sim::actuator::ActuatorModel;
 use firmware_sim::badminton::play::{play_match, Length};
 use firmware_sim::badminton::{self, reference::PlayerKind};
-use firmware_sim::controller::{reference, Controller};
+use firmware_sim::boot::{boot_or_safe_state, PlantSizes};
+use firmware_sim::controller::Controller;
 use firmware_sim::files::{self, AtomicFile};
-use firmware_sim::harness::{
-    boot_or_safe_state, evaluate_streaming, EvalConfig, PlantSizes, Report,
-};
-use firmware_sim::json_report::JsonReportWriter;
-use firmware_sim::metrics::EpisodeRecord;
+use firmware_sim::nav::json_report::JsonReportWriter;
+use firmware_sim::nav::metrics::EpisodeRecord;
+use firmware_sim::nav::reference::reference;
+use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::svg::SvgWriter;
+use firmware_sim::nav::test_protocol::{evaluate_streaming, EvalConfig, Report};
 use firmware_sim::refine::RefiningPolicy;
-use firmware_sim::scenario::Scenario;
 use firmware_sim::sensor::SensorModel;
 use firmware_sim::slots::boot_slots;
-use firmware_sim::svg::SvgWriter;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -219,7 +219,7 @@ fn run(args: &RunArgs) -> Result<bool> {
         (bytes.as_deref(), critic.as_deref(), args.refine)
     {
         let plant = PlantSizes::of(&scenario)?;
-        match firmware_sim::harness::boot(bytes, &plant) {
+        match firmware_sim::boot::boot(bytes, &plant) {
             Ok(policy) => {
                 let refining =
                     RefiningPolicy::new(policy.model().clone(), critic, t, sigma, args.seed)
@@ -320,7 +320,7 @@ fn outputs_differ(json: Option<&Path>, svg: Option<&Path>) -> Result<()> {
 }
 
 /// A path that cannot be written is reported before the work, so a long run never ends in
-/// "cannot write" with its results lost (issue 9, item 13).
+/// "cannot write" with its results lost.
 fn check_outputs(args: &RunArgs) -> Result<()> {
     if let (Some(json), Some(svg)) = (&args.json, &args.svg) {
         if json == svg {

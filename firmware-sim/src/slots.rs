@@ -8,9 +8,9 @@
 use policy_core::model::Model;
 use policy_core::slot::{self, SlotId, Status};
 
+use crate::boot::PlantSizes;
 use crate::controller::{BlobPolicy, Controller, SafeState, SCRATCH_WIDTH};
 use crate::error::Error;
-use crate::harness::PlantSizes;
 
 /// The example firmware's activation scratch width (`W` in `firmware/src/main.rs`): a blob with a
 /// wider layer is refused there, so it is refused here by default too.
@@ -58,7 +58,7 @@ impl SlotBoot<'_> {
 /// sizes, with a scratch of `scratch_width` (at most firmware-sim's own, 1024).
 ///
 /// ```
-/// use firmware_sim::harness::PlantSizes;
+/// use firmware_sim::boot::PlantSizes;
 /// use firmware_sim::slots::{boot_slots, FIRMWARE_SCRATCH_WIDTH};
 /// use policy_core::{slot, ActionBounds, Normalizer, Policy};
 /// let mut p = Policy::<2, 32, 1, 2>::ZERO;

@@ -1,4 +1,4 @@
-//! DESIGN.md section 3's gates for the reference players, over the counts the issue names.
+//! docs/design.md §3's gates for the reference players, over the counts of games and points they name.
 
 use firmware_sim::badminton::play::{catch_test, play_match, reset_effect, serve_test, Length};
 use firmware_sim::badminton::reference::PlayerKind;

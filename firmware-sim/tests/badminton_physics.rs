@@ -61,7 +61,7 @@ fn a_long_drop_converges_to_the_terminal_speed_within_one_percent() {
     assert!((v - terminal).abs() <= 0.01 * terminal, "{v} vs {terminal}");
 }
 
-/// The issue asks that "speed never increases on a horizontal launch". That holds for every
+/// The physics is meant to hold that "speed never increases on a horizontal launch". That holds for every
 /// horizontal launch from the hitting height at 10 m/s or more (tested below, to the landing),
 /// but not for slow ones: at 8 m/s the speed drops below the terminal speed (to 5.52 m/s) and
 /// then rises again as the shuttle turns downward, which is what the drag law says. What holds

@@ -1,6 +1,7 @@
+use firmware_sim::boot::{boot, PlantSizes};
 use firmware_sim::controller::{BlobPolicy, Controller};
-use firmware_sim::harness::{boot, evaluate, EvalConfig, PlantSizes};
-use firmware_sim::scenario::Scenario;
+use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::test_protocol::{evaluate, EvalConfig};
 use firmware_sim::Error;
 use policy_core::model::{Model, Scratch};
 use policy_core::{Activation, ModelKind, Policy, Shape};
@@ -80,7 +81,7 @@ fn shape(observations: u16, actions: u16, depth: u8, width: u16, choices: u16) -
     }
 }
 
-/// Issue "policy-core v2": no table of compiled shapes. Shapes no build ever compiled (3x40,
+/// No table of compiled shapes: shapes no build ever compiled (3x40,
 /// 2x16, 1x7 relu) boot and act bit for bit like policy-core's runtime model.
 #[test]
 fn any_shape_boots_and_acts_like_the_runtime_model() {

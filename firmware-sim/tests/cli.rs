@@ -1,10 +1,10 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use firmware_sim::controller::reference;
-use firmware_sim::harness::{evaluate_controller, EvalConfig};
-use firmware_sim::scenario::Scenario;
-use firmware_sim::svg;
+use firmware_sim::nav::reference::reference;
+use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::svg;
+use firmware_sim::nav::test_protocol::{evaluate_controller, EvalConfig};
 
 use policy_core::{Activation, ModelKind, Shape};
 
@@ -142,7 +142,7 @@ fn a_blob_runs_and_a_corrupt_blob_is_reported_in_the_safe_state() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("FAILED, safe state"));
 }
 
-/// Issue "policy-core v2": a shape no build compiled (2x16, 3x40) boots and runs; a blob that
+/// No table of compiled shapes: a shape no build compiled (2x16, 3x40) boots and runs; a blob that
 /// does not fit the plant's sizes is named in one line and the loop runs in the safe state.
 #[test]
 fn any_shape_runs_and_a_wrong_size_is_named() {
@@ -268,7 +268,7 @@ fn json_without_timing(bytes: &[u8]) -> serde_json::Value {
     v
 }
 
-/// Regression (issue 9, item 2): `--episodes 18446744073709551615` panicked with `capacity
+/// Regression: `--episodes 18446744073709551615` panicked with `capacity
 /// overflow` (exit 101) and `--episodes 1000000000000` aborted on a 152 TB allocation.
 #[test]
 fn an_episode_count_beyond_the_maximum_is_one_line_and_exit_2() {
@@ -279,7 +279,7 @@ fn an_episode_count_beyond_the_maximum_is_one_line_and_exit_2() {
     }
 }
 
-/// Regression (issue 9, items 5 and 6): `time_limit = 4294967295` validated and then grew
+/// Regression: `time_limit = 4294967295` validated and then grew
 /// memory until it aborted; a wall end with extra values was accepted and the extras ignored.
 #[test]
 fn a_huge_time_limit_and_a_wall_end_of_four_values_are_refused() {
@@ -304,7 +304,7 @@ fn a_huge_time_limit_and_a_wall_end_of_four_values_are_refused() {
     );
 }
 
-/// Regression (issue 9, item 8): two walls and two dropouts exited 0 with only the last of
+/// Regression: two walls and two dropouts exited 0 with only the last of
 /// each applied.
 #[test]
 fn a_fault_kind_given_twice_is_one_line_and_exit_2() {
@@ -324,7 +324,7 @@ fn a_fault_kind_given_twice_is_one_line_and_exit_2() {
     );
 }
 
-/// Regression (issue 9, item 9): `--json DIR` failed but left `.DIR.tmpNNNN` behind.
+/// Regression: `--json DIR` failed but left `.DIR.tmpNNNN` behind.
 #[test]
 fn a_folder_as_output_fails_and_leaves_nothing_behind() {
     let dir = scratch("json-dir");
@@ -347,7 +347,7 @@ fn a_folder_as_output_fails_and_leaves_nothing_behind() {
     }
 }
 
-/// Regression (issue 9, item 13): output paths were checked only after the work; a bad
+/// Regression: output paths were checked only after the work; a bad
 /// `--json` path lost a 6 s run's report and the `--svg` file was never written.
 #[test]
 fn output_paths_are_checked_before_any_work() {
@@ -383,7 +383,7 @@ fn output_paths_are_checked_before_any_work() {
     );
 }
 
-/// Regression (issue 9, item 15): no subcommand printed the description and exited 2 without
+/// Regression: no subcommand printed the description and exited 2 without
 /// saying what was missing.
 #[test]
 fn a_missing_subcommand_is_named() {
@@ -395,7 +395,7 @@ fn a_missing_subcommand_is_named() {
     );
 }
 
-/// Regression (issue 9, blob files): a huge file passed as a blob was read whole.
+/// Regression: a huge file passed as a blob was read whole.
 #[test]
 fn a_file_too_large_for_a_blob_is_refused_unread() {
     let dir = scratch("huge-blob");
@@ -408,7 +408,7 @@ fn a_file_too_large_for_a_blob_is_refused_unread() {
     );
 }
 
-/// Regression (issue 9, streaming): the CLI held every record in memory. Streamed, its JSON
+/// Regression: the CLI held every record in memory. Streamed, its JSON
 /// report must still be the library's report key for key (and, timing aside, byte for byte
 /// the pretty-printed one), and its SVG the library's plot.
 #[test]

@@ -1,8 +1,8 @@
-use firmware_sim::controller::reference;
 use firmware_sim::env::Env;
-use firmware_sim::harness::{evaluate, EvalConfig};
+use firmware_sim::nav::reference::reference;
+use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::test_protocol::{evaluate, EvalConfig};
 use firmware_sim::nav::NavEnv;
-use firmware_sim::scenario::Scenario;
 
 use crate::util::random_blob;
 

@@ -1,6 +1,8 @@
-use firmware_sim::controller::{reference, Controller, Straight};
-use firmware_sim::harness::{evaluate_controller, EvalConfig, Report};
-use firmware_sim::scenario::Scenario;
+use firmware_sim::controller::Controller;
+use firmware_sim::nav::reference::reference;
+use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::straight::Straight;
+use firmware_sim::nav::test_protocol::{evaluate_controller, EvalConfig, Report};
 
 /// Writes the worst commands it can think of, in turn; counts the non-finite components.
 struct Garbage {

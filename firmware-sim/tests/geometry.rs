@@ -1,9 +1,9 @@
 use firmware_sim::env::Env;
-use firmware_sim::geometry::{
+use firmware_sim::nav::geometry::{
     nearest_wall_distance, push_out, resolve, resolve_traced, Segment, Vec2, CLEARANCE,
 };
+use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::NavEnv;
-use firmware_sim::scenario::Scenario;
 use proptest::collection::vec;
 use proptest::prelude::*;
 
@@ -56,7 +56,7 @@ proptest! {
         });
         prop_assert!(nearest_wall_distance(m.end, &walls) >= 0.5 * CLEARANCE);
         prop_assert!(m.end.x.is_finite() && m.end.y.is_finite());
-        prop_assert!(pieces <= firmware_sim::geometry::MAX_SUBMOVES);
+        prop_assert!(pieces <= firmware_sim::nav::geometry::MAX_SUBMOVES);
     }
 
     /// Walls joined end to end (V shapes, zig-zags, acute corners) and steps of every scale,

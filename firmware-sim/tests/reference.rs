@@ -1,6 +1,6 @@
-use firmware_sim::controller::reference;
-use firmware_sim::harness::{evaluate_controller, EvalConfig, Report};
-use firmware_sim::scenario::Scenario;
+use firmware_sim::nav::reference::reference;
+use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::test_protocol::{evaluate_controller, EvalConfig, Report};
 
 fn run(controller: &str, scenario: &str, episodes: usize) -> Report {
     let s = Scenario::builtin(scenario).expect("builtin");
@@ -22,7 +22,7 @@ fn straight_is_caught_stuck_at_the_outer_wall_of_the_pinwheel() {
         .iter()
         .filter(|e| e.stuck && (e.end[0].abs().max(e.end[1].abs()) - 3.5).abs() < 0.01)
         .count();
-    // DESIGN.md: about two starts in three stop at the outer ring.
+    // docs/design.md §2: about two starts in three stop at the outer ring.
     assert!(
         at_outer as f64 >= 0.5 * r.episodes.len() as f64,
         "{at_outer} of {}",

@@ -3,7 +3,7 @@
 /// Builders shared by the modules: random-weight policy blobs.
 mod util;
 
-/// Badminton: the reference players' gates of DESIGN.md section 3 (scripted against random
+/// Badminton: the reference players' gates of docs/design.md §3 (scripted against random
 /// and itself, the catch and serve tests).
 mod badminton_gates;
 /// Badminton physics: the closed form without drag, terminal speed, landing interpolation, the

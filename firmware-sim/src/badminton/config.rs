@@ -16,7 +16,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::scenario::parse_error;
+use crate::error::parse_error;
 use crate::Error;
 
 /// The whole game.
@@ -153,7 +153,7 @@ impl Config {
     /// The shipped scenario's text.
     pub const BUILTIN: &'static str = include_str!("../../scenarios/badminton.toml");
 
-    /// The shipped scenario (DESIGN.md section 3).
+    /// The shipped scenario (docs/design.md §3).
     pub fn builtin() -> Config {
         match Self::from_toml_str(Self::BUILTIN, "badminton") {
             Ok(c) => c,
@@ -335,7 +335,7 @@ impl Config {
 }
 
 /// Exactly two numbers (serde alone would read the first two of a longer array and ignore the
-/// rest, issue 9's finding for walls).
+/// rest, as was found for walls).
 fn point<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 2], D::Error> {
     let values = Vec::<f64>::deserialize(d)?;
     match values[..] {

@@ -1,6 +1,6 @@
 //! The badminton plant: two players of three agents each, one point per episode.
 //!
-//! Decision points (DESIGN.md section 3): the server's *serve* agent at the start of a point;
+//! Decision points (docs/design.md §3): the server's *serve* agent at the start of a point;
 //! after every hit, the hitter's *reset* agent and then the receiver's *catch* agent; at a
 //! catch, the catcher's *serve* agent. Between them the plant runs the physics at `dt`: the
 //! shuttle, both players moving toward their targets, the net, the floor, the catch. Rewards
@@ -120,7 +120,6 @@ pub struct Badminton {
     on_margin_steps: [u64; 2],
     on_margin_at_open: [u64; 6],
     reset_enabled: [bool; 2],
-    catching_enabled: [bool; 2],
     score: Score,
     log: Vec<Hit>,
     end: Option<PointEnd>,
@@ -155,7 +154,6 @@ impl Badminton {
             on_margin_steps: [0; 2],
             on_margin_at_open: [0; 6],
             reset_enabled: [true; 2],
-            catching_enabled: [true; 2],
             score: Score::new(),
             log: Vec::new(),
             end: None,
@@ -201,12 +199,6 @@ impl Badminton {
     /// it hit (the paper's table 7).
     pub fn set_reset_enabled(&mut self, player: usize, on: bool) {
         self.reset_enabled[player.min(1)] = on;
-    }
-
-    /// With `false`, the player lets every ball fall (the serve test: every serve is played to
-    /// its dead ball).
-    pub fn set_catching_enabled(&mut self, player: usize, on: bool) {
-        self.catching_enabled[player.min(1)] = on;
     }
 
     /// Records the next points' rallies for drawing ([`Badminton::rally`]).
@@ -313,7 +305,7 @@ impl Badminton {
     fn fly(&mut self) {
         let receiver = 1 - self.hitter;
         let radius = self.config.player.catch_radius;
-        let lets_go = self.fate.is_fault() || !self.catching_enabled[receiver];
+        let lets_go = self.fate.is_fault();
         let max_speed = self.config.player.max_speed;
         // Squared distances, with one square root at the end: the minimum commutes with the
         // (monotone) square root, and the catch test takes the root only near the radius, so
@@ -354,7 +346,7 @@ impl Badminton {
         }
     }
 
-    /// The catch reward of DESIGN.md eq. 18 (without its miss/catch term): the closer the
+    /// The catch reward of docs/design.md §3, eq. 18 (without its miss/catch term): the closer the
     /// shuttle came to the hitting point, the nearer to 1.
     fn closeness(&self, closest: f64) -> f64 {
         let r = self.config.player.catch_radius;

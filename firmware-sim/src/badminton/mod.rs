@@ -1,4 +1,4 @@
-//! Experiment 2: badminton singles (DESIGN.md section 3), a plant of two players with three
+//! Experiment 2: badminton singles (docs/design.md §3), a plant of two players with three
 //! agents each (catch, serve, reset), and its reference players and measures.
 //!
 //! - [`config`]: every constant as data (`scenarios/badminton.toml`), validated;

@@ -1,4 +1,4 @@
-//! Matches between two players and the paper's test measures (DESIGN.md section 3, "Measures"):
+//! Matches between two players and the paper's test measures (docs/design.md §3, "Measures"):
 //! the catch test, the serve test, and catch success with the reset agent enabled or disabled.
 //! They take any [`Player`], so the trainer can call them later with trained players.
 //!
@@ -21,7 +21,7 @@ use super::reference::{Player, PlayerKind};
 use super::rules::{Cause, PointEnd};
 use super::shuttle::Fate;
 use crate::env::Plant;
-use crate::harness::PassOutcome;
+use crate::pass::PassOutcome;
 use crate::Error;
 
 /// How long a match lasts.

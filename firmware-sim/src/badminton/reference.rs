@@ -1,4 +1,4 @@
-//! The reference players of DESIGN.md section 3, for tests and gates: `random` (uniform actions)
+//! The reference players of docs/design.md §3, for tests and gates: `random` (uniform actions)
 //! and `scripted` (good but not perfect). Both act on their observation alone, like a trained
 //! player would; `scripted` knows the physics and predicts the shuttle from what it sees.
 //!
@@ -35,8 +35,8 @@ pub trait Player {
     fn act(&mut self, role: Role, observation: &[f32], action: &mut [f32]);
 }
 
-/// A player named on the command line: `scripted` or `random`. (A later issue adds a folder of
-/// three blobs; the argument stays one word.)
+/// A player named on the command line: `scripted` or `random`. (A player made of three
+/// blobs, one per agent, would still be named by one word.)
 #[derive(Clone, Debug, PartialEq, Eq)]
 #[non_exhaustive]
 pub enum PlayerKind {
@@ -115,7 +115,7 @@ impl Player for Random {
     }
 }
 
-/// The scripted reference player (DESIGN.md section 3):
+/// The scripted reference player (docs/design.md §3):
 /// - catch: where the incoming shuttle falls through the hitting height on its way down (its
 ///   landing point if it never does), plus Gaussian noise of `catch_noise` per axis, clipped to
 ///   its half;

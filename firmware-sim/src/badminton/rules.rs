@@ -1,4 +1,4 @@
-//! Points, games and who serves (DESIGN.md section 3, "Points and games").
+//! Points, games and who serves (docs/design.md §3, "Points and games").
 //!
 //! Player 0 serves first in the first game, the winner of a game first in the next; the winner
 //! of a point serves the next; a let changes nothing. A game ends when a player has at least

@@ -1,4 +1,4 @@
-//! Margin-behaviour metrics of one test episode (DESIGN.md section 2, issue 3 item 4).
+//! Margin-behaviour metrics of one test episode (docs/design.md §2).
 //!
 //! - **error**: distance from the centre to where the agent settles, the mean position over its
 //!   last `settle_window` (20) steps (which also averages a loop);
@@ -13,7 +13,7 @@
 //!
 //! The metrics are computed online, tick by tick, keeping only the windows they need (the last
 //! `settle_window` positions, the last `stuck_window + 1` positions, a few counters): an
-//! episode's memory does not grow with the time limit (issue 9, item 5), unless the evaluation
+//! episode's memory does not grow with the time limit, unless the evaluation
 //! records trajectories for plots. The results are bit for bit those of the definitions above
 //! applied to the whole episode (the sums run in the same order); a property test checks it.
 
@@ -21,8 +21,8 @@ use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::Vec2;
-use crate::scenario::{Metrics, Scenario};
+use super::geometry::Vec2;
+use super::scenario::{Metrics, Scenario};
 
 /// What the loop saw at one tick.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -405,7 +405,7 @@ mod tests {
     }
 
     proptest! {
-        /// Regression (issue 9, item 5): the metrics stored every tick of an episode, so a
+        /// Regression: the metrics stored every tick of an episode, so a
         /// huge time limit grew memory without bound. The online metrics, which keep only
         /// their windows, must equal the whole-episode definitions bit for bit.
         #[test]

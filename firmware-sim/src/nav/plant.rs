@@ -1,7 +1,7 @@
-//! The navigation plant of experiment 1 (DESIGN.md section 2): blind navigation among walls.
+//! The navigation plant of experiment 1 (docs/design.md §2): blind navigation among walls.
 //!
 //! The agent sees only its position and moves by a step in the box `[-0.25, 0.25]²`. Walls are
-//! zero-thickness segments resolved exactly by [`crate::geometry`]: moving into one keeps only
+//! zero-thickness segments resolved exactly by [`super::geometry`]: moving into one keeps only
 //! the parallel component. An episode ends when the agent leaves the arena (terminal, with a
 //! penalty that makes leaving never better than staying), when it stays within 0.1 of the
 //! centre for 10 consecutive steps (terminal), or after 200 steps (truncation).
@@ -9,7 +9,7 @@
 //! ```
 //! use firmware_sim::env::Env;
 //! use firmware_sim::nav::NavEnv;
-//! use firmware_sim::scenario::Scenario;
+//! use firmware_sim::nav::scenario::Scenario;
 //! let mut env = NavEnv::new(&Scenario::builtin("nav-open").unwrap()).unwrap();
 //! let obs = env.reset(3);
 //! // The start is one step inside the boundary of [-6, 6]².
@@ -19,79 +19,14 @@
 //! assert!(step.reward > 0.0 && !step.terminated && !step.info.margin_touched);
 //! ```
 
-use serde::{Deserialize, Serialize};
-
-use crate::env::{BoxSpace, Env, Step, StepInfo};
-use crate::geometry::{push_out, resolve, Segment, Vec2};
-use crate::scenario::{Scenario, StartRule};
-use crate::seed::{uniform, SimRng};
-use crate::Error;
 use rand_core::SeedableRng;
 
-/// The reward forms of the paper; none of them mentions walls.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Reward {
-    /// Local reward: progress toward the centre in the step divided by the step length
-    /// (`max_step`), about `[-1, 1]`.
-    Lr,
-    /// Global reward: minus the distance to the centre divided by the arena half-size.
-    Gr,
-    /// The mean of LR and GR.
-    #[serde(alias = "lr+gr")]
-    LrGr,
-}
-
-impl Reward {
-    /// The reward of a step from distance `before` to distance `after` from the centre.
-    ///
-    /// ```
-    /// use firmware_sim::nav::Reward;
-    /// assert_eq!(Reward::Lr.of_step(3.0, 2.75, 0.25, 6.0), 1.0);
-    /// assert_eq!(Reward::Gr.of_step(3.0, 3.0, 0.25, 6.0), -0.5);
-    /// assert_eq!(Reward::LrGr.of_step(3.0, 3.0, 0.25, 6.0), -0.25);
-    /// ```
-    pub fn of_step(self, before: f64, after: f64, step_length: f32, arena_half_size: f64) -> f32 {
-        let lr = (before - after) / f64::from(step_length);
-        let gr = -after / arena_half_size;
-        let r = match self {
-            Reward::Lr => lr,
-            Reward::Gr => gr,
-            Reward::LrGr => 0.5 * lr + 0.5 * gr,
-        };
-        r as f32
-    }
-
-    /// The lowest reward one step inside the arena can earn.
-    ///
-    /// The longest step is the box diagonal `√2 · max_step`, so LR ≥ -√2; the farthest point of
-    /// the arena is its corner at `√2 · h`, so GR ≥ -√2; their mean is bounded the same way.
-    pub fn worst(self) -> f32 {
-        -core::f32::consts::SQRT_2
-    }
-
-    /// The reward for leaving the arena: `worst / (1 - gamma)`, no better than the discounted
-    /// sum of the worst reward forever, so leaving never pays better than staying.
-    ///
-    /// ```
-    /// use firmware_sim::nav::Reward;
-    /// let exit = Reward::Lr.exit_penalty(0.99);
-    /// assert!((exit + 141.421).abs() < 1e-2);
-    /// ```
-    pub fn exit_penalty(self, gamma: f32) -> f32 {
-        self.worst() / (1.0 - gamma)
-    }
-}
-
-impl core::fmt::Display for Reward {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(match self {
-            Reward::Lr => "LR",
-            Reward::Gr => "GR",
-            Reward::LrGr => "LR+GR",
-        })
-    }
-}
+use super::geometry::{push_out, resolve, Segment, Vec2};
+use super::scenario::{Scenario, StartRule};
+use crate::boot::PlantSizes;
+use crate::env::{BoxSpace, Env, Step, StepInfo};
+use crate::seed::{uniform, SimRng};
+use crate::Error;
 
 /// The navigation plant.
 #[derive(Clone, Debug)]
@@ -138,9 +73,9 @@ impl NavEnv {
     ///
     /// ```
     /// use firmware_sim::env::Env;
-    /// use firmware_sim::geometry::Vec2;
+    /// use firmware_sim::nav::geometry::Vec2;
     /// use firmware_sim::nav::NavEnv;
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let mut env = NavEnv::new(&Scenario::builtin("nav-open").unwrap()).unwrap();
     /// env.reset(0);
     /// env.set_goal_terminates(false);
@@ -177,9 +112,9 @@ impl NavEnv {
     ///
     /// ```
     /// use firmware_sim::env::Env;
-    /// use firmware_sim::geometry::{Segment, Vec2};
+    /// use firmware_sim::nav::geometry::{Segment, Vec2};
     /// use firmware_sim::nav::NavEnv;
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let mut env = NavEnv::new(&Scenario::builtin("nav-open").unwrap()).unwrap();
     /// env.reset(0);
     /// env.set_position(Vec2::new(0.0, 1.0));
@@ -316,8 +251,44 @@ impl Env for NavEnv {
     }
 }
 
+// A scenario builds its plant here, where the plant is, so that the layout's data does not
+// depend on the plant that runs it.
+impl Scenario {
+    /// The plant this scenario describes, behind the interface every caller uses (training and
+    /// tools name [`crate::env::Plant`], not a plant type).
+    ///
+    /// ```
+    /// use firmware_sim::nav::scenario::Scenario;
+    /// let plant = Scenario::builtin("nav-walls").unwrap().plant().unwrap();
+    /// let agents = plant.agents();
+    /// assert_eq!((agents.len(), agents[0].observation_space.dim()), (1, 2));
+    /// ```
+    pub fn plant(&self) -> Result<Box<dyn crate::env::Plant>, Error> {
+        Ok(Box::new(NavEnv::new(self)?))
+    }
+}
+
+impl PlantSizes {
+    /// The sizes of the plant a scenario builds.
+    ///
+    /// ```
+    /// use firmware_sim::boot::PlantSizes;
+    /// use firmware_sim::nav::scenario::Scenario;
+    /// let s = PlantSizes::of(&Scenario::builtin("nav-walls").unwrap()).unwrap();
+    /// assert_eq!((s.observations, s.actions), (2, 2));
+    /// ```
+    pub fn of(scenario: &Scenario) -> Result<PlantSizes, Error> {
+        let agent = &scenario.plant()?.agents()[0];
+        Ok(PlantSizes {
+            observations: agent.observation_space.dim(),
+            actions: agent.action_space.dim(),
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    use super::super::reward::Reward;
     use super::*;
 
     fn env(name: &str) -> NavEnv {

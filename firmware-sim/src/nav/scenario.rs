@@ -7,7 +7,7 @@
 //!
 //! ```
 //! use firmware_sim::nav::Reward;
-//! use firmware_sim::scenario::Scenario;
+//! use firmware_sim::nav::scenario::Scenario;
 //! let mut s = Scenario::builtin("nav-walls").unwrap();
 //! assert_eq!((s.arena_half_size, s.max_step, s.time_limit), (6.0, 0.25, 200));
 //! assert_eq!(s.walls.len(), 13);
@@ -20,27 +20,28 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::{Segment, Vec2};
-use crate::nav::Reward;
+use super::geometry::{Segment, Vec2};
+use super::reward::Reward;
+use crate::error::parse_error;
 use crate::Error;
 
-/// The default scenario: the pinwheel of DESIGN.md section 2.
+/// The default scenario: the pinwheel of docs/design.md §2.
 pub const DEFAULT_SCENARIO: &str = "nav-walls";
 
-/// The longest episode a scenario may ask for, in ticks (100,000: 500 times the shipped
-/// scenarios' 200). A test runs the full time limit, so a typo such as `time_limit =
 /// The largest arena half-size: a million units, far beyond any plant here, and small enough that
 /// every position in the arena is a finite `f32` with room to spare.
 pub const MAX_ARENA_HALF_SIZE: f64 = 1e6;
 
+/// The longest episode a scenario may ask for, in ticks (100,000: 500 times the shipped
+/// scenarios' 200). A test runs the full time limit, so a typo such as `time_limit =
 /// 4294967295` would otherwise run for hours.
 pub const MAX_TIME_LIMIT: u32 = 100_000;
 
 /// Names accepted by [`Scenario::builtin`].
 pub const BUILTIN_NAMES: [&str; 2] = ["nav-walls", "nav-open"];
 
-const NAV_WALLS: &str = include_str!("../scenarios/nav-walls.toml");
-const NAV_OPEN: &str = include_str!("../scenarios/nav-open.toml");
+const NAV_WALLS: &str = include_str!("../../scenarios/nav-walls.toml");
+const NAV_OPEN: &str = include_str!("../../scenarios/nav-open.toml");
 
 /// One navigation task.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -81,7 +82,7 @@ pub struct Scenario {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "rule", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum StartRule {
-    /// A uniform point on the arena boundary, moved `inset` inside it (DESIGN: one step, 0.25).
+    /// A uniform point on the arena boundary, moved `inset` inside it (docs/design.md §2: one step, 0.25).
     Boundary {
         /// Distance inside the boundary.
         inset: f64,
@@ -93,7 +94,7 @@ pub enum StartRule {
     },
 }
 
-/// Thresholds of the test metrics (DESIGN.md section 2 and the stuck-at-margin rule).
+/// Thresholds of the test metrics (docs/design.md §2 and the stuck-at-margin rule).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Metrics {
@@ -112,12 +113,12 @@ pub struct Metrics {
 }
 
 impl Metrics {
-    /// DESIGN.md section 2's success rule on the distances from the centre over an episode's last
+    /// docs/design.md §2's success rule on the distances from the centre over an episode's last
     /// `settle_window` steps: there is at least one, and every one is within `success_radius`.
     /// firmware-sim's test metrics and the trainer's training-success column both ask it.
     ///
     /// ```
-    /// let m = firmware_sim::scenario::Metrics::default();
+    /// let m = firmware_sim::nav::scenario::Metrics::default();
     /// assert!(m.settled([0.5, 2.0, 1.0]));
     /// assert!(!m.settled([0.5, 2.01]));
     /// assert!(!m.settled([]));
@@ -160,7 +161,7 @@ pub struct PassCriteria {
 /// A wall segment as written in a scenario: each end is exactly two numbers `[x, y]`.
 ///
 /// ```
-/// use firmware_sim::scenario::Wall;
+/// use firmware_sim::nav::scenario::Wall;
 /// let w: Wall = serde_json::from_str(r#"{ "from": [0, 1], "to": [2.5, 1] }"#).unwrap();
 /// assert_eq!(w.to, [2.5, 1.0]);
 /// let err = serde_json::from_str::<Wall>(r#"{ "from": [0, 1, 7], "to": [2, 1] }"#).unwrap_err();
@@ -176,8 +177,8 @@ pub struct Wall {
 }
 
 /// A wall as written, before its points are checked. serde reads `[f64; 2]` from the first two
-/// values of a TOML array and ignores the rest (issue 9, item 6), so the ends are read as lists
-/// of any values and checked here.
+/// values of a TOML array and silently ignores the rest, so the ends are read as lists of any
+/// values and checked here.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawWall {
@@ -309,7 +310,7 @@ impl Scenario {
     /// Parses and validates a scenario from TOML text.
     ///
     /// ```
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let text = r#"
     /// name = "corridor"
     /// arena_half_size = 3.0
@@ -333,7 +334,7 @@ impl Scenario {
     /// Reads, parses and validates a scenario file; errors name the file, line and column.
     ///
     /// ```
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let path = std::env::temp_dir().join("firmware-sim-doc-load.toml");
     /// let text = std::fs::read_to_string("scenarios/nav-open.toml").unwrap();
     /// std::fs::write(&path, text.replace("time_limit = 200", "time_limit = 50")).unwrap();
@@ -363,7 +364,7 @@ impl Scenario {
     /// A built-in name, else a file path (what the CLI's `--scenario` takes).
     ///
     /// ```
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// assert_eq!(Scenario::resolve("nav-open").unwrap().name, "nav-open");
     /// let err = Scenario::resolve("nav-mars").unwrap_err().to_string();
     /// assert!(err.contains("nav-mars") && err.contains("nav-walls"), "{err}");
@@ -376,28 +377,16 @@ impl Scenario {
         if !path.exists() {
             return Err(Error::UnknownScenario {
                 name: name_or_path.to_string(),
+                builtin: &BUILTIN_NAMES,
             });
         }
         Self::load(path)
     }
 
-    /// The plant this scenario describes, behind the interface every caller uses (training and
-    /// tools name [`crate::env::Plant`], not a plant type).
-    ///
-    /// ```
-    /// use firmware_sim::scenario::Scenario;
-    /// let plant = Scenario::builtin("nav-walls").unwrap().plant().unwrap();
-    /// let agents = plant.agents();
-    /// assert_eq!((agents.len(), agents[0].observation_space.dim()), (1, 2));
-    /// ```
-    pub fn plant(&self) -> Result<Box<dyn crate::env::Plant>, Error> {
-        Ok(Box::new(crate::nav::NavEnv::new(self)?))
-    }
-
     /// The walls as geometry segments.
     ///
     /// ```
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let walls = Scenario::builtin("nav-walls").unwrap().segments();
     /// assert_eq!(walls[0].length(), 4.5); // outer south wall, west of its gap
     /// ```
@@ -414,7 +403,7 @@ impl Scenario {
     /// Checks every rule; the error names the field and the value.
     ///
     /// ```
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let mut s = Scenario::builtin("nav-walls").unwrap();
     /// s.walls[2].to = [3.5, 8.0];
     /// let err = s.validate().unwrap_err().to_string();
@@ -578,28 +567,6 @@ impl Scenario {
     }
 }
 
-/// A one-line parse error with the line and column of the offending key.
-pub(crate) fn parse_error(e: &toml::de::Error, text: &str, origin: &str) -> Error {
-    let mut message = e.message().trim().replace('\n', " ");
-    let location = match e.span() {
-        Some(span) => {
-            let start = span.start.min(text.len());
-            let before = &text[..start];
-            let line = before.matches('\n').count() + 1;
-            let line_start = before.rfind('\n').map_or(0, |i| i + 1);
-            let column = start - line_start + 1;
-            // The serde message may not name the key (`invalid value: integer -5`), the line does.
-            let source = text[line_start..].lines().next().unwrap_or("").trim();
-            if !source.is_empty() {
-                message = format!("{message} (in `{source}`)");
-            }
-            format!("{origin}:{line}:{column}")
-        }
-        None => origin.to_string(),
-    };
-    Error::Parse { location, message }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -702,8 +669,6 @@ mod tests {
         }
     }
 
-    /// Regression (issue 9, item 5): `time_limit = 4294967295` validated, then the test grew
-    /// memory for 28 s and aborted. The limit is now refused, in one line, before any work.
     /// Regression (fuzz finding, `fuzz/regressions/scenario/arena-beyond-f32.toml`): an
     /// `arena_half_size` above `f32::MAX` validated, and the plant then observed infinities.
     #[test]
@@ -732,6 +697,8 @@ mod tests {
         assert!(e.starts_with("scenario a\\nb: time_limit"), "{e}");
     }
 
+    /// Regression: `time_limit = 4294967295` validated, then the test grew
+    /// memory for 28 s and aborted. The limit is now refused, in one line, before any work.
     #[test]
     fn a_time_limit_beyond_the_maximum_is_refused() {
         let at_max = NAV_OPEN.replace("time_limit = 200", "time_limit = 100000");
@@ -749,7 +716,7 @@ mod tests {
         );
     }
 
-    /// Regression (issue 9, item 6): a wall end written with extra values
+    /// Regression: a wall end written with extra values
     /// (`from = [-2.0, 1.0, 77.0]`) was accepted and the extra values silently ignored.
     #[test]
     fn a_wall_end_must_be_exactly_two_numbers() {

@@ -8,9 +8,9 @@
 use std::fmt::Write;
 use std::io;
 
-use crate::harness::Report;
-use crate::metrics::EpisodeRecord;
-use crate::scenario::{Scenario, Wall};
+use super::metrics::EpisodeRecord;
+use super::scenario::{Scenario, Wall};
+use super::test_protocol::Report;
 
 /// Pixels per arena unit.
 const SCALE: f64 = 40.0;
@@ -21,10 +21,10 @@ const BORDER: f64 = 20.0;
 /// did not record them).
 ///
 /// ```
-/// use firmware_sim::controller::Straight;
-/// use firmware_sim::harness::{evaluate_controller, EvalConfig};
-/// use firmware_sim::scenario::Scenario;
-/// use firmware_sim::svg::render;
+/// use firmware_sim::nav::straight::Straight;
+/// use firmware_sim::nav::test_protocol::{evaluate_controller, EvalConfig};
+/// use firmware_sim::nav::scenario::Scenario;
+/// use firmware_sim::nav::svg::render;
 /// let s = Scenario::builtin("nav-walls").unwrap();
 /// let cfg = EvalConfig { episodes: 3, record_trajectories: true, ..EvalConfig::default() };
 /// let r = evaluate_controller(&mut Straight { max_step: 0.25 }, &s, &cfg).unwrap();
@@ -47,10 +47,10 @@ pub fn render(scenario: &Scenario, report: &Report) -> String {
 /// episode's path is held at a time.
 ///
 /// ```
-/// use firmware_sim::controller::Straight;
-/// use firmware_sim::harness::{evaluate_controller, evaluate_streaming, EvalConfig};
-/// use firmware_sim::scenario::Scenario;
-/// use firmware_sim::svg::{render, SvgWriter};
+/// use firmware_sim::nav::straight::Straight;
+/// use firmware_sim::nav::test_protocol::{evaluate_controller, evaluate_streaming, EvalConfig};
+/// use firmware_sim::nav::scenario::Scenario;
+/// use firmware_sim::nav::svg::{render, SvgWriter};
 /// let s = Scenario::builtin("nav-walls").unwrap();
 /// let cfg = EvalConfig { episodes: 3, record_trajectories: true, ..EvalConfig::default() };
 /// let mut svg = SvgWriter::start(Vec::new(), &s, "straight").unwrap();

@@ -13,9 +13,9 @@ use std::fs;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
+use super::metrics::EpisodeRecord;
+use super::test_protocol::Report;
 use crate::files::AtomicFile;
-use crate::harness::Report;
-use crate::metrics::EpisodeRecord;
 
 /// How `to_string_pretty` ends a report whose `episodes` is empty (the key comes last).
 const EMPTY_TAIL: &str = "[]\n}";
@@ -26,10 +26,10 @@ const RECORD_INDENT: &str = "    ";
 /// A JSON report being written (see the module docs).
 ///
 /// ```
-/// use firmware_sim::controller::Straight;
-/// use firmware_sim::harness::{evaluate_controller, evaluate_streaming, EvalConfig};
-/// use firmware_sim::json_report::JsonReportWriter;
-/// use firmware_sim::scenario::Scenario;
+/// use firmware_sim::nav::straight::Straight;
+/// use firmware_sim::nav::test_protocol::{evaluate_controller, evaluate_streaming, EvalConfig};
+/// use firmware_sim::nav::json_report::JsonReportWriter;
+/// use firmware_sim::nav::scenario::Scenario;
 /// let dir = std::env::temp_dir().join(format!("json-report-doc-{}", std::process::id()));
 /// std::fs::create_dir_all(&dir).unwrap();
 /// let path = dir.join("report.json");
@@ -124,9 +124,9 @@ fn summary_json(report: &Report) -> io::Result<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::controller::reference;
-    use crate::harness::{evaluate_controller, evaluate_streaming, EvalConfig};
-    use crate::scenario::Scenario;
+    use crate::nav::reference::reference;
+    use crate::nav::scenario::Scenario;
+    use crate::nav::test_protocol::{evaluate_controller, evaluate_streaming, EvalConfig};
 
     fn scratch(tag: &str) -> PathBuf {
         let dir = std::env::temp_dir().join(format!("json-report-{tag}-{}", std::process::id()));
@@ -135,7 +135,7 @@ mod tests {
         dir
     }
 
-    /// Regression (issue 9, streaming): the CLI kept every record in memory to print the
+    /// Regression: the CLI kept every record in memory to print the
     /// report. The streamed file must be byte for byte the pretty-printed full report, with
     /// trajectories, faults and one or many episodes.
     #[test]

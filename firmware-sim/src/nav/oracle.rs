@@ -7,9 +7,10 @@
 //! distance from there". It exists to prove that the layouts are solvable and that the harness
 //! scores a good policy as good; it is not a learning baseline.
 
-use crate::controller::{step_toward, Controller};
-use crate::geometry::{nearest_wall_distance, Segment, Vec2};
-use crate::scenario::Scenario;
+use super::geometry::{nearest_wall_distance, Segment, Vec2};
+use super::scenario::Scenario;
+use super::straight::step_toward;
+use crate::controller::Controller;
 
 /// How far from a wall end the graph's nodes sit.
 const NODE_OFFSET: f64 = 0.15;
@@ -33,8 +34,8 @@ impl Oracle {
     ///
     /// ```
     /// use firmware_sim::controller::Controller;
-    /// use firmware_sim::oracle::Oracle;
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::oracle::Oracle;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let mut o = Oracle::new(&Scenario::builtin("nav-walls").unwrap());
     /// let mut a = [0.0; 2];
     /// // Below the closed middle of the outer south wall, the oracle heads sideways to a gap.
@@ -57,9 +58,9 @@ impl Oracle {
     /// The point the oracle heads for from `p`.
     ///
     /// ```
-    /// use firmware_sim::geometry::Vec2;
-    /// use firmware_sim::oracle::Oracle;
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::geometry::Vec2;
+    /// use firmware_sim::nav::oracle::Oracle;
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let o = Oracle::new(&Scenario::builtin("nav-walls").unwrap());
     /// // Just above the inner ring's north gap, the centre is in sight.
     /// assert_eq!(o.waypoint(Vec2::new(0.0, 1.5)), Vec2::ZERO);

@@ -14,7 +14,7 @@
 //! observation (rounding error below 5e-7 in a 6-unit arena) stays on the right side.
 //!
 //! ```
-//! use firmware_sim::geometry::{resolve, Segment, Vec2, CLEARANCE};
+//! use firmware_sim::nav::geometry::{resolve, CLEARANCE, Segment, Vec2};
 //! // A horizontal wall at y = 0; the mover is above it and steps down and to the right.
 //! let wall = Segment::new(Vec2::new(-5.0, 0.0), Vec2::new(5.0, 0.0));
 //! let m = resolve(Vec2::new(0.0, 0.1), Vec2::new(0.2, -0.3), &[wall]);
@@ -111,7 +111,7 @@ impl Segment {
     /// Length of the segment.
     ///
     /// ```
-    /// use firmware_sim::geometry::{Segment, Vec2};
+    /// use firmware_sim::nav::geometry::{Segment, Vec2};
     /// assert_eq!(Segment::new(Vec2::new(0.0, 0.0), Vec2::new(3.0, 4.0)).length(), 5.0);
     /// ```
     pub fn length(&self) -> f64 {
@@ -121,7 +121,7 @@ impl Segment {
     /// The point of the segment closest to `p`.
     ///
     /// ```
-    /// use firmware_sim::geometry::{Segment, Vec2};
+    /// use firmware_sim::nav::geometry::{Segment, Vec2};
     /// let s = Segment::new(Vec2::new(0.0, 0.0), Vec2::new(2.0, 0.0));
     /// assert_eq!(s.closest_point(Vec2::new(0.5, 1.0)), Vec2::new(0.5, 0.0));
     /// assert_eq!(s.closest_point(Vec2::new(-3.0, 1.0)), Vec2::new(0.0, 0.0));
@@ -139,7 +139,7 @@ impl Segment {
     /// Distance from `p` to the segment.
     ///
     /// ```
-    /// use firmware_sim::geometry::{Segment, Vec2};
+    /// use firmware_sim::nav::geometry::{Segment, Vec2};
     /// let s = Segment::new(Vec2::new(0.0, 0.0), Vec2::new(2.0, 0.0));
     /// assert_eq!(s.distance(Vec2::new(1.0, 3.0)), 3.0);
     /// assert_eq!(s.distance(Vec2::new(5.0, 4.0)), 5.0);
@@ -151,7 +151,7 @@ impl Segment {
     /// Whether the two segments cross or touch (orientation test).
     ///
     /// ```
-    /// use firmware_sim::geometry::{Segment, Vec2};
+    /// use firmware_sim::nav::geometry::{Segment, Vec2};
     /// let a = Segment::new(Vec2::new(0.0, 0.0), Vec2::new(2.0, 0.0));
     /// assert!(a.intersects(&Segment::new(Vec2::new(1.0, -1.0), Vec2::new(1.0, 1.0))));
     /// assert!(a.intersects(&Segment::new(Vec2::new(2.0, 0.0), Vec2::new(3.0, 1.0)))); // touching
@@ -178,7 +178,7 @@ impl Segment {
     /// Smallest distance between a point of `self` and a point of `o`.
     ///
     /// ```
-    /// use firmware_sim::geometry::{Segment, Vec2};
+    /// use firmware_sim::nav::geometry::{Segment, Vec2};
     /// let a = Segment::new(Vec2::new(0.0, 0.0), Vec2::new(2.0, 0.0));
     /// let b = Segment::new(Vec2::new(1.0, 1.0), Vec2::new(1.0, 3.0));
     /// assert_eq!(a.distance_to_segment(&b), 1.0);
@@ -401,7 +401,7 @@ fn path_is_clear(p: Vec2, q: Vec2, walls: &[Segment]) -> bool {
 /// left side (seen from `a` to `b`).
 ///
 /// ```
-/// use firmware_sim::geometry::{push_out, Segment, Vec2, CLEARANCE};
+/// use firmware_sim::nav::geometry::{push_out, CLEARANCE, Segment, Vec2};
 /// let wall = Segment::new(Vec2::new(-1.0, 0.0), Vec2::new(1.0, 0.0));
 /// let p = push_out(Vec2::new(0.3, -1e-9), &[wall]);
 /// assert!(p.y < -CLEARANCE && p.y > -2.0 * CLEARANCE);
@@ -430,7 +430,7 @@ pub fn push_out(p: Vec2, walls: &[Segment]) -> Vec2 {
 /// The smallest distance from `p` to any wall (infinite without walls).
 ///
 /// ```
-/// use firmware_sim::geometry::{nearest_wall_distance, Segment, Vec2};
+/// use firmware_sim::nav::geometry::{nearest_wall_distance, Segment, Vec2};
 /// let walls = [Segment::new(Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0))];
 /// assert_eq!(nearest_wall_distance(Vec2::new(0.5, 0.0), &walls), 1.0);
 /// assert_eq!(nearest_wall_distance(Vec2::ZERO, &[]), f64::INFINITY);

@@ -1,15 +1,14 @@
-//! The firmware loop and its test protocol.
+//! Navigation's test protocol: the firmware loop run against the navigation plant, episode by
+//! episode, scored by the margin metrics.
 //!
-//! [`evaluate`] boots from blob bytes the way the chip does (policy-core's runtime model
-//! verifies them once, then runs straight from them; any shape, any observation and action size
-//! the plant declares); a blob that fails to boot leaves the loop in the safe state (zero
-//! action) and the report says why. Then, for each of `episodes` test starts, every tick:
-//! the sensor reads the true position (noise, quantisation, delay, dropouts), the controller
-//! acts (timed), the actuator sanitises and saturates the command (rate limit, stuck fault),
-//! and the plant steps. Each test runs the full time limit (DESIGN.md's protocol: reaching the
-//! centre does not end a test; leaving the arena does).
+//! [`evaluate`] boots from blob bytes the way the chip does ([`crate::boot`]); a blob that fails
+//! to boot leaves the loop in the safe state (zero action) and the report says why. Then, for
+//! each of `episodes` test starts, every tick the firmware ([`crate::firmware`]) reads the
+//! sensor, runs the controller and drives the actuator, and the plant steps. Each test runs the
+//! full time limit (docs/design.md §2's protocol: reaching the centre does not end a test;
+//! leaving the arena does).
 //!
-//! This protocol is navigation's own (walls that move as a fault, metrics on the true position),
+//! The protocol is navigation's own (walls that move as a fault, metrics on the true position),
 //! so its episode loop holds the navigation plant; sizes come from the plant's declared
 //! [`crate::env::Plant`] agents. Badminton's matches and measures are in
 //! [`crate::badminton::play`].
@@ -21,9 +20,9 @@
 //! evaluation runs at most [`MAX_EPISODES`] episodes.
 //!
 //! ```
-//! use firmware_sim::controller::Straight;
-//! use firmware_sim::harness::{evaluate, evaluate_controller, EvalConfig};
-//! use firmware_sim::scenario::Scenario;
+//! use firmware_sim::nav::straight::Straight;
+//! use firmware_sim::nav::test_protocol::{evaluate, evaluate_controller, EvalConfig};
+//! use firmware_sim::nav::scenario::Scenario;
 //! let open = Scenario::builtin("nav-open").unwrap();
 //! let cfg = EvalConfig { episodes: 10, ..EvalConfig::default() };
 //! let report = evaluate_controller(&mut Straight { max_step: 0.25 }, &open, &cfg).unwrap();
@@ -36,19 +35,20 @@
 //! assert!(!report.pass.passed);
 //! ```
 
-use std::time::Instant;
-
 use serde::{Deserialize, Serialize};
 
-use crate::actuator::{Actuator, ActuatorModel};
-use crate::controller::{BlobPolicy, Controller, SafeState};
-use crate::env::{BoxSpace, Env};
+use super::metrics::{EpisodeMeter, EpisodeRecord, Tick};
+use super::plant::NavEnv;
+use super::scenario::Scenario;
+use crate::actuator::ActuatorModel;
+use crate::boot::{boot_or_safe_state, check_sizes, PlantSizes};
+use crate::controller::Controller;
+use crate::env::Env;
 use crate::faults::Faults;
-use crate::metrics::{EpisodeMeter, EpisodeRecord, Tick};
-use crate::nav::NavEnv;
-use crate::scenario::Scenario;
-use crate::seed::{episode_seed, stream};
-use crate::sensor::{Sensor, SensorModel};
+use crate::firmware::{Clock, Firmware, Timing};
+use crate::pass::PassOutcome;
+use crate::seed::episode_seed;
+use crate::sensor::SensorModel;
 use crate::Error;
 
 /// The most episodes one evaluation runs (1,000,000). A larger count is refused by
@@ -91,8 +91,8 @@ impl EvalConfig {
     /// Checks the settings against the scenario.
     ///
     /// ```
-    /// use firmware_sim::harness::{EvalConfig, MAX_EPISODES};
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::test_protocol::{EvalConfig, MAX_EPISODES};
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let s = Scenario::builtin("nav-open").unwrap();
     /// let cfg = EvalConfig { episodes: MAX_EPISODES + 1, ..EvalConfig::default() };
     /// let err = cfg.validate(&s).unwrap_err().to_string();
@@ -126,24 +126,6 @@ impl EvalConfig {
         }
         self.faults.validate(scenario, 2)
     }
-}
-
-/// Inference time per tick (wall-clock; the only part of a report that is not deterministic).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Timing {
-    /// Mean nanoseconds per `act` call.
-    pub mean_ns: f64,
-    /// Slowest `act` call, in nanoseconds.
-    pub worst_ns: u64,
-}
-
-/// Whether the scenario's pass criteria hold, and which failed.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct PassOutcome {
-    /// All criteria hold and the blob booted.
-    pub passed: bool,
-    /// One line per failed criterion.
-    pub failures: Vec<String>,
 }
 
 /// The summary of an evaluation (serialised as the CLI's JSON report).
@@ -194,9 +176,9 @@ impl Report {
     /// The report with `timing` zeroed: what the determinism guarantee covers.
     ///
     /// ```
-    /// use firmware_sim::controller::reference;
-    /// use firmware_sim::harness::{evaluate_controller, EvalConfig};
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::reference::reference;
+    /// use firmware_sim::nav::test_protocol::{evaluate_controller, EvalConfig};
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let s = Scenario::builtin("nav-walls").unwrap();
     /// let cfg = EvalConfig { episodes: 3, seed: 9, ..EvalConfig::default() };
     /// let mut run = || {
@@ -224,9 +206,9 @@ impl Report {
     /// The summary table the CLI prints.
     ///
     /// ```
-    /// use firmware_sim::controller::Straight;
-    /// use firmware_sim::harness::{evaluate_controller, EvalConfig};
-    /// use firmware_sim::scenario::Scenario;
+    /// use firmware_sim::nav::straight::Straight;
+    /// use firmware_sim::nav::test_protocol::{evaluate_controller, EvalConfig};
+    /// use firmware_sim::nav::scenario::Scenario;
     /// let s = Scenario::builtin("nav-open").unwrap();
     /// let cfg = EvalConfig { episodes: 2, ..EvalConfig::default() };
     /// let r = evaluate_controller(&mut Straight { max_step: 0.25 }, &s, &cfg).unwrap();
@@ -304,116 +286,14 @@ pub fn evaluate(blob: &[u8], scenario: &Scenario, cfg: &EvalConfig) -> Result<Re
     Ok(report)
 }
 
-/// The observation and action sizes a plant declares: what a booted blob must fit.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct PlantSizes {
-    /// Observation size.
-    pub observations: usize,
-    /// Action size.
-    pub actions: usize,
-}
-
-impl PlantSizes {
-    /// The sizes of any plant, read from its [`Env`] spaces.
-    pub fn of_env(env: &dyn Env) -> PlantSizes {
-        PlantSizes {
-            observations: env.observation_space().dim(),
-            actions: env.action_space().dim(),
-        }
-    }
-
-    /// The sizes of the plant a scenario builds.
-    ///
-    /// ```
-    /// use firmware_sim::harness::PlantSizes;
-    /// use firmware_sim::scenario::Scenario;
-    /// let s = PlantSizes::of(&Scenario::builtin("nav-walls").unwrap()).unwrap();
-    /// assert_eq!((s.observations, s.actions), (2, 2));
-    /// ```
-    pub fn of(scenario: &Scenario) -> Result<PlantSizes, Error> {
-        let agent = &scenario.plant()?.agents()[0];
-        Ok(PlantSizes {
-            observations: agent.observation_space.dim(),
-            actions: agent.action_space.dim(),
-        })
-    }
-}
-
-/// Boots a blob as [`boot`] does; a blob that does not boot gives the safe state (zero action of
-/// the plant's size) and the reason, which the report then carries
-/// ([`Report::mark_boot_failure`]).
-///
-/// ```
-/// use firmware_sim::harness::{boot_or_safe_state, PlantSizes};
-/// let plant = PlantSizes { observations: 2, actions: 2 };
-/// let (safe, error) = boot_or_safe_state(b"not a blob", &plant);
-/// assert_eq!(safe.name(), "safe-state");
-/// assert!(error.unwrap().to_string().contains("magic"));
-/// ```
-pub fn boot_or_safe_state<'a>(
-    blob: &'a [u8],
-    plant: &PlantSizes,
-) -> (Box<dyn Controller + 'a>, Option<Error>) {
-    match boot(blob, plant) {
-        Ok(policy) => (Box::new(policy), None),
-        Err(e) => {
-            let safe = SafeState {
-                observations: plant.observations,
-                actions: plant.actions,
-            };
-            (Box::new(safe), Some(e))
-        }
-    }
-}
-
-/// Boots a blob as the firmware would, and checks it fits the plant's sizes.
-///
-/// ```
-/// use firmware_sim::harness::{boot, PlantSizes};
-/// use policy_core::{ActionBounds, Normalizer, Policy};
-/// let mut p = Policy::<2, 32, 1, 2>::ZERO;
-/// p.normalizer = Normalizer::identity(5.0);
-/// p.bounds = ActionBounds::symmetric(0.25);
-/// let blob = p.to_blob("ok").unwrap();
-/// let nav = PlantSizes { observations: 2, actions: 2 };
-/// assert!(boot(&blob, &nav).is_ok());
-/// let other = PlantSizes { observations: 6, actions: 2 };
-/// let err = boot(&blob, &other).unwrap_err().to_string();
-/// assert_eq!(err, "observation size: the plant needs 6, found 2");
-/// let err = boot(b"DCPB", &nav).unwrap_err().to_string();
-/// assert!(err.starts_with("blob rejected"), "{err}");
-/// ```
-pub fn boot<'a>(blob: &'a [u8], plant: &PlantSizes) -> Result<BlobPolicy<'a>, Error> {
-    let policy = BlobPolicy::boot(blob)?;
-    check_sizes(&policy, plant)?;
-    Ok(policy)
-}
-
-/// Checks a controller against the plant's declared sizes.
-fn check_sizes(c: &dyn Controller, plant: &PlantSizes) -> Result<(), Error> {
-    for (what, expected, found) in [
-        ("observation size", plant.observations, c.observations()),
-        ("action size", plant.actions, c.actions()),
-    ] {
-        if expected != found {
-            return Err(Error::SizeMismatch {
-                what,
-                expected,
-                found,
-            });
-        }
-    }
-    Ok(())
-}
-
 /// Runs the test protocol with any controller (a booted blob, `straight`, `oracle`, or the
 /// trainer's own), keeping every episode's record in [`Report::episodes`] (for large counts,
 /// [`evaluate_streaming`] keeps none).
 ///
 /// ```
-/// use firmware_sim::controller::reference;
-/// use firmware_sim::harness::{evaluate_controller, EvalConfig};
-/// use firmware_sim::scenario::Scenario;
+/// use firmware_sim::nav::reference::reference;
+/// use firmware_sim::nav::test_protocol::{evaluate_controller, EvalConfig};
+/// use firmware_sim::nav::scenario::Scenario;
 /// let s = Scenario::builtin("nav-walls").unwrap();
 /// let cfg = EvalConfig { episodes: 5, ..EvalConfig::default() };
 /// let r = evaluate_controller(reference("oracle", &s).unwrap().as_mut(), &s, &cfg).unwrap();
@@ -440,9 +320,9 @@ pub fn evaluate_controller(
 /// is returned.
 ///
 /// ```
-/// use firmware_sim::controller::Straight;
-/// use firmware_sim::harness::{evaluate_controller, evaluate_streaming, EvalConfig};
-/// use firmware_sim::scenario::Scenario;
+/// use firmware_sim::nav::straight::Straight;
+/// use firmware_sim::nav::test_protocol::{evaluate_controller, evaluate_streaming, EvalConfig};
+/// use firmware_sim::nav::scenario::Scenario;
 /// let s = Scenario::builtin("nav-walls").unwrap();
 /// let cfg = EvalConfig { episodes: 4, ..EvalConfig::default() };
 /// let mut stuck = 0;
@@ -477,34 +357,6 @@ pub fn evaluate_streaming<E: From<Error>>(
     Ok(totals.report(controller.name(), scenario, cfg, clock.timing()))
 }
 
-/// Wall-clock statistics of the `act` calls.
-#[derive(Debug, Default)]
-struct Clock {
-    total_ns: u128,
-    calls: u64,
-    worst_ns: u64,
-}
-
-impl Clock {
-    fn add(&mut self, ns: u128) {
-        self.total_ns += ns;
-        self.calls += 1;
-        self.worst_ns = self.worst_ns.max(u64::try_from(ns).unwrap_or(u64::MAX));
-    }
-
-    fn timing(&self) -> Timing {
-        let mean_ns = if self.calls == 0 {
-            0.0
-        } else {
-            self.total_ns as f64 / self.calls as f64
-        };
-        Timing {
-            mean_ns,
-            worst_ns: self.worst_ns,
-        }
-    }
-}
-
 /// One test episode of the firmware loop; returns its record and the number of sanitised
 /// commands.
 fn run_episode(
@@ -517,7 +369,14 @@ fn run_episode(
     let seed = episode_seed(cfg.seed, index);
     let mut truth = env.reset(seed);
     controller.reset();
-    let mut firmware = Firmware::new(env.action_space(), cfg, index);
+    let mut firmware = Firmware::new(
+        env.action_space(),
+        cfg.sensor,
+        cfg.actuator,
+        &cfg.faults,
+        cfg.seed,
+        index,
+    );
     let changed_walls = cfg.faults.changed_walls(env.scenario());
     let mut meter = EpisodeMeter::new(
         seed,
@@ -547,63 +406,7 @@ fn run_episode(
             break;
         }
     }
-    (meter.record(), firmware.actuator.sanitized)
-}
-
-/// The firmware's side of the loop for one episode: sensor in, controller, actuator out.
-struct Firmware {
-    sensor: Sensor,
-    actuator: Actuator,
-    command: Vec<f32>,
-    action: Vec<f32>,
-    high: Vec<f32>,
-}
-
-impl Firmware {
-    fn new(space: &BoxSpace, cfg: &EvalConfig, index: u64) -> Self {
-        let noise = stream(cfg.seed, "sensor-noise", index);
-        let drops = stream(cfg.seed, "sensor-dropout", index);
-        Firmware {
-            sensor: Sensor::new(cfg.sensor, cfg.faults.dropout, noise, drops),
-            actuator: Actuator::new(&space.low, &space.high, cfg.actuator, cfg.faults.stuck),
-            command: vec![0.0; space.dim()],
-            action: vec![0.0; space.dim()],
-            high: space.high.clone(),
-        }
-    }
-
-    /// One control period: read the sensor, call the controller (timed), drive the actuator.
-    /// Returns what the plant receives: always finite and inside the action box.
-    fn control(
-        &mut self,
-        tick: u32,
-        truth: &[f32],
-        controller: &mut dyn Controller,
-        clock: &mut Clock,
-        saturated: &mut [u32],
-    ) -> &[f32] {
-        let obs = self.sensor.read(truth);
-        let t0 = Instant::now();
-        controller.act(&obs, &mut self.command);
-        clock.add(t0.elapsed().as_nanos());
-        count_saturated(&self.command, &self.high, saturated);
-        self.actuator.drive(tick, &self.command, &mut self.action);
-        if !self.actuator.in_bounds(&self.action) {
-            // Unreachable by construction of `drive`; kept so nothing unsafe ever reaches the
-            // plant even if the actuator model changes.
-            self.action.fill(0.0);
-        }
-        &self.action
-    }
-}
-
-/// A command component is saturated when it is at or beyond the box bound (or not finite).
-fn count_saturated(command: &[f32], high: &[f32], counts: &mut [u32]) {
-    for ((c, h), n) in command.iter().zip(high).zip(counts.iter_mut()) {
-        if !c.is_finite() || c.abs() >= h * (1.0 - 1e-6) {
-            *n += 1;
-        }
-    }
+    (meter.record(), firmware.sanitized())
 }
 
 /// Running totals over the episodes, in episode order (the sums are those a pass over all the
@@ -706,10 +509,10 @@ fn judge(r: &Report, s: &Scenario) -> PassOutcome {
 
 #[cfg(test)]
 mod tests {
+    use super::super::straight::Straight;
     use super::*;
-    use crate::controller::Straight;
 
-    /// Regression (issue 9, item 2): `episodes = usize::MAX` panicked (`capacity overflow`) and
+    /// Regression: `episodes = usize::MAX` panicked (`capacity overflow`) and
     /// 10^12 aborted on a 152 TB allocation. Counts above `MAX_EPISODES` are refused by
     /// `validate`, before anything is allocated or run.
     #[test]
