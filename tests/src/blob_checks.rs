@@ -5,7 +5,7 @@
 //! panics with a message that names the broken property.
 
 use firmware_sim::controller::Controller;
-use firmware_sim::harness;
+use firmware_sim::boot;
 use policy_core::blob::{self, Compiled, Spec, Verified};
 use policy_core::model::{Model, Scratch};
 use policy_core::slot::{self, SlotId};
@@ -340,16 +340,16 @@ fn probe_observations(s: usize) -> Vec<Vec<f32>> {
 /// exactly the blobs the runtime accepts as a policy (actor or discrete) of those sizes, and
 /// then acts like the runtime.
 fn check_boot(bytes: &[u8], runtime: Option<&Model<'_>>) {
-    let nav = harness::PlantSizes {
+    let nav = boot::PlantSizes {
         observations: 2,
         actions: 2,
     };
-    let booted = harness::boot(bytes, &nav);
+    let booted = boot::boot(bytes, &nav);
     let runnable =
         runtime.filter(|m| m.header().kind != ModelKind::Critic && m.expect_sizes(2, 2).is_ok());
     let (Ok(mut policy), Some(model)) = (booted, runnable) else {
         assert_eq!(
-            harness::boot(bytes, &nav).is_ok(),
+            boot::boot(bytes, &nav).is_ok(),
             runnable.is_some(),
             "boot and the runtime disagree on whether the blob runs"
         );

@@ -2,7 +2,7 @@
 //! closed loop and check the report.
 
 use firmware_sim::controller::{BlobPolicy, Controller};
-use firmware_sim::harness::{evaluate, EvalConfig};
+use firmware_sim::nav::test_protocol::{evaluate, EvalConfig};
 use host_trainer::run_dir::{self, RunDir};
 use host_trainer::train::{self, Algo, TrainConfig, Trainer};
 

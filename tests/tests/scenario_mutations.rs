@@ -6,7 +6,7 @@
 //! may be added; the text goes through [`tests::scenario_checks::check`], the same properties the
 //! `scenario` fuzz target checks.
 
-use firmware_sim::scenario::Scenario;
+use firmware_sim::nav::scenario::Scenario;
 use proptest::prelude::*;
 use tests::scenario_checks;
 
