@@ -6,7 +6,7 @@
 //! sits below them: [`algorithm`] (what the training loop asks of an algorithm),
 //! [`agent_config`] (the agent section of a run's configuration, which every algorithm reads),
 //! [`agent`] (the actor-critic machinery DCP, DDPG and TD3 share), [`noise`] (their exploration
-//! process) and [`actor_critic`] (the three as one [`Algorithm`](algorithm::Algorithm)).
+//! process) and [`actor_critic`] (the three as one [`algorithm::Algorithm`]).
 //!
 //! An algorithm takes its own config section and the agent section, never the whole run's
 //! configuration: the run's configuration ([`crate::run::config`]) composes the sections and

@@ -1,5 +1,4 @@
-//! From trained networks to policy-core blobs, and the training loop's forward pass that the
-//! blob reproduces bit for bit.
+//! From trained networks to policy-core blobs.
 //!
 //! [`actor_blob`] / [`critic_blob`] write the trainer's networks with policy-core's runtime
 //! writer ([`blob::Spec`] and [`blob::to_vec_with`]): any shape within the format's limits, no
@@ -8,9 +7,9 @@
 //! (`host-trainer eval`, the end-of-training evaluation) run the blob through that same
 //! [`Model`] in firmware-sim.
 //!
-//! [`act_unit`] / [`act`] / [`q`] are the training loop's own forward pass
-//! ([`Net::forward_one`], policy-core's arithmetic on the trainer's weights, no blob needed);
-//! the tests hold them bit-equal to [`Model`] on the exported blob.
+//! The training loop's own forward pass ([`crate::nn::forward`]: [`Net::forward_one`],
+//! policy-core's arithmetic on the trainer's weights, no blob needed) is what the blob
+//! reproduces bit for bit: the tests here hold it bit-equal to [`Model`] on the exported blob.
 
 use policy_core::blob::{self, Spec};
 use policy_core::model::Model;

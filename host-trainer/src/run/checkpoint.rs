@@ -5,7 +5,7 @@
 //! exact position of every random stream. The algorithm's part ([`Learner`]) holds its own
 //! networks, buffers and random streams (for PPO, the unfinished rollout too). Resuming from it therefore continues the very run
 //! that was interrupted: a run of N episodes and a run stopped at k and resumed to N produce
-//! the same blob bytes (tested in `tests/train_runs.rs`).
+//! the same blob bytes (tested in `tests/training.rs`).
 //!
 //! Layout: the 8 bytes `DCPCKPT5` (magic and version), the postcard encoding of
 //! [`Checkpoint`], then the CRC-32 (policy-core's, little-endian) of everything before it, so a
@@ -86,7 +86,7 @@ impl Checkpoint {
     }
 
     /// Writes the checkpoint atomically. (A crash-safety test can stop the process halfway
-    /// through the write; see [`crash_test`].)
+    /// through the write: the kill points of `run/crash_test.rs`.)
     pub fn save(&self, path: &Path) -> Result<(), Error> {
         let bytes = self.to_bytes().map_err(|message| Error::Checkpoint {
             path: path.to_path_buf(),

@@ -18,7 +18,7 @@ pub struct EpisodeRow {
     pub success: bool,
     /// Distance from the centre at the end.
     pub final_distance: f32,
-    /// The algorithm's own columns ([`Algorithm::stat_names`]), e.g. DCP's critic loss, actor
+    /// The algorithm's own columns ([`Algorithm::stat_names`](crate::algorithms::algorithm::Algorithm::stat_names)), e.g. DCP's critic loss, actor
     /// loss and kept fraction (NaN where nothing ran).
     pub stats: Vec<f32>,
     /// Environment steps since the start of the run.
