@@ -122,15 +122,14 @@ impl Learner {
         high: &[f32],
     ) -> Result<Learner, Error> {
         let (shared, seed) = (config.agent, config.seed);
-        if let Some(own) = config.actor_critic() {
-            let learner = ActorCritic::new(&own, shared, seed, obs_dim, low, high)?;
-            return Ok(Learner::ActorCritic(Box::new(learner)));
-        }
-        Ok(match config.algo {
-            Algo::Ppo => Learner::Ppo(Box::new(Ppo::new(
+        Ok(match (config.actor_critic(), config.algo) {
+            (Some(own), _) => Learner::ActorCritic(Box::new(ActorCritic::new(
+                &own, shared, seed, obs_dim, low, high,
+            )?)),
+            (None, Algo::Ppo) => Learner::Ppo(Box::new(Ppo::new(
                 config.ppo, shared, seed, obs_dim, low, high,
             )?)),
-            _ => Learner::Dqn(Box::new(Dqn::new(
+            (None, _) => Learner::Dqn(Box::new(Dqn::new(
                 config.dqn, shared, seed, obs_dim, low, high,
             )?)),
         })
