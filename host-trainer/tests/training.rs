@@ -170,7 +170,7 @@ fn dcp_variant_options() -> Vec<(&'static str, TrainConfig)> {
 /// and stopping at the checkpoint and resuming equals the uninterrupted run.
 #[test]
 fn dcp_variant_options_are_deterministic_and_resume_exactly() {
-    let out = scratch("dcp-variants");
+    let out = scratch("dcp-variant-options");
     let blobs = |t: &Trainer| {
         let critic = t
             .algorithm()
