@@ -281,7 +281,7 @@ fn check_size(what: &'static str, expected: usize, found: usize) -> Result<(), E
 /// ```
 /// use host_trainer::blob::export::encode;
 /// use policy_core::Encoding;
-/// static F32: &[u8] = include_bytes!("../../policy-core/tests/golden/actor_4x48.postcard");
+/// static F32: &[u8] = include_bytes!("../../../policy-core/tests/golden/actor_4x48.postcard");
 /// assert!(encode(F32, Encoding::Int8).unwrap().len() < F32.len() / 3);
 /// ```
 pub fn encode(bytes: &[u8], encoding: Encoding) -> Result<Vec<u8>, Error> {
@@ -696,7 +696,7 @@ pub struct SlotTarget {
 ///
 /// ```
 /// use host_trainer::blob::export::{slot_image, ImageFormat, SlotTarget};
-/// static BLOB: &[u8] = include_bytes!("../../policy-core/tests/golden/actor_2x32.postcard");
+/// static BLOB: &[u8] = include_bytes!("../../../policy-core/tests/golden/actor_2x32.postcard");
 /// let target = SlotTarget { address: 0x0804_0000, size: 128 * 1024, sequence: 2 };
 /// let bin = slot_image(BLOB, ImageFormat::Bin, target).unwrap();
 /// assert_eq!(&bin[..4], b"DCPS");

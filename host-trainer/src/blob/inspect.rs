@@ -91,7 +91,7 @@ pub fn describe(bytes: &[u8]) -> Result<String, policy_core::Error> {
 /// ```
 /// use host_trainer::blob::{export::encode, inspect::weight_errors};
 /// use policy_core::Encoding;
-/// static F32: &[u8] = include_bytes!("../../policy-core/tests/golden/actor_2x32.postcard");
+/// static F32: &[u8] = include_bytes!("../../../policy-core/tests/golden/actor_2x32.postcard");
 /// let int8 = encode(F32, Encoding::Int8).unwrap();
 /// for (_, _, error, largest) in weight_errors(&int8, F32).unwrap() {
 ///     assert!(error <= largest / 127.0 / 2.0 * 1.001); // half a quantisation step at most

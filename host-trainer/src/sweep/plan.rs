@@ -25,7 +25,7 @@ pub const MAX_RUNS: usize = 10_000;
 /// once.
 ///
 /// ```
-/// use host_trainer::sweep::Seeds;
+/// use host_trainer::sweep::plan::Seeds;
 /// let seeds: Seeds = "0-2,7,1".parse().unwrap();
 /// assert_eq!(seeds.0, [0, 1, 2, 7]);
 /// assert!("4-2".parse::<Seeds>().is_err());
