@@ -5,9 +5,9 @@
 //! `cargo bench -p host-trainer --bench nn`
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use host_trainer::adam::Adam;
-use host_trainer::net::{soft_update, Matrix, Net, NetConfig, Output, Tape};
-use host_trainer::seed::{stream, uniform_in};
+use firmware_sim::seed::{training_stream, uniform_in};
+use host_trainer::nn::adam::Adam;
+use host_trainer::nn::net::{soft_update, Matrix, Net, NetConfig, Output, Tape};
 use policy_core::Activation;
 use std::hint::black_box;
 
@@ -32,11 +32,11 @@ fn net_with(
         output,
         dropout,
     };
-    Net::new(config, &mut stream(1, "bench"))
+    Net::new(config, &mut training_stream(1, "bench"))
 }
 
 fn batch(rows: usize, cols: usize) -> Matrix {
-    let mut rng = stream(2, "bench");
+    let mut rng = training_stream(2, "bench");
     Matrix::from_vec(
         rows,
         cols,
@@ -82,7 +82,7 @@ fn layers(c: &mut Criterion) {
             black_box(dx.data[0])
         })
     });
-    let mut rng = stream(3, "dropout");
+    let mut rng = training_stream(3, "dropout");
     let mut agrads = actor.zero_grads();
     let ga = batch(64, 2);
     c.bench_function("actor 4x48 forward+backward, dropout 0.5, 64 rows", |b| {
@@ -120,7 +120,7 @@ struct Nets {
     actor_opt: Adam,
     critic_opt: Adam,
     tapes: [Tape; 2],
-    grads: [host_trainer::net::Grads; 2],
+    grads: [host_trainer::nn::net::Grads; 2],
     dx: Matrix,
 }
 

@@ -11,30 +11,30 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use host_trainer::agent::{self, Agent};
-use host_trainer::algo::{Algo, Algorithm, Step};
-use host_trainer::dcp::{self, Dcp};
-use host_trainer::ddpg::{self, Ddpg};
-use host_trainer::dqn::Dqn;
-use host_trainer::ppo::Ppo;
-use host_trainer::replay::Transition;
-use host_trainer::seed;
-use host_trainer::train::TrainConfig;
+use firmware_sim::seed;
+use host_trainer::algorithms::agent::Agent;
+use host_trainer::algorithms::agent_config::AgentConfig;
+use host_trainer::algorithms::algorithm::{Algorithm, Step};
+use host_trainer::algorithms::dcp::{self, Dcp};
+use host_trainer::algorithms::ddpg::{self, Ddpg};
+use host_trainer::algorithms::dqn::{self, Dqn};
+use host_trainer::algorithms::ppo::{self, Ppo};
+use host_trainer::buffers::replay::Transition;
 
 /// An agent with 10,000 random navigation transitions in its buffer.
 fn agent() -> Agent {
-    let config = agent::Config::default();
+    let config = AgentConfig::default();
     let mut agent = Agent::new(
         config,
         2,
         &[-0.25; 2],
         &[0.25; 2],
-        &mut seed::stream(0, "init"),
+        &mut seed::training_stream(0, "init"),
     )
     .expect("agent");
-    let mut rng = seed::stream(0, "data");
+    let mut rng = seed::training_stream(0, "data");
     for _ in 0..10_000 {
-        let mut draw = |scale: f32| scale * (2.0 * seed::uniform(&mut rng) - 1.0);
+        let mut draw = |scale: f32| scale * (2.0 * seed::uniform_f32(&mut rng) - 1.0);
         let obs = vec![draw(6.0), draw(6.0)];
         let action = vec![draw(1.0), draw(1.0)];
         let next_obs = vec![obs[0] + 0.25 * action[0], obs[1] + 0.25 * action[1]];
@@ -76,9 +76,9 @@ fn updates(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(5))
         .sample_size(30);
     let mut rngs = [
-        seed::stream(1, "replay"),
-        seed::stream(1, "dropout"),
-        seed::stream(1, "proposals"),
+        seed::training_stream(1, "replay"),
+        seed::training_stream(1, "dropout"),
+        seed::training_stream(1, "proposals"),
     ];
 
     let ddpg = Ddpg::new(ddpg::Config::default());
@@ -119,11 +119,11 @@ fn updates(c: &mut Criterion) {
 
 /// `steps` random navigation steps through an algorithm's `act` and `learn` (no plant).
 fn feed(algo: &mut dyn Algorithm, steps: usize) {
-    let mut rng = seed::stream(0, "data");
+    let mut rng = seed::training_stream(0, "data");
     let mut obs = vec![0.0f32; 2];
     algo.start_episode(0, 1);
     for i in 0..steps {
-        let mut draw = |scale: f32| scale * (2.0 * seed::uniform(&mut rng) - 1.0);
+        let mut draw = |scale: f32| scale * (2.0 * seed::uniform_f32(&mut rng) - 1.0);
         if i % 200 == 0 {
             obs = vec![draw(6.0), draw(6.0)];
         }
@@ -149,24 +149,19 @@ fn baselines(c: &mut Criterion) {
         .sample_size(30);
 
     // DQN: per row, the target network and the online network forward, the online backward.
-    let config = TrainConfig {
-        algo: Algo::Dqn,
-        ..TrainConfig::default()
-    };
-    let mut dqn = Dqn::new(&config, 2, &[-0.25; 2], &[0.25; 2]).expect("dqn");
+    let shared = AgentConfig::default();
+    let own = dqn::Config::default();
+    let mut dqn = Dqn::new(&own, &shared, 0, 2, &[-0.25; 2], &[0.25; 2]).expect("dqn");
     feed(&mut dqn, 10_000);
     let q = dqn.q.multiply_adds();
     group.throughput(Throughput::Elements(64 * 4 * q));
     group.bench_function("dqn", |b| b.iter(|| black_box(dqn.update())));
 
     // PPO: per row and epoch, actor and value network forward and backward.
-    let config = TrainConfig {
-        algo: Algo::Ppo,
-        ..TrainConfig::default()
-    };
-    let rollout = config.ppo.rollout;
-    let epochs = config.ppo.epochs as u64;
-    let mut ppo = Ppo::new(&config, 2, &[-0.25; 2], &[0.25; 2]).expect("ppo");
+    let own = ppo::Config::default();
+    let rollout = own.rollout;
+    let epochs = own.epochs as u64;
+    let mut ppo = Ppo::new(&own, &shared, 0, 2, &[-0.25; 2], &[0.25; 2]).expect("ppo");
     feed(&mut ppo, rollout - 1); // one step short: the rollout is full but not yet learned
     let per_row = 3 * (ppo.actor.multiply_adds() + ppo.value.multiply_adds());
     group.throughput(Throughput::Elements(

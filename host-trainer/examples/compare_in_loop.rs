@@ -1,4 +1,4 @@
-//! What DCP's compare step on the device does in the closed loop (issue 13, item 3): every given
+//! What DCP's compare step on the device does in the closed loop: every given
 //! run folder's `policy.postcard` run through firmware-sim's test protocol (100 boundary starts,
 //! seed 0, the run's own recorded plant) plainly, and with its `critic.postcard` refining each
 //! action (policy-core's `compare::refine_model`: T proposals with noise σ around the actor's
@@ -23,8 +23,8 @@ use firmware_sim::controller::Controller;
 use firmware_sim::harness::{boot, evaluate_controller, EvalConfig, PlantSizes};
 use firmware_sim::refine::RefiningPolicy;
 use firmware_sim::scenario::Scenario;
-use host_trainer::run_dir;
-use host_trainer::stats::mean_interval;
+use host_trainer::run::folder;
+use host_trainer::sweep::stats::mean_interval;
 
 /// The settings compared: None is the plain actor, Some(T) the compare step with T proposals.
 const SETTINGS: [Option<usize>; 3] = [None, Some(4), Some(16)];
@@ -46,8 +46,8 @@ fn run_one(dir: &Path) -> Result<(String, Vec<Outcome>), String> {
     let read = |file: &str| {
         std::fs::read(dir.join(file)).map_err(|e| format!("{}: {e}", dir.join(file).display()))
     };
-    let (actor, critic) = (read(run_dir::POLICY)?, read(run_dir::CRITIC)?);
-    let plant = String::from_utf8(read(run_dir::SCENARIO)?).map_err(|e| e.to_string())?;
+    let (actor, critic) = (read(folder::POLICY)?, read(folder::CRITIC)?);
+    let plant = String::from_utf8(read(folder::SCENARIO)?).map_err(|e| e.to_string())?;
     let scenario = Scenario::from_toml_str(&plant).map_err(|e| format!("{name}: {e}"))?;
     let sizes = PlantSizes::of(&scenario).map_err(|e| format!("{name}: {e}"))?;
     let config = EvalConfig {

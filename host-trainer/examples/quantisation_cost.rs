@@ -1,5 +1,5 @@
 //! What quantisation costs in the closed loop: every given run folder's `policy.postcard`, its
-//! f16 and int8 encodings ([`host_trainer::export::encode`]), each run through firmware-sim's
+//! f16 and int8 encodings ([`host_trainer::blob::export::encode`]), each run through firmware-sim's
 //! test protocol (100 boundary starts, seed 0, the run's own recorded plant) exactly as
 //! `host-trainer eval` runs it.
 //!
@@ -18,9 +18,9 @@ use std::process::ExitCode;
 
 use firmware_sim::harness::{evaluate, EvalConfig};
 use firmware_sim::scenario::Scenario;
-use host_trainer::export::encode;
-use host_trainer::run_dir;
-use host_trainer::stats::mean_interval;
+use host_trainer::blob::export::encode;
+use host_trainer::run::folder;
+use host_trainer::sweep::stats::mean_interval;
 use policy_core::Encoding;
 
 /// Success rate, settled error and stuck rate of one blob.
@@ -37,8 +37,8 @@ fn run_one(dir: &Path) -> Result<RunResults, String> {
     let read = |file: &str| {
         std::fs::read(dir.join(file)).map_err(|e| format!("{}: {e}", dir.join(file).display()))
     };
-    let f32 = read(run_dir::POLICY)?;
-    let plant = String::from_utf8(read(run_dir::SCENARIO)?).map_err(|e| e.to_string())?;
+    let f32 = read(folder::POLICY)?;
+    let plant = String::from_utf8(read(folder::SCENARIO)?).map_err(|e| e.to_string())?;
     let scenario = Scenario::from_toml_str(&plant).map_err(|e| format!("{name}: {e}"))?;
     let config = EvalConfig {
         episodes: 100,

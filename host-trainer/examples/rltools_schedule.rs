@@ -23,10 +23,12 @@
 
 use std::time::Instant;
 
-use host_trainer::agent::{self, Agent, Hidden};
-use host_trainer::ddpg::{self, Ddpg};
-use host_trainer::replay::Transition;
-use host_trainer::seed;
+use firmware_sim::seed;
+use host_trainer::algorithms::agent::Agent;
+use host_trainer::algorithms::agent_config::AgentConfig;
+use host_trainer::algorithms::ddpg::{self, Ddpg};
+use host_trainer::buffers::replay::Transition;
+use host_trainer::nn::hidden::Hidden;
 
 /// Environment steps (RLtools: `STEP_LIMIT` 10,000, steps 0 through 10,000).
 const STEPS: usize = 10_001;
@@ -44,7 +46,7 @@ struct Pendulum {
 }
 
 impl Pendulum {
-    fn reset(rng: &mut seed::Rng) -> Pendulum {
+    fn reset(rng: &mut seed::SimRng) -> Pendulum {
         Pendulum {
             theta: seed::uniform_in(rng, -std::f32::consts::PI, std::f32::consts::PI),
             omega: seed::uniform_in(rng, -1.0, 1.0),
@@ -76,7 +78,7 @@ fn main() {
         .nth(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(0u64);
-    let config = agent::Config {
+    let config = AgentConfig {
         hidden: Hidden {
             depth: 2,
             width: 64,
@@ -87,9 +89,10 @@ fn main() {
         batch: BATCH,
         sigma: 0.1,
         replay_capacity: 10_000,
-        ..agent::Config::default()
+        ..AgentConfig::default()
     };
-    let mut rngs = ["init", "env", "explore", "replay", "dropout"].map(|n| seed::stream(seed, n));
+    let mut rngs =
+        ["init", "env", "explore", "replay", "dropout"].map(|n| seed::training_stream(seed, n));
     let [init, env_rng, explore, replay, dropout] = &mut rngs;
     let mut agent = match Agent::new(config, 3, &[-2.0], &[2.0], init) {
         Ok(agent) => agent,

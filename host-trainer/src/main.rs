@@ -23,14 +23,19 @@ use clap::{Args, Parser, Subcommand};
 use firmware_sim::files;
 use firmware_sim::harness::{self, EvalConfig, PlantSizes, Report};
 use firmware_sim::scenario::Scenario;
-use host_trainer::agent::Hidden;
-use host_trainer::checkpoint::Checkpoint;
-use host_trainer::export::{ImageFormat, SlotTarget};
-use host_trainer::inspect;
-use host_trainer::noise::Noise;
-use host_trainer::run_dir::{self, RunDir};
-use host_trainer::sweep::{self, Seeds};
-use host_trainer::train::{self, Algo, Outcome, RewardKind, TrainConfig, Trainer};
+use host_trainer::algorithms::noise::Noise;
+use host_trainer::algorithms::Algo;
+use host_trainer::blob::export::{self, ImageFormat, SlotTarget};
+use host_trainer::blob::inspect;
+use host_trainer::nn::hidden::Hidden;
+use host_trainer::run::checkpoint::Checkpoint;
+use host_trainer::run::config::{RewardKind, TrainConfig};
+use host_trainer::run::folder::{self, RunDir};
+use host_trainer::run::progress;
+use host_trainer::run::trainer::{self, Outcome, Trainer};
+use host_trainer::sweep::plan::{self, Seeds};
+use host_trainer::sweep::record::Status;
+use host_trainer::sweep::{report, supervise};
 use policy_core::slot::SlotId;
 use policy_core::Encoding;
 
@@ -306,11 +311,11 @@ fn train_command(args: TrainArgs) -> Result<ExitCode> {
         None => fresh(args)?,
     };
     install_ctrl_c_handler();
-    let bar = host_trainer::progress::bar(trainer.config.episodes as u64, "episode", quiet);
+    let bar = progress::bar(trainer.config.episodes as u64, "episode", quiet);
     bar.set_position(trainer.episode as u64);
     let started = Instant::now();
     let steps_before = trainer.total_steps;
-    let outcome = train::run(&mut trainer, &run, &mut |row, t| {
+    let outcome = trainer::run(&mut trainer, &run, &mut |row, t| {
         bar.set_position(row.episode as u64);
         bar.set_message(format!(
             "success(100) {:>3.0}%  {:>6.0} steps/s",
@@ -338,13 +343,13 @@ fn train_command(args: TrainArgs) -> Result<ExitCode> {
     let blob = trainer.export(&run)?;
     let report = evaluate(
         &blob,
-        &run.file(run_dir::POLICY),
+        &run.file(folder::POLICY),
         &trainer.scenario,
         trainer.config.eval_episodes,
         0,
     )?;
     print_summary(&report);
-    run.write(run_dir::EVAL, report_json(&report)?.as_bytes())?;
+    run.write(folder::EVAL, report_json(&report)?.as_bytes())?;
     println!("wrote {}", run.path().display());
     Ok(ExitCode::SUCCESS)
 }
@@ -411,7 +416,7 @@ fn apply_flags(config: &mut TrainConfig, args: &TrainArgs) {
 /// again from its recorded config and plant (the result is the same: one seed drives it all).
 fn resume(dir: &Path, episodes: Option<usize>) -> Result<(Trainer, RunDir)> {
     let run = RunDir::open(dir)?;
-    let path = run.file(run_dir::CHECKPOINT);
+    let path = run.file(folder::CHECKPOINT);
     let trainer = if path.exists() {
         Trainer::resume(Checkpoint::load(&path)?, episodes, &path)?
     } else {
@@ -422,7 +427,7 @@ fn resume(dir: &Path, episodes: Option<usize>) -> Result<(Trainer, RunDir)> {
 }
 
 fn restart(run: &RunDir, episodes: Option<usize>) -> Result<Trainer> {
-    let config_path = run.file(run_dir::CONFIG);
+    let config_path = run.file(folder::CONFIG);
     if !config_path.exists() {
         anyhow::bail!(
             "{} holds no checkpoint and no config: not a run folder, or killed before it recorded anything (start it again with train)",
@@ -435,12 +440,12 @@ fn restart(run: &RunDir, episodes: Option<usize>) -> Result<Trainer> {
     }
     // The plant is recorded right after the config; a kill between the two leaves only the
     // config, and the task it names is then the plant (nothing has trained on it yet).
-    let scenario_path = run.file(run_dir::SCENARIO);
+    let scenario_path = run.file(folder::SCENARIO);
     let scenario = if scenario_path.exists() {
         Scenario::load(&scenario_path)
             .with_context(|| format!("the recorded plant of {}", run.path().display()))?
     } else {
-        train::scenario(&config.task)?
+        trainer::scenario(&config.task)?
     };
     eprintln!(
         "host-trainer: {} has no checkpoint yet (stopped before its first one); starting it again from its recorded config",
@@ -459,7 +464,7 @@ fn note_changed_plant(trainer: &Trainer) {
     if Scenario::resolve(task).ok().as_ref() != Some(&trainer.scenario) {
         eprintln!(
             "host-trainer: note: {task} has changed (or no longer loads) since the run started; the run continues on its recorded plant ({})",
-            run_dir::SCENARIO
+            folder::SCENARIO
         );
     }
 }
@@ -481,13 +486,13 @@ fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
             algos.push(algo);
         }
     }
-    let plan = sweep::plan(&base, &algos, &args.seeds.0, &args.out)?;
+    let plan = plan::runs(&base, &algos, &args.seeds.0, &args.out)?;
     let jobs = match args.jobs {
         Some(n) => n as usize,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     };
     install_sweep_ctrl_c_handler();
-    let runner = sweep::Runner {
+    let runner = supervise::Runner {
         exe: std::env::current_exe().context("cannot find the host-trainer binary")?,
         config_file: args.config,
         out: args.out.clone(),
@@ -495,23 +500,23 @@ fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
         quiet: args.quiet,
         interrupts: &INTERRUPTS,
     };
-    let records = sweep::execute(&plan, &runner)?;
+    let records = supervise::execute(&plan, &runner)?;
     if INTERRUPTS.load(Ordering::SeqCst) > 0 {
         eprintln!("host-trainer: sweep interrupted; the stopped runs kept a checkpoint. Re-run the same sweep command to continue (finished runs are skipped)");
         return Ok(ExitCode::from(INTERRUPTED));
     }
-    sweep::write_summary(&args.out, &records)?;
-    print!("{}", sweep::markdown(&records));
+    report::write_summary(&args.out, &records)?;
+    print!("{}", report::markdown(&records));
     let failed = records
         .iter()
-        .filter(|r| r.status == sweep::Status::Failed)
+        .filter(|r| r.status == Status::Failed)
         .count();
     if failed > 0 {
         eprintln!(
             "host-trainer: {failed} of {} runs failed; see {} and the logs in {}",
             records.len(),
-            args.out.join(sweep::SUMMARY_MD).display(),
-            args.out.join(sweep::LOGS).display()
+            args.out.join(report::SUMMARY_MD).display(),
+            args.out.join(supervise::LOGS).display()
         );
         return Ok(ExitCode::FAILURE);
     }
@@ -523,7 +528,7 @@ fn eval_command(args: EvalArgs) -> Result<()> {
     if let Some(path) = &args.json {
         files::check_output(path).with_context(|| format!("cannot write {}", path.display()))?;
     }
-    let scenario = train::scenario(&args.task)?;
+    let scenario = trainer::scenario(&args.task)?;
     let blob = files::read_blob(&args.blob)
         .with_context(|| format!("cannot read blob {}", args.blob.display()))?;
     let report = evaluate(&blob, &args.blob, &scenario, args.episodes, args.seed)?;
@@ -537,11 +542,11 @@ fn eval_command(args: EvalArgs) -> Result<()> {
 
 fn export_command(args: ExportArgs) -> Result<()> {
     let (trainer, run) = resume(&args.run, None)?;
-    let name = run_dir::policy_file(args.encoding);
+    let name = folder::policy_file(args.encoding);
     let f32 = trainer.policy_blob(&trainer.config.blob_label())?;
     let policy = match args.encoding {
         Encoding::F32 => f32,
-        other => host_trainer::export::encode(&f32, other)?,
+        other => export::encode(&f32, other)?,
     };
     // The image is made (and refused) before anything is written.
     let image = args
@@ -559,7 +564,7 @@ fn export_command(args: ExportArgs) -> Result<()> {
         );
     } else {
         trainer.export(&run)?;
-        let critic_file = run.file(run_dir::CRITIC);
+        let critic_file = run.file(folder::CRITIC);
         let critic = if critic_file.is_file() {
             format!(" and {}", critic_file.display())
         } else {
@@ -567,7 +572,7 @@ fn export_command(args: ExportArgs) -> Result<()> {
         };
         println!(
             "wrote {}{critic} (episode {})",
-            run.file(run_dir::POLICY).display(),
+            run.file(folder::POLICY).display(),
             trainer.episode
         );
     }
@@ -597,7 +602,7 @@ fn slot_image(
         size: args.slot_size.unwrap_or(slot::EXAMPLE_SLOT_SIZE),
         sequence,
     };
-    let bytes = host_trainer::export::slot_image(policy, format, target)
+    let bytes = export::slot_image(policy, format, target)
         .with_context(|| format!("cannot make the slot {id} image"))?;
     Ok((format, id, target, bytes))
 }
@@ -611,7 +616,7 @@ fn write_slot_image(
     target: SlotTarget,
     bytes: &[u8],
 ) -> Result<()> {
-    let name = run_dir::image_file(encoding, id, format);
+    let name = folder::image_file(encoding, id, format);
     run.write(&name, bytes)?;
     let file = run.file(&name);
     let (path, address, sequence) = (file.display(), target.address, target.sequence);

@@ -34,14 +34,14 @@ fn malformed_values_are_rejected_before_any_file_is_written() {
         ("--task", "nav-nowhere", "nav-nowhere"),
         ("--reward", "best", "best"),
         ("--noise", "brownian", "brownian"),
-        // Regression (issue 9, item 4): these aborted on 40 GB allocations before the shape
+        // Regression: these aborted on 40 GB allocations before the shape
         // check ran.
         ("--hidden", "100x100000", "unsupported network shape"),
         ("--hidden", "4x65536", "unsupported network shape"),
         ("--hidden", "4x1025", "width must be in 1..=1024"),
         // Within every size limit, but 67 million parameters: beyond the 16 MiB payload.
         ("--hidden", "64x1024", "16 MiB"),
-        // Regression (issue 9, item 7): a NaN or infinite reward scale was not validated.
+        // Regression: a NaN or infinite reward scale was not validated.
         ("--reward-scale", "nan", "agent.reward_scale"),
         ("--reward-scale", "inf", "agent.reward_scale"),
         ("--reward-scale", "0", "agent.reward_scale"),
@@ -180,7 +180,7 @@ fn actor_blobs() -> (Vec<u8>, Vec<u8>) {
     (good, nan)
 }
 
-/// Regression (issue 9, item 1): `eval` of a blob that does not boot (a critic, a NaN weight
+/// Regression: `eval` of a blob that does not boot (a critic, a NaN weight
 /// under a valid CRC) printed "boot error" and exited 0, so a CI gate on `eval` passed a policy
 /// that never ran.
 #[test]
@@ -211,7 +211,7 @@ fn eval_of_a_blob_that_does_not_boot_fails() {
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
 
-/// Regression (issue 9, items 2 and 13): `eval --episodes 18446744073709551615` panicked with
+/// Regression: `eval --episodes 18446744073709551615` panicked with
 /// `capacity overflow`, and an unwritable `--json` was found only after the evaluation.
 #[test]
 fn eval_checks_its_limits_and_output_before_any_work() {
@@ -239,7 +239,7 @@ fn eval_checks_its_limits_and_output_before_any_work() {
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
 
-/// Regression (issue 9, item 15): no subcommand printed the description and exited 2 without
+/// Regression: no subcommand printed the description and exited 2 without
 /// saying what was missing.
 #[test]
 fn a_missing_subcommand_is_named() {
@@ -248,7 +248,7 @@ fn a_missing_subcommand_is_named() {
     assert_eq!(out.status.code(), Some(2));
 }
 
-/// Regression (issue 9, item 3): `--seed 18446744073709551615`, or a task file name longer than
+/// Regression: `--seed 18446744073709551615`, or a task file name longer than
 /// 16 characters, trained to the end and then failed with "label longer than 32 bytes": no
 /// blob, and export of that run failed forever.
 #[test]
@@ -282,7 +282,7 @@ fn a_huge_seed_and_a_long_task_name_still_export() {
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
 
-/// Regression (issue 9, item 11): `train --out DIR` over a finished run silently overwrote its
+/// Regression: `train --out DIR` over a finished run silently overwrote its
 /// checkpoint and metrics.
 #[test]
 fn training_into_a_finished_run_is_refused_and_keeps_it() {
@@ -304,7 +304,7 @@ fn training_into_a_finished_run_is_refused_and_keeps_it() {
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
 
-/// Regression (issue 9, item 12): a run trained with a relative `--task mytask.toml` could not
+/// Regression: a run trained with a relative `--task mytask.toml` could not
 /// be resumed or exported from another folder or after the file was deleted, and an edited file
 /// was silently used by `--resume`.
 #[test]
@@ -375,7 +375,7 @@ fn a_run_resumes_and_exports_from_its_own_folder_alone() {
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
 
-/// Regression (issue 9, item 14): a checkpoint with a flipped bit was accepted by `export`.
+/// Regression: a checkpoint with a flipped bit was accepted by `export`.
 #[test]
 fn export_of_a_corrupt_checkpoint_is_one_line() {
     let base = scratch("corrupt-export");
@@ -488,7 +488,7 @@ fn inspect_of_a_bad_file_is_one_line() {
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
 
-/// Regression (issue 9, item 10): a run killed before its first checkpoint could not be resumed.
+/// Regression: a run killed before its first checkpoint could not be resumed.
 /// Killed even before it recorded its plant (only `config.toml` written), `--resume` starts it
 /// again from the config and the task it names.
 #[test]

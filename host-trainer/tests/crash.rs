@@ -3,21 +3,24 @@
 //! no temporary file behind.
 //!
 //! Random kills rarely land inside a checkpoint write, so the child kills itself at a chosen
-//! point (`HOST_TRAINER_CRASH_AT`, see `host_trainer::crash_test`). The points are fixed, so the
-//! test cannot be flaky: the same kills land in the same places on every run.
+//! point (`HOST_TRAINER_CRASH_AT`, read by the binary's kill points in `src/run/crash_test.rs`,
+//! which are not part of the library's API). The points are fixed, so the test cannot be flaky:
+//! the same kills land in the same places on every run.
 //!
-//! Regression (issue 9, item 10): `kill -9` during a checkpoint write left temporaries that
+//! Regression: `kill -9` during a checkpoint write left temporaries that
 //! nothing removed, and a run killed before its first checkpoint could not be resumed.
 
 use std::os::unix::process::ExitStatusExt;
 use std::path::Path;
 
-use host_trainer::checkpoint::Checkpoint;
-use host_trainer::crash_test;
-use host_trainer::run_dir;
+use host_trainer::run::checkpoint::Checkpoint;
+use host_trainer::run::folder;
 use rand_core::{Rng as _, SeedableRng};
 
 use crate::support::{command, s, scratch, smoke_config_file, temporaries};
+
+/// The environment variable that arms a kill point in the `host-trainer` binary.
+const CRASH_AT: &str = "HOST_TRAINER_CRASH_AT";
 
 const EPISODES: usize = 6; // the smoke config checkpoints every 2 episodes
 
@@ -50,7 +53,7 @@ fn kill_points() -> Vec<String> {
 fn train(out: &Path, config: &Path, crash_at: Option<&str>) -> std::process::ExitStatus {
     let mut c = command(&["train", "--config", s(config), "--out", s(out), "--quiet"]);
     if let Some(point) = crash_at {
-        c.env(crash_test::ENV, point);
+        c.env(CRASH_AT, point);
     }
     c.output().expect("runs").status
 }
@@ -58,7 +61,7 @@ fn train(out: &Path, config: &Path, crash_at: Option<&str>) -> std::process::Exi
 fn resume(run: &Path, crash_at: Option<&str>) -> std::process::ExitStatus {
     let mut c = command(&["train", "--resume", s(run), "--quiet"]);
     if let Some(point) = crash_at {
-        c.env(crash_test::ENV, point);
+        c.env(CRASH_AT, point);
     }
     c.output().expect("runs").status
 }
@@ -92,7 +95,7 @@ fn killed_runs_resume_to_the_same_blob_and_leave_no_temporary_files() {
                     "{point}: {:?}",
                     temporaries(&run)
                 );
-                let path = run.join(run_dir::CHECKPOINT);
+                let path = run.join(folder::CHECKPOINT);
                 if path.exists() {
                     Checkpoint::load(&path).expect("the previous checkpoint is intact");
                 }
@@ -106,7 +109,7 @@ fn killed_runs_resume_to_the_same_blob_and_leave_no_temporary_files() {
     let run = parts.join(name);
     assert!(resume(&run, None).success());
 
-    for file in [run_dir::POLICY, run_dir::CRITIC] {
+    for file in [folder::POLICY, folder::CRITIC] {
         let a = std::fs::read(whole.join(name).join(file)).expect("uninterrupted blob");
         let b = std::fs::read(run.join(file)).expect("resumed blob");
         assert_eq!(a, b, "{file} differs after {kills} kills");

@@ -3,8 +3,8 @@
 use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
 
-use host_trainer::checkpoint::Checkpoint;
-use host_trainer::run_dir;
+use host_trainer::run::checkpoint::Checkpoint;
+use host_trainer::run::folder;
 
 use crate::support::{command, s, scratch, smoke_config_file, temporaries};
 
@@ -44,7 +44,7 @@ fn ctrl_c_checkpoints_and_says_how_to_resume() {
     let run = base.join("nav-walls__dcp__3");
     // The episode-0 checkpoint exists once training has started (and the handler is set).
     let started = Instant::now();
-    while !run.join(run_dir::METRICS).exists() {
+    while !run.join(folder::METRICS).exists() {
         assert!(
             started.elapsed() < Duration::from_secs(60),
             "training never started"
@@ -70,7 +70,7 @@ fn ctrl_c_checkpoints_and_says_how_to_resume() {
         "{stderr}"
     );
     assert!(!stderr.contains("panicked"), "{stderr}");
-    let kept = Checkpoint::load(&run.join(run_dir::CHECKPOINT)).expect("checkpoint");
+    let kept = Checkpoint::load(&run.join(folder::CHECKPOINT)).expect("checkpoint");
     assert!(kept.episode >= 1, "the checkpoint holds the episodes done");
     assert_eq!(kept.metrics.len(), kept.episode);
     assert_eq!(temporaries(&run), Vec::<String>::new());

@@ -3,7 +3,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use host_trainer::train::{Algo, TrainConfig};
+use host_trainer::algorithms::Algo;
+use host_trainer::run::config::TrainConfig;
 
 /// Runs the `host-trainer` binary to the end.
 pub fn host_trainer(args: &[&str]) -> Output {

@@ -5,10 +5,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Output, Stdio};
 use std::time::{Duration, Instant, SystemTime};
 
-use host_trainer::checkpoint::Checkpoint;
-use host_trainer::crash_test;
-use host_trainer::run_dir;
-use host_trainer::sweep;
+use host_trainer::run::checkpoint::Checkpoint;
+use host_trainer::run::folder;
+use host_trainer::sweep::{report, supervise};
 
 use crate::support::{
     assert_ok, assert_one_line_error, command, entries, s, scratch, smoke_config_file,
@@ -42,7 +41,7 @@ fn train_alone(config: &Path, out: &Path, seed: u64) -> PathBuf {
 }
 
 fn assert_same_blobs(a: &Path, b: &Path) {
-    for file in [run_dir::POLICY, run_dir::CRITIC] {
+    for file in [folder::POLICY, folder::CRITIC] {
         let (x, y) = (std::fs::read(a.join(file)), std::fs::read(b.join(file)));
         assert_eq!(x.expect("blob a"), y.expect("blob b"), "{file} differs");
     }
@@ -50,7 +49,7 @@ fn assert_same_blobs(a: &Path, b: &Path) {
 
 /// The run rows of sweep.json, as (seed, status).
 fn statuses(out: &Path) -> Vec<(u64, String)> {
-    let text = std::fs::read_to_string(out.join(sweep::SUMMARY_JSON)).expect("sweep.json");
+    let text = std::fs::read_to_string(out.join(report::SUMMARY_JSON)).expect("sweep.json");
     let doc: serde_json::Value = serde_json::from_str(&text).expect("json");
     let runs = doc["runs"].as_array().expect("runs");
     runs.iter()
@@ -80,7 +79,7 @@ fn two_seeds_in_parallel_finish_summarise_and_match_train_alone() {
     let result = run_sweep(&config, &out, &["--seeds", "0-1", "--jobs", "2"], &[]);
     assert_ok(&result);
     let stdout = String::from_utf8_lossy(&result.stdout);
-    let md = std::fs::read_to_string(out.join(sweep::SUMMARY_MD)).expect("sweep.md");
+    let md = std::fs::read_to_string(out.join(report::SUMMARY_MD)).expect("sweep.md");
     assert_eq!(stdout, md, "the summary printed is the one written");
     for seed in [0, 1] {
         assert!(
@@ -120,21 +119,21 @@ fn a_killed_run_is_recorded_failed_and_the_next_sweep_continues_it() {
     std::fs::create_dir_all(&out).expect("dir");
     assert_ok(&run_sweep(&config, &out, &["--seeds", "0"], &[]));
     let finished = out.join("nav-walls__dcp__0");
-    let (policy, eval) = (finished.join(run_dir::POLICY), finished.join(run_dir::EVAL));
+    let (policy, eval) = (finished.join(folder::POLICY), finished.join(folder::EVAL));
     let before = (modified(&policy), std::fs::read(&eval).expect("eval"));
 
     let killed = run_sweep(
         &config,
         &out,
         &["--seeds", "0-1"],
-        &[(crash_test::ENV, "episode:3")],
+        &[("HOST_TRAINER_CRASH_AT", "episode:3")],
     );
     assert_eq!(killed.status.code(), Some(1));
     assert_eq!(
         statuses(&out),
         status_pairs(&[(0, "skipped"), (1, "failed")])
     );
-    let md = std::fs::read_to_string(out.join(sweep::SUMMARY_MD)).expect("sweep.md");
+    let md = std::fs::read_to_string(out.join(report::SUMMARY_MD)).expect("sweep.md");
     assert!(
         md.contains("| 1 | failed |") && md.contains("signal 9"),
         "{md}"
@@ -148,7 +147,7 @@ fn a_killed_run_is_recorded_failed_and_the_next_sweep_continues_it() {
     );
     let after = (modified(&policy), std::fs::read(&eval).expect("eval"));
     assert_eq!(before, after, "a skipped run is not touched");
-    let log = out.join(sweep::LOGS).join("nav-walls__dcp__1.log");
+    let log = out.join(supervise::LOGS).join("nav-walls__dcp__1.log");
     let log = std::fs::read_to_string(log).expect("log");
     assert!(
         log.contains("train --resume"),
@@ -226,15 +225,15 @@ fn a_killed_sweep_is_continued_by_the_same_command() {
         c
     });
     let (first, second) = (out.join("nav-walls__dcp__0"), out.join("nav-walls__dcp__1"));
-    wait_for("the first run's end", || first.join(run_dir::EVAL).exists());
+    wait_for("the first run's end", || first.join(folder::EVAL).exists());
     sweep.kill("-KILL");
     let killed = sweep.wait();
     assert!(!killed.status.success());
-    let before = std::fs::read(first.join(run_dir::POLICY)).expect("policy");
-    let mtime = modified(&first.join(run_dir::POLICY));
+    let before = std::fs::read(first.join(folder::POLICY)).expect("policy");
+    let mtime = modified(&first.join(folder::POLICY));
     // The second run started within one poll of the first's end and trains for a while; should
     // a slow machine have let it finish before the kill, it is skipped too.
-    let second_done = second.join(run_dir::EVAL).exists();
+    let second_done = second.join(folder::EVAL).exists();
 
     let again = run_sweep(&config, &out, &args, &[]);
     assert_ok(&again);
@@ -244,10 +243,10 @@ fn a_killed_sweep_is_continued_by_the_same_command() {
         status_pairs(&[(0, "skipped"), (1, second_status)])
     );
     assert_eq!(
-        std::fs::read(first.join(run_dir::POLICY)).expect("policy"),
+        std::fs::read(first.join(folder::POLICY)).expect("policy"),
         before
     );
-    assert_eq!(modified(&first.join(run_dir::POLICY)), mtime);
+    assert_eq!(modified(&first.join(folder::POLICY)), mtime);
     let alone = train_alone(&config, &base.join("alone"), 1);
     assert_same_blobs(&alone, &second);
     std::fs::remove_dir_all(&base).expect("cleanup");
@@ -262,8 +261,8 @@ fn a_failed_run_is_recorded_and_the_others_finish() {
     let config = smoke_config_file(&base, 3);
     let out = base.join("out");
     let broken = train_alone(&config, &out, 1);
-    std::fs::remove_file(broken.join(run_dir::EVAL)).expect("unfinish it");
-    let checkpoint = broken.join(run_dir::CHECKPOINT);
+    std::fs::remove_file(broken.join(folder::EVAL)).expect("unfinish it");
+    let checkpoint = broken.join(folder::CHECKPOINT);
     let mut bytes = std::fs::read(&checkpoint).expect("checkpoint");
     let middle = bytes.len() / 2;
     bytes[middle] ^= 0x10;
@@ -277,7 +276,7 @@ fn a_failed_run_is_recorded_and_the_others_finish() {
         statuses(&out),
         status_pairs(&[(0, "finished"), (1, "failed")])
     );
-    let md = std::fs::read_to_string(out.join(sweep::SUMMARY_MD)).expect("sweep.md");
+    let md = std::fs::read_to_string(out.join(report::SUMMARY_MD)).expect("sweep.md");
     let row = md
         .lines()
         .find(|l| l.starts_with("| nav-walls | dcp | 1 | failed |"))
@@ -310,7 +309,7 @@ fn ctrl_c_stops_the_runs_at_a_checkpoint_and_says_how_to_continue() {
         });
         let runs = [0, 1].map(|seed| out.join(format!("nav-walls__dcp__{seed}")));
         wait_for("both runs' start", || {
-            runs.iter().all(|r| r.join(run_dir::METRICS).exists())
+            runs.iter().all(|r| r.join(folder::METRICS).exists())
         });
         if to_group {
             sweep.kill("-INT");
@@ -326,14 +325,14 @@ fn ctrl_c_stops_the_runs_at_a_checkpoint_and_says_how_to_continue() {
         assert_eq!(result.status.code(), Some(130), "{case}: {stderr}");
         assert!(stderr.contains("Re-run the same sweep command"), "{stderr}");
         for run in &runs {
-            let kept = Checkpoint::load(&run.join(run_dir::CHECKPOINT)).expect("checkpoint");
+            let kept = Checkpoint::load(&run.join(folder::CHECKPOINT)).expect("checkpoint");
             assert!(
                 kept.episode >= 1,
                 "{}: the episodes done are kept",
                 run.display()
             );
             let name = run.file_name().expect("name").to_string_lossy();
-            let log = out.join(sweep::LOGS).join(format!("{name}.log"));
+            let log = out.join(supervise::LOGS).join(format!("{name}.log"));
             let log = std::fs::read_to_string(log).expect("log");
             assert!(log.contains("checkpoint written"), "{case}: {log}");
             assert!(

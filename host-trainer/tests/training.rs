@@ -1,13 +1,15 @@
 //! Training runs with tiny budgets: smoke runs of every algorithm, determinism, resume, and
 //! divergence handling. Every run here is small enough for the debug profile.
 
-use host_trainer::agent::Hidden;
-use host_trainer::algo::Learner;
-use host_trainer::checkpoint::Checkpoint;
-use host_trainer::dcp::{Scoring, StateWeights, Variant};
-use host_trainer::ddpg::ActorGradient;
-use host_trainer::run_dir::{self, RunDir};
-use host_trainer::train::{self, Algo, TrainConfig, Trainer};
+use host_trainer::algorithms::dcp::{Scoring, StateWeights, Variant};
+use host_trainer::algorithms::ddpg::ActorGradient;
+use host_trainer::algorithms::{Algo, Learner};
+use host_trainer::nn::hidden::Hidden;
+use host_trainer::run::checkpoint::Checkpoint;
+use host_trainer::run::config::TrainConfig;
+use host_trainer::run::folder::{self, RunDir};
+use host_trainer::run::metrics;
+use host_trainer::run::trainer::{self, Trainer};
 use host_trainer::Error;
 
 use crate::support::scratch;
@@ -15,7 +17,7 @@ use crate::support::scratch;
 fn train_to_end(config: TrainConfig, out: &std::path::Path) -> (Trainer, RunDir) {
     let mut trainer = Trainer::new(config).expect("trainer");
     let run = RunDir::create(out, &trainer.config.run_name()).expect("run dir");
-    train::run(&mut trainer, &run, &mut |_, _| {
+    trainer::run(&mut trainer, &run, &mut |_, _| {
         std::ops::ControlFlow::Continue(())
     })
     .expect("training");
@@ -37,18 +39,18 @@ fn dcp_smoke_run_updates_and_writes_every_file() {
     let kept = stat("dcp_kept");
     assert!(kept > 0.0 && kept <= 1.0, "some proposals won: {kept}");
     for name in [
-        run_dir::CONFIG,
-        run_dir::METRICS,
-        run_dir::CURVE,
-        run_dir::CHECKPOINT,
-        run_dir::POLICY,
-        run_dir::CRITIC,
+        folder::CONFIG,
+        folder::METRICS,
+        folder::CURVE,
+        folder::CHECKPOINT,
+        folder::POLICY,
+        folder::CRITIC,
     ] {
         assert!(run.file(name).is_file(), "{name} written");
     }
-    let csv = std::fs::read_to_string(run.file(run_dir::METRICS)).expect("metrics");
+    let csv = std::fs::read_to_string(run.file(folder::METRICS)).expect("metrics");
     assert_eq!(csv.lines().count(), 4, "header + 3 episodes:\n{csv}");
-    let blob = std::fs::read(run.file(run_dir::POLICY)).expect("blob");
+    let blob = std::fs::read(run.file(folder::POLICY)).expect("blob");
     policy_core::Policy::<2, 32, 1, 2>::from_blob(&blob).expect("the blob loads as a 2x32 policy");
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
@@ -107,7 +109,7 @@ fn td3_smoke_run_has_twin_critics_delayed_actor_updates_and_exports_q1() {
     };
     let twin = ac.agent.twin.as_ref().expect("twin critics");
     assert_ne!(twin.critic, ac.agent.critic, "Q2 is its own network");
-    let critic = std::fs::read(run.file(run_dir::CRITIC)).expect("critic blob");
+    let critic = std::fs::read(run.file(folder::CRITIC)).expect("critic blob");
     let label = trainer.config.blob_label();
     assert_eq!(
         critic,
@@ -123,16 +125,16 @@ fn td3_smoke_run_has_twin_critics_delayed_actor_updates_and_exports_q1() {
 /// A tiny run of the paper's DCP (every issue-13 option off).
 fn paper_smoke(seed: u64) -> TrainConfig {
     let mut c = TrainConfig::smoke(Algo::Dcp, seed);
-    c.dcp = host_trainer::dcp::Config {
+    c.dcp = host_trainer::algorithms::dcp::Config {
         t: c.dcp.t,
-        ..host_trainer::dcp::Config::paper()
+        ..host_trainer::algorithms::dcp::Config::paper()
     };
     c
 }
 
-/// Every option of issue 13 on a tiny DCP run (and TD3), each changing one setting of the
+/// Every DCP-variant option on a tiny DCP run (and TD3), each changing one setting of the
 /// paper's DCP.
-fn issue13_options() -> Vec<(&'static str, TrainConfig)> {
+fn dcp_variant_options() -> Vec<(&'static str, TrainConfig)> {
     type Edit = fn(&mut TrainConfig);
     let edits: [(&str, Edit); 10] = [
         ("softmax", |c| c.dcp.state_weights = StateWeights::Softmax),
@@ -167,8 +169,8 @@ fn issue13_options() -> Vec<(&'static str, TrainConfig)> {
 /// Each option changes the run, the same seed gives the same blob bytes (actor and critic),
 /// and stopping at the checkpoint and resuming equals the uninterrupted run.
 #[test]
-fn issue13_options_are_deterministic_and_resume_exactly() {
-    let out = scratch("issue13");
+fn dcp_variant_options_are_deterministic_and_resume_exactly() {
+    let out = scratch("dcp-variant-options");
     let blobs = |t: &Trainer| {
         let critic = t
             .algorithm()
@@ -184,7 +186,7 @@ fn issue13_options_are_deterministic_and_resume_exactly() {
         c.episodes = 4;
         blobs(&train_to_end(c, &dir).0)
     };
-    for (name, config) in issue13_options() {
+    for (name, config) in dcp_variant_options() {
         let dir = |sub: &str| {
             let d = out.join(format!("{name}-{sub}"));
             std::fs::create_dir_all(&d).expect("dir");
@@ -202,10 +204,10 @@ fn issue13_options_are_deterministic_and_resume_exactly() {
         let mut first = config.clone();
         first.episodes = 2;
         let (_, run) = train_to_end(first, &dir("parts"));
-        let path = run.file(run_dir::CHECKPOINT);
+        let path = run.file(folder::CHECKPOINT);
         let mut resumed = Trainer::resume(Checkpoint::load(&path).expect("load"), Some(4), &path)
             .expect("resume");
-        train::run(&mut resumed, &run, &mut |_, _| {
+        trainer::run(&mut resumed, &run, &mut |_, _| {
             std::ops::ControlFlow::Continue(())
         })
         .expect("resumed training");
@@ -232,7 +234,7 @@ fn a_twin_critic_checkpoint_refuses_a_config_without_twins() {
     let mut plain = paper_smoke(3);
     plain.episodes = 1;
     let err = learner
-        .configure(&plain)
+        .configure(&plain.sections())
         .expect_err("twin state, no twin config");
     assert!(err.contains("twin critics"), "{err}");
     std::fs::remove_dir_all(&out).expect("cleanup");
@@ -269,7 +271,7 @@ fn dcp_variant_files_each_set_one_option_and_train() {
             task: config.task.clone(),
             ..TrainConfig::default()
         };
-        let paper = host_trainer::dcp::Config::paper();
+        let paper = host_trainer::algorithms::dcp::Config::paper();
         if name.starts_with("baseline") {
             let expected = TrainConfig {
                 dcp: paper,
@@ -345,7 +347,7 @@ fn resumed_run_equals_uninterrupted_run() {
         // Stop after 2 episodes (the checkpoint interval), then resume from the file to 4.
         config.episodes = 2;
         let (_, run) = train_to_end(config, &parts);
-        let path = run.file(run_dir::CHECKPOINT);
+        let path = run.file(folder::CHECKPOINT);
         let mut resumed = Trainer::resume(Checkpoint::load(&path).expect("load"), Some(4), &path)
             .expect("resume");
         assert_eq!(resumed.episode, 2);
@@ -353,7 +355,7 @@ fn resumed_run_equals_uninterrupted_run() {
             // The checkpoint falls inside a rollout: the test covers the unfinished one.
             assert!(!ppo.rollout.is_empty(), "a rollout in progress is saved");
         }
-        train::run(&mut resumed, &run, &mut |_, _| {
+        trainer::run(&mut resumed, &run, &mut |_, _| {
             std::ops::ControlFlow::Continue(())
         })
         .expect("resumed training");
@@ -413,15 +415,15 @@ fn ppo_and_dqn_smoke_runs_update_and_export() {
             assert!(v.is_finite(), "{algo} {name} = {v}");
         }
         trainer.export(&run).expect("export");
-        assert!(run.file(run_dir::POLICY).is_file());
+        assert!(run.file(folder::POLICY).is_file());
         assert!(
-            !run.file(run_dir::CRITIC).exists(),
+            !run.file(folder::CRITIC).exists(),
             "{algo} has no Q(s, a) critic to export"
         );
-        let csv = std::fs::read_to_string(run.file(run_dir::METRICS)).expect("metrics");
-        assert!(csv.starts_with(&train::csv_header(columns)), "{csv}");
+        let csv = std::fs::read_to_string(run.file(folder::METRICS)).expect("metrics");
+        assert!(csv.starts_with(&metrics::csv_header(columns)), "{csv}");
         let kind = policy_core::model::Model::from_blob(
-            &std::fs::read(run.file(run_dir::POLICY)).expect("blob"),
+            &std::fs::read(run.file(folder::POLICY)).expect("blob"),
         )
         .expect("the blob boots")
         .header()
@@ -470,7 +472,7 @@ fn divergence_stops_with_a_clear_error_and_keeps_the_last_good_checkpoint() {
     config.agent.lr_actor = 1e30;
     let mut trainer = Trainer::new(config).expect("trainer");
     let run = RunDir::create(&out, &trainer.config.run_name()).expect("run dir");
-    let err = train::run(&mut trainer, &run, &mut |_, _| {
+    let err = trainer::run(&mut trainer, &run, &mut |_, _| {
         std::ops::ControlFlow::Continue(())
     })
     .expect_err("must diverge");
@@ -482,7 +484,7 @@ fn divergence_stops_with_a_clear_error_and_keeps_the_last_good_checkpoint() {
             && message.contains("checkpoint"),
         "{message}"
     );
-    let kept = Checkpoint::load(&run.file(run_dir::CHECKPOINT))
+    let kept = Checkpoint::load(&run.file(folder::CHECKPOINT))
         .expect("the last good checkpoint is readable");
     assert!(
         kept.learner.get().is_finite(),
@@ -531,7 +533,7 @@ fn sha256(bytes: &[u8]) -> String {
 }
 
 /// The pin on training: the exported blobs (actor and critic, whole files) of 20-episode runs
-/// of DCP (its defaults since issue 13), the paper's DCP and DDPG with `TrainConfig::smoke`. Any
+/// of DCP (its defaults since the DCP-variants study), the paper's DCP and DDPG with `TrainConfig::smoke`. Any
 /// change to the arithmetic of training, the random streams or the blob format changes these;
 /// such a change must say so and show that learning did not get worse (README, "Training
 /// speed").
@@ -649,7 +651,7 @@ fn old_or_truncated_checkpoints_are_clear_errors() {
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
 
-/// Regression (issue 9, item 14): a checkpoint had a version but no checksum, so a flipped bit
+/// Regression: a checkpoint had a version but no checksum, so a flipped bit
 /// in the middle was accepted by `--resume` and `export`.
 #[test]
 fn a_flipped_bit_anywhere_in_a_checkpoint_is_a_checksum_error() {
@@ -673,7 +675,7 @@ fn a_flipped_bit_anywhere_in_a_checkpoint_is_a_checksum_error() {
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
 
-/// Regression (issue 9, item 12): a run trained on a scenario file could not be resumed once
+/// Regression: a run trained on a scenario file could not be resumed once
 /// the file was gone, and silently continued on an edited one. The checkpoint holds the plant.
 #[test]
 fn a_checkpoint_carries_its_plant() {
@@ -690,7 +692,7 @@ fn a_checkpoint_carries_its_plant() {
     config.episodes = 2;
     let (trainer, run) = train_to_end(config, &out);
     std::fs::remove_file(&task).expect("delete the task file");
-    let path = run.file(run_dir::CHECKPOINT);
+    let path = run.file(folder::CHECKPOINT);
     let mut resumed =
         Trainer::resume(Checkpoint::load(&path).expect("load"), Some(3), &path).expect("resume");
     assert_eq!(resumed.scenario, trainer.scenario);

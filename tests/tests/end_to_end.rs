@@ -3,8 +3,10 @@
 
 use firmware_sim::controller::{BlobPolicy, Controller};
 use firmware_sim::nav::test_protocol::{evaluate, EvalConfig};
-use host_trainer::run_dir::{self, RunDir};
-use host_trainer::train::{self, Algo, TrainConfig, Trainer};
+use host_trainer::algorithms::Algo;
+use host_trainer::run::config::TrainConfig;
+use host_trainer::run::folder::{self, RunDir};
+use host_trainer::run::trainer::{self, Trainer};
 
 #[test]
 fn trained_blobs_of_every_algorithm_run_in_the_firmware_loop() {
@@ -23,14 +25,14 @@ fn trained_blob_runs_in_the_firmware_loop(algo: Algo) {
     config.eval_episodes = TrainConfig::default().eval_episodes;
     let mut trainer = Trainer::new(config).expect("trainer");
     let run = RunDir::create(&out, &trainer.config.run_name()).expect("run dir");
-    train::run(&mut trainer, &run, &mut |_, _| {
+    trainer::run(&mut trainer, &run, &mut |_, _| {
         std::ops::ControlFlow::Continue(())
     })
     .expect("training");
     trainer.export(&run).expect("export");
 
     // The bytes on disk, exactly as they would be flashed.
-    let blob = std::fs::read(run.file(run_dir::POLICY)).expect("policy.postcard");
+    let blob = std::fs::read(run.file(folder::POLICY)).expect("policy.postcard");
 
     // The firmware's policy (policy-core's runtime model over the bytes) acts exactly like the
     // trainer's own forward pass on its networks.
@@ -58,7 +60,7 @@ fn trained_blob_runs_in_the_firmware_loop(algo: Algo) {
         "{algo}: the policy depends on the observation"
     );
 
-    let scenario = train::scenario("nav-walls").expect("scenario");
+    let scenario = trainer::scenario("nav-walls").expect("scenario");
     let report = evaluate(
         &blob,
         &scenario,

@@ -1,0 +1,220 @@
+//! `host-trainer inspect`: what a blob holds, read with policy-core's runtime model.
+//!
+//! The blob is verified completely ([`Model::from_blob`]: header, limits, length, padding,
+//! CRC, every parameter) before anything is printed, so a file that inspects cleanly is one the
+//! firmware boots.
+
+use std::fmt::Write as _;
+
+use policy_core::blob::CRC_LEN;
+use policy_core::model::Model;
+use policy_core::ModelKind;
+
+/// A readable description of a blob: kind, shape, activation, encoding, format version, label,
+/// parameter count, byte size, CRC, the normaliser, and the action bounds (actor, discrete) or
+/// action table (discrete). An invalid blob is policy-core's one-line error.
+///
+/// ```
+/// use host_trainer::blob::inspect::describe;
+/// let mut p = policy_core::Policy::<2, 32, 1, 2>::ZERO;
+/// p.normalizer = policy_core::Normalizer::identity(5.0);
+/// p.bounds = policy_core::ActionBounds::symmetric(0.25);
+/// let text = describe(&p.to_blob("demo").unwrap()).unwrap();
+/// assert!(text.contains("kind        actor\n"), "{text}");
+/// assert!(text.contains("parameters  1227\n"), "{text}");
+/// assert!(text.contains("bounds      low [-0.25, -0.25], high [0.25, 0.25]\n"), "{text}");
+/// assert!(describe(b"DCPB").is_err());
+/// ```
+pub fn describe(bytes: &[u8]) -> Result<String, policy_core::Error> {
+    let model = Model::from_blob(bytes)?;
+    let h = model.header();
+    let s = &h.shape;
+    let (obs, act) = (s.observations as usize, s.actions as usize);
+    let values: Vec<f32> = model.values().collect();
+    let payload = h.payload_len as usize;
+    let crc = bytes
+        .last_chunk::<CRC_LEN>()
+        .map_or(0, |c| u32::from_le_bytes(*c));
+    let mut out = String::new();
+    let mut line = |key: &str, value: String| {
+        let _ = writeln!(out, "{key:<11} {value}");
+    };
+    line("kind", h.kind.to_string());
+    line("shape", s.to_string());
+    line("activation", h.activation.to_string());
+    line("encoding", h.encoding.to_string());
+    line("version", h.version.to_string());
+    line("label", format!("{:?}", h.label.as_str()));
+    line("parameters", values.len().to_string());
+    line(
+        "bytes",
+        format!(
+            "{} (header {}, payload {payload}, CRC {CRC_LEN})",
+            bytes.len(),
+            bytes.len() - payload - CRC_LEN
+        ),
+    );
+    line("crc", format!("{crc:#010x}"));
+    let mut rest = values.as_slice();
+    let mut take = |n: usize| {
+        let (head, tail) = rest.split_at(n.min(rest.len()));
+        rest = tail;
+        head
+    };
+    let (mean, inv_std, clip) = (take(obs), take(obs), take(1));
+    line(
+        "normaliser",
+        format!(
+            "mean {mean:?}, inv_std {inv_std:?}, clip {:?}",
+            clip.first().copied().unwrap_or(0.0)
+        ),
+    );
+    if h.kind != ModelKind::Critic {
+        let (low, high) = (take(act), take(act));
+        line("bounds", format!("low {low:?}, high {high:?}"));
+    }
+    if h.kind == ModelKind::Discrete {
+        for row in 0..s.choices as usize {
+            line(
+                if row == 0 { "actions" } else { "" },
+                format!("{row}: {:?}", take(act)),
+            );
+        }
+    }
+    Ok(out)
+}
+
+/// Per layer of a quantised blob, how far its weights (decoded: an f16 weight exactly, an int8
+/// weight as `scale · q`) lie from those of the f32 blob it was made from: `(inputs, outputs,
+/// largest |error|, largest |f32 weight|)`. Both blobs must hold the same kind and shape.
+///
+/// ```
+/// use host_trainer::blob::{export::encode, inspect::weight_errors};
+/// use policy_core::Encoding;
+/// static F32: &[u8] = include_bytes!("../../../policy-core/tests/golden/actor_2x32.postcard");
+/// let int8 = encode(F32, Encoding::Int8).unwrap();
+/// for (_, _, error, largest) in weight_errors(&int8, F32).unwrap() {
+///     assert!(error <= largest / 127.0 / 2.0 * 1.001); // half a quantisation step at most
+/// }
+/// ```
+pub fn weight_errors(
+    quantised: &[u8],
+    reference: &[u8],
+) -> Result<Vec<(usize, usize, f32, f32)>, policy_core::Error> {
+    let (q, r) = (Model::from_blob(quantised)?, Model::from_blob(reference)?);
+    let (hq, hr) = (q.header(), r.header());
+    if hq.kind != hr.kind {
+        return Err(policy_core::Error::WrongKind {
+            expected: hr.kind,
+            found: hq.kind,
+        });
+    }
+    if hq.shape != hr.shape {
+        return Err(policy_core::Error::ShapeMismatch {
+            expected: hr.shape,
+            found: hq.shape,
+        });
+    }
+    let (vq, vr): (Vec<f32>, Vec<f32>) = (q.values().collect(), r.values().collect());
+    let mut first = hq.shape.prefix_count(hq.kind);
+    let mut out = Vec::new();
+    let mut l = 0;
+    while let Some((inputs, outputs)) = hq.shape.layer(hq.kind, l) {
+        let range = first..first + inputs * outputs;
+        let error = vq[range.clone()]
+            .iter()
+            .zip(&vr[range.clone()])
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        let largest = vr[range].iter().map(|w| w.abs()).fold(0.0f32, f32::max);
+        out.push((inputs, outputs, error, largest));
+        first += inputs * outputs + outputs;
+        l += 1;
+    }
+    Ok(out)
+}
+
+/// [`weight_errors`] as the lines `inspect --against` prints.
+pub fn describe_errors(quantised: &[u8], reference: &[u8]) -> Result<String, policy_core::Error> {
+    let mut out = String::new();
+    for (l, (inputs, outputs, error, largest)) in
+        weight_errors(quantised, reference)?.into_iter().enumerate()
+    {
+        let _ = writeln!(
+            out,
+            "layer {l}     {inputs}x{outputs}: largest weight error {error:.3e} (largest |weight| {largest:.3e})"
+        );
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use policy_core::blob::{self, Spec};
+    use policy_core::{Activation, Shape};
+
+    #[test]
+    fn a_discrete_blob_lists_its_action_table() {
+        let shape = Shape {
+            observations: 1,
+            actions: 2,
+            width: 2,
+            depth: 1,
+            choices: 3,
+        };
+        let spec = Spec {
+            kind: ModelKind::Discrete,
+            encoding: policy_core::Encoding::F32,
+            shape,
+            activation: Activation::Relu,
+            label: "dqn",
+        };
+        let mut params = vec![0.5, 2.0, 4.0, -1.0, -1.0, 1.0, 1.0];
+        params.extend([-1.0, 0.0, 0.0, 1.0, 1.0, -1.0]); // 3 rows of 2
+        params.extend([0.0; 2 + 2 + 2 * 3 + 3]);
+        let bytes = blob::to_vec_with(&spec, &mut |sink| sink(&params)).expect("blob");
+        let text = describe(&bytes).expect("describe");
+        assert!(text.starts_with("kind        discrete policy\n"), "{text}");
+        assert!(
+            text.contains("shape       1x2 hidden, 1 observations, 2 actions, 3 choices\n"),
+            "{text}"
+        );
+        assert!(
+            text.contains("normaliser  mean [0.5], inv_std [2.0], clip 4.0\n"),
+            "{text}"
+        );
+        assert!(
+            text.contains("bounds      low [-1.0, -1.0], high [1.0, 1.0]\n"),
+            "{text}"
+        );
+        assert!(text.contains("actions     0: [-1.0, 0.0]\n            1: [0.0, 1.0]\n            2: [1.0, -1.0]\n"), "{text}");
+        assert!(
+            text.contains(&format!("parameters  {}\n", params.len())),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn a_critic_has_no_bounds_and_a_bad_crc_is_an_error() {
+        let critic = policy_core::Critic::<2, 8, 1, 2> {
+            normalizer: policy_core::Normalizer::identity(3.0),
+            ..policy_core::Critic::ZERO
+        };
+        let mut bytes = critic.to_blob("q").expect("blob");
+        let text = describe(&bytes).expect("describe");
+        assert!(
+            text.contains("kind        critic\n") && !text.contains("bounds"),
+            "{text}"
+        );
+        let crc = u32::from_le_bytes(bytes[bytes.len() - 4..].try_into().expect("4 bytes"));
+        assert!(
+            text.contains(&format!("crc         {crc:#010x}\n")),
+            "{text}"
+        );
+        let mid = bytes.len() / 2;
+        bytes[mid] ^= 1;
+        let err = describe(&bytes).expect_err("corrupt");
+        assert!(err.to_string().contains("checksum"), "{err}");
+    }
+}

@@ -1,0 +1,269 @@
+//! Adam, with L2 regularisation of the weights (the paper's 1e-4).
+
+use serde::{Deserialize, Serialize};
+
+use super::net::{Grads, Layer, Net};
+
+/// The Adam optimiser for one network; its moments are shaped like the network's layers.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Adam {
+    /// Learning rate (the paper's 1/4096).
+    pub lr: f32,
+    /// Decay of the first moment.
+    pub beta1: f32,
+    /// Decay of the second moment.
+    pub beta2: f32,
+    /// Added to the root of the second moment.
+    pub eps: f32,
+    /// L2 coefficient: `l2 * w` is added to every weight's gradient (biases are not decayed).
+    pub l2: f32,
+    /// Steps taken (for the bias correction).
+    pub steps: u64,
+    /// First moments.
+    m: Vec<Layer>,
+    /// Second moments.
+    v: Vec<Layer>,
+}
+
+impl Adam {
+    /// An optimiser for `net` with `beta1 = 0.9`, `beta2 = 0.999`, `eps = 1e-8`.
+    ///
+    /// ```
+    /// # use host_trainer::nn::net::{Net, NetConfig, Output};
+    /// # let config = NetConfig { inputs: 2, width: 4, depth: 1, outputs: 1,
+    /// #     activation: policy_core::Activation::Tanh, output: Output::Linear, dropout: 0.0 };
+    /// use host_trainer::nn::adam::Adam;
+    /// let mut net = Net::new(config, &mut firmware_sim::seed::training_stream(0, "n"));
+    /// let mut adam = Adam::new(&net, 1e-3, 0.0);
+    /// let mut grads = net.zero_grads();
+    /// grads.layers[1].b[0] = 2.0;
+    /// let before = net.layers[1].b[0];
+    /// adam.step(&mut net, &grads);
+    /// // Adam's first step moves each parameter by about lr against its gradient's sign.
+    /// assert!((before - net.layers[1].b[0] - 1e-3).abs() < 1e-6);
+    /// ```
+    pub fn new(net: &Net, lr: f32, l2: f32) -> Adam {
+        let zeros = net.zero_grads().layers;
+        Adam {
+            lr,
+            beta1: 0.9,
+            beta2: 0.999,
+            eps: 1e-8,
+            l2,
+            steps: 0,
+            m: zeros.clone(),
+            v: zeros,
+        }
+    }
+
+    /// One step against `grads` (which are not modified; the L2 term is added on the fly).
+    ///
+    /// ```
+    /// # use host_trainer::nn::net::{Net, NetConfig, Output};
+    /// # let config = NetConfig { inputs: 2, width: 4, depth: 1, outputs: 1,
+    /// #     activation: policy_core::Activation::Tanh, output: Output::Linear, dropout: 0.0 };
+    /// use host_trainer::nn::adam::Adam;
+    /// let mut net = Net::new(config, &mut firmware_sim::seed::training_stream(0, "n"));
+    /// let mut adam = Adam::new(&net, 1e-2, 0.0);
+    /// let mut grads = net.zero_grads();
+    /// grads.layers[0].w[0] = -0.5; // the loss falls as this weight grows
+    /// let before = net.layers[0].w[0];
+    /// for _ in 0..3 {
+    ///     adam.step(&mut net, &grads);
+    /// }
+    /// assert_eq!(adam.steps, 3);
+    /// assert!(net.layers[0].w[0] > before + 0.029);
+    /// ```
+    ///
+    /// # Panics
+    /// If `net` or `grads` does not have the shape the optimiser was built for.
+    pub fn step(&mut self, net: &mut Net, grads: &Grads) {
+        assert_eq!(net.layers.len(), self.m.len(), "Adam::step: network shape");
+        assert_eq!(
+            grads.layers.len(),
+            self.m.len(),
+            "Adam::step: gradient shape"
+        );
+        self.steps += 1;
+        let t = self.steps.min(i32::MAX as u64) as i32;
+        // Bias corrections folded into the step size, computed in f64 (they approach 1 slowly).
+        let c1 = 1.0 - f64::from(self.beta1).powi(t);
+        let c2 = 1.0 - f64::from(self.beta2).powi(t);
+        let step = Step {
+            lr: (f64::from(self.lr) / c1) as f32,
+            inv_c2: (1.0 / c2) as f32,
+            beta1: self.beta1,
+            beta2: self.beta2,
+            eps: self.eps,
+        };
+        for (((layer, g), m), v) in net
+            .layers
+            .iter_mut()
+            .zip(&grads.layers)
+            .zip(&mut self.m)
+            .zip(&mut self.v)
+        {
+            step.apply(&mut layer.w, &g.w, &mut m.w, &mut v.w, self.l2);
+            step.apply(&mut layer.b, &g.b, &mut m.b, &mut v.b, 0.0);
+        }
+    }
+}
+
+/// The per-parameter update of one step.
+/// Adam for a plain parameter vector that is not a network (PPO's state-independent
+/// log-standard-deviation), with [`Adam`]'s constants and no weight decay.
+///
+/// ```
+/// use host_trainer::nn::adam::VecAdam;
+/// let mut p = vec![1.0f32, -1.0];
+/// let mut adam = VecAdam::new(2, 0.1);
+/// adam.step(&mut p, &[1.0, -1.0]);
+/// assert!((p[0] - 0.9).abs() < 1e-6 && (p[1] + 0.9).abs() < 1e-6);
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct VecAdam {
+    /// Learning rate.
+    pub lr: f32,
+    /// Steps taken (for the bias correction).
+    pub steps: u64,
+    m: Vec<f32>,
+    v: Vec<f32>,
+}
+
+impl VecAdam {
+    /// Adam at rest for `len` parameters.
+    pub fn new(len: usize, lr: f32) -> VecAdam {
+        VecAdam {
+            lr,
+            steps: 0,
+            m: vec![0.0; len],
+            v: vec![0.0; len],
+        }
+    }
+
+    /// One step of `p` against the gradient `g`.
+    ///
+    /// # Panics
+    /// If `p` or `g` does not have the length given to [`VecAdam::new`].
+    pub fn step(&mut self, p: &mut [f32], g: &[f32]) {
+        assert_eq!(p.len(), self.m.len(), "VecAdam::step: parameter length");
+        self.steps += 1;
+        let t = self.steps.min(i32::MAX as u64) as i32;
+        let (beta1, beta2) = (0.9f32, 0.999f32);
+        let c1 = 1.0 - f64::from(beta1).powi(t);
+        let c2 = 1.0 - f64::from(beta2).powi(t);
+        let step = Step {
+            lr: (f64::from(self.lr) / c1) as f32,
+            inv_c2: (1.0 / c2) as f32,
+            beta1,
+            beta2,
+            eps: 1e-8,
+        };
+        step.apply(p, g, &mut self.m, &mut self.v, 0.0);
+    }
+}
+
+struct Step {
+    lr: f32,
+    inv_c2: f32,
+    beta1: f32,
+    beta2: f32,
+    eps: f32,
+}
+
+impl Step {
+    fn apply(&self, p: &mut [f32], g: &[f32], m: &mut [f32], v: &mut [f32], l2: f32) {
+        assert_eq!(p.len(), g.len(), "Adam::step: gradient shape");
+        for (((p, &g), m), v) in p.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()) {
+            let g = g + l2 * *p;
+            *m = self.beta1 * *m + (1.0 - self.beta1) * g;
+            *v = self.beta2 * *v + (1.0 - self.beta2) * g * g;
+            *p -= self.lr * *m / ((*v * self.inv_c2).sqrt() + self.eps);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::nn::net::{Matrix, NetConfig, Output, Tape};
+    use firmware_sim::seed::training_stream;
+    use policy_core::Activation;
+
+    /// Mean squared error of a small regression; returns the loss and fills `grads`.
+    fn mse(net: &Net, x: &Matrix, target: &[f32], tape: &mut Tape, grads: &mut Grads) -> f32 {
+        let y = net.forward(x, tape, None).clone();
+        let n = target.len() as f32;
+        let diff: Vec<f32> = y.data.iter().zip(target).map(|(y, t)| y - t).collect();
+        let g = Matrix::from_vec(y.rows, 1, diff.iter().map(|d| 2.0 * d / n).collect());
+        grads.zero();
+        net.backward(tape, &g, grads);
+        diff.iter().map(|d| d * d).sum::<f32>() / n
+    }
+
+    #[test]
+    fn adam_fits_a_regression() {
+        let config = NetConfig {
+            inputs: 2,
+            width: 16,
+            depth: 2,
+            outputs: 1,
+            activation: Activation::Tanh,
+            output: Output::Linear,
+            dropout: 0.0,
+        };
+        let mut net = Net::new(config, &mut training_stream(1, "adam"));
+        let mut rng = training_stream(2, "data");
+        let xs: Vec<f32> = (0..64)
+            .map(|_| firmware_sim::seed::uniform_in(&mut rng, -1.0, 1.0))
+            .collect();
+        let x = Matrix::from_vec(32, 2, xs);
+        let target: Vec<f32> = (0..32)
+            .map(|r| x.row(r)[0] * 0.5 - x.row(r)[1] * x.row(r)[0])
+            .collect();
+        let (mut tape, mut grads) = (Tape::default(), net.zero_grads());
+        let mut adam = Adam::new(&net, 1e-2, 0.0);
+        let first = mse(&net, &x, &target, &mut tape, &mut grads);
+        for _ in 0..300 {
+            mse(&net, &x, &target, &mut tape, &mut grads);
+            adam.step(&mut net, &grads);
+        }
+        let last = mse(&net, &x, &target, &mut tape, &mut grads);
+        assert!(last < first * 0.05, "loss {first} -> {last}");
+    }
+
+    #[test]
+    fn l2_shrinks_weights_not_biases() {
+        let config = NetConfig {
+            inputs: 2,
+            width: 4,
+            depth: 1,
+            outputs: 1,
+            activation: Activation::Relu,
+            output: Output::Linear,
+            dropout: 0.0,
+        };
+        let mut net = Net::new(config, &mut training_stream(3, "adam"));
+        let before = net.clone();
+        let grads = net.zero_grads();
+        let mut adam = Adam::new(&net, 1e-3, 1e-2);
+        for _ in 0..10 {
+            adam.step(&mut net, &grads);
+        }
+        for (a, b) in net.layers.iter().zip(&before.layers) {
+            assert_eq!(a.b, b.b, "biases are not decayed");
+            // Adam moves each weight by about lr per step against sign(l2 * w): 10 steps shrink
+            // every weight larger than 10 * lr (smaller ones may overshoot 0).
+            for (&wa, &wb) in a.w.iter().zip(&b.w).filter(|(_, wb)| wb.abs() > 0.02) {
+                assert!(
+                    wa.abs() < wb.abs() && wa.signum() == wb.signum(),
+                    "weight {wb} -> {wa} should shrink toward 0"
+                );
+                assert!(
+                    (wb.abs() - wa.abs() - 0.01).abs() < 1e-3,
+                    "weight {wb} -> {wa}: about 10 steps of lr"
+                );
+            }
+        }
+    }
+}

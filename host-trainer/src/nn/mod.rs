@@ -1,0 +1,9 @@
+//! The networks: the MLP with back-propagation, its optimiser, the running observation
+//! normaliser, the hidden-layer shape, and the training loop's forward pass that the exported
+//! blob reproduces bit for bit.
+
+pub mod adam;
+pub mod forward;
+pub mod hidden;
+pub mod net;
+pub mod normalize;

@@ -1,0 +1,212 @@
+//! The run's configuration: everything that defines a run, saved as its `config.toml`.
+//!
+//! It composes the algorithms' config sections (each defined at the top of its algorithm's file)
+//! with the run's own settings (task, reward, seed, budget), and hands the algorithms only their
+//! sections ([`Sections`]).
+
+use std::path::Path;
+
+use firmware_sim::nav::Reward;
+use serde::{Deserialize, Serialize};
+
+use crate::algorithms::agent_config::AgentConfig;
+use crate::algorithms::{dcp, ddpg, dqn, ppo, Algo, Learner, Sections};
+use crate::nn::hidden::Hidden;
+use crate::run::folder;
+use crate::Error;
+
+/// Everything that defines a run (saved as the run's `config.toml`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrainConfig {
+    /// Built-in scenario name (`nav-walls`, `nav-open`) or a scenario TOML file.
+    pub task: String,
+    /// The learning algorithm.
+    pub algo: Algo,
+    /// The reward, overriding the scenario's [paper: GR for the headline results].
+    pub reward: RewardKind,
+    /// The one seed of the run.
+    pub seed: u64,
+    /// Training episodes [paper: 3,000 for navigation].
+    pub episodes: usize,
+    /// Write a checkpoint (and metrics, plot) every this many episodes.
+    pub checkpoint_every: usize,
+    /// Test starts for the final firmware-sim evaluation [paper: 100].
+    pub eval_episodes: usize,
+    /// Settings every algorithm shares (networks, learning rates, γ, normalisation; each
+    /// algorithm's file says which it reads).
+    pub agent: AgentConfig,
+    /// DCP settings (used when `algo = "dcp"`).
+    pub dcp: dcp::Config,
+    /// DDPG settings (used when `algo = "ddpg"` or `"td3"`).
+    pub ddpg: ddpg::Config,
+    /// TD3 settings (used when `algo = "td3"`; DCP's `target_smoothing` takes its σ and clip).
+    pub td3: ddpg::Td3Config,
+    /// PPO settings (used when `algo = "ppo"`).
+    pub ppo: ppo::Config,
+    /// DQN settings (used when `algo = "dqn"`).
+    pub dqn: dqn::Config,
+}
+
+impl TrainConfig {
+    /// The smallest run that still exercises every code path (warm-up, updates, checkpoint,
+    /// export, evaluation): 3 episodes of a 2×32 network, batch 16, T = 4, PPO rollouts of 32
+    /// steps in minibatches of 8 over 2 epochs. Smoke tests and the end-to-end test use it; it
+    /// is far too small to learn anything.
+    pub fn smoke(algo: Algo, seed: u64) -> Self {
+        let mut c = TrainConfig {
+            algo,
+            seed,
+            episodes: 3,
+            checkpoint_every: 2,
+            eval_episodes: 5,
+            ..TrainConfig::default()
+        };
+        c.agent.hidden = Hidden {
+            depth: 2,
+            width: 32,
+        };
+        c.agent.batch = 16;
+        c.agent.warmup_steps = 16;
+        c.dcp.t = 4;
+        c.ppo.rollout = 32;
+        c.ppo.minibatch = 8;
+        c.ppo.epochs = 2;
+        c
+    }
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        TrainConfig {
+            task: "nav-walls".into(),
+            algo: Algo::Dcp,
+            reward: RewardKind::Gr,
+            seed: 0,
+            episodes: 3000,
+            checkpoint_every: 100,
+            eval_episodes: 100,
+            agent: AgentConfig::default(),
+            dcp: dcp::Config::default(),
+            ddpg: ddpg::Config::default(),
+            td3: ddpg::Td3Config::default(),
+            ppo: ppo::Config::default(),
+            dqn: dqn::Config::default(),
+        }
+    }
+}
+
+impl TrainConfig {
+    /// Parses a config file: TOML, or JSON when the name ends in `.json`. Unknown keys are
+    /// errors; missing keys take their defaults.
+    pub fn from_file(path: &Path) -> Result<TrainConfig, Error> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let parsed = if path.extension().is_some_and(|e| e == "json") {
+            serde_json::from_str(&text).map_err(|e| e.to_string())
+        } else {
+            toml::from_str(&text).map_err(|e| e.to_string())
+        };
+        parsed.map_err(|message| Error::ConfigFile {
+            path: path.to_path_buf(),
+            message: one_line(&message),
+        })
+    }
+
+    /// The config as TOML text.
+    pub fn to_toml(&self) -> String {
+        // Serialising plain data with string keys cannot fail; fall back to Debug rather than panic.
+        toml::to_string(self)
+            .unwrap_or_else(|e| format!("# could not serialise config: {e}\n# {self:?}\n"))
+    }
+
+    /// Checks ranges that the types do not.
+    pub fn validate(&self) -> Result<(), Error> {
+        self.agent.validate()?;
+        let positive = |what: &str, n: usize| {
+            (n > 0).then_some(()).ok_or_else(|| Error::InvalidConfig {
+                what: what.into(),
+                expected: "a positive integer".into(),
+                found: n.to_string(),
+            })
+        };
+        positive("episodes", self.episodes)?;
+        if self.episodes > MAX_EPISODES {
+            return Err(Error::InvalidConfig {
+                what: "episodes".into(),
+                expected: format!("at most {MAX_EPISODES}"),
+                found: self.episodes.to_string(),
+            });
+        }
+        positive("checkpoint_every", self.checkpoint_every)?;
+        positive("eval_episodes", self.eval_episodes)?;
+        Learner::validate(&self.sections())
+    }
+
+    /// The run folder's name, `{task}__{algo}__{seed}` (a scenario file contributes its stem).
+    pub fn run_name(&self) -> String {
+        folder::run_name(&self.task_name(), &self.algo.to_string(), self.seed)
+    }
+
+    /// The label of the run's blobs: the run name, shortened to fit the blob header.
+    pub fn blob_label(&self) -> String {
+        folder::blob_label(&self.task_name(), &self.algo.to_string(), self.seed)
+    }
+
+    /// The task as run folders name it: a built-in scenario's name, or a scenario file's stem.
+    pub fn task_name(&self) -> String {
+        Path::new(&self.task)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| self.task.clone())
+    }
+}
+
+/// The most training episodes a run may ask for: 1,000,000, over 300 times the paper's budget.
+/// Metrics and checkpoints grow with the episode count, so a mistyped count is refused up front.
+pub const MAX_EPISODES: usize = 1_000_000;
+
+impl TrainConfig {
+    /// The config sections the run's algorithm reads.
+    pub fn sections(&self) -> Sections<'_> {
+        Sections {
+            algo: self.algo,
+            seed: self.seed,
+            agent: &self.agent,
+            dcp: &self.dcp,
+            ddpg: &self.ddpg,
+            td3: &self.td3,
+            ppo: &self.ppo,
+            dqn: &self.dqn,
+        }
+    }
+}
+
+/// `s` on one line (TOML and JSON errors span several).
+pub(crate) fn one_line(s: &str) -> String {
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+/// The navigation reward (docs/design.md §2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum RewardKind {
+    /// Local reward: progress toward the centre per step.
+    Lr,
+    /// Global reward: minus the distance to the centre / 6.
+    Gr,
+    /// The mean of LR and GR.
+    Lrgr,
+}
+
+impl From<RewardKind> for Reward {
+    fn from(r: RewardKind) -> Reward {
+        match r {
+            RewardKind::Lr => Reward::Lr,
+            RewardKind::Gr => Reward::Gr,
+            RewardKind::Lrgr => Reward::LrGr,
+        }
+    }
+}

@@ -1,0 +1,11 @@
+//! A training run: its configuration, the episode loop, checkpoints, the run folder
+//! `{task}__{algo}__{seed}/` and what it holds (metrics, plots), and the progress bar.
+
+pub mod checkpoint;
+pub mod config;
+pub(crate) mod crash_test;
+pub mod folder;
+pub mod metrics;
+pub mod plot;
+pub mod progress;
+pub mod trainer;

@@ -1,0 +1,374 @@
+//! The training loop: a run in progress ([`Trainer`]), its episodes, checkpoints and divergence
+//! checks.
+//!
+//! The loop is the same for every algorithm: it asks the run's [`Algorithm`] for an action at
+//! the plant's decision point, lets the plant run to the next one (firmware-sim's
+//! [`Plant`] interface; navigation decides every step), hands the closed transition back, and at
+//! the end of an episode records the metrics.
+//! What an algorithm does with a step (replay, rollouts, updates) is its own business
+//! ([`crate::algorithms`]).
+//!
+//! One seed drives everything: every random stream (initial weights, exploration, replay
+//! sampling, dropout masks, DCP proposals, minibatch order, episode starts) is
+//! `seed::training_stream(seed, name)` with its own name, and the loop is single-threaded, so the
+//! same seed and configuration give the same blob bytes. Wall-clock times appear only in
+//! `metrics.csv`'s `steps_per_s` column.
+
+use std::collections::VecDeque;
+use std::ops::ControlFlow;
+use std::path::Path;
+use std::time::Instant;
+
+use firmware_sim::env::Plant;
+use firmware_sim::harness::EvalConfig;
+use firmware_sim::scenario::Scenario;
+use firmware_sim::seed::{self, SimRng};
+use rand_core::Rng as _;
+
+use crate::algorithms::algorithm::{Algorithm, Step};
+use crate::algorithms::Learner;
+use crate::blob::export;
+use crate::rng_state::RngState;
+use crate::run::checkpoint::Checkpoint;
+use crate::run::config::{one_line, TrainConfig};
+use crate::run::crash_test;
+use crate::run::folder::{self, RunDir};
+use crate::run::metrics::{learning_curve, metrics_csv, EpisodeRow};
+use crate::Error;
+
+/// The plant of a task: a built-in scenario name or a scenario file.
+pub fn scenario(task: &str) -> Result<Scenario, Error> {
+    Scenario::resolve(task).map_err(|e| Error::Sim {
+        context: format!("task {task:?}"),
+        message: e.to_string(),
+    })
+}
+
+/// A training run in progress.
+#[derive(Debug)]
+pub struct Trainer {
+    /// The configuration.
+    pub config: TrainConfig,
+    /// The algorithm and everything it has learned.
+    pub learner: Learner,
+    /// Completed episodes.
+    pub episode: usize,
+    /// Environment steps so far.
+    pub total_steps: u64,
+    /// One row per completed episode.
+    pub metrics: Vec<EpisodeRow>,
+    /// The plant, as resolved when the run started (before the reward and γ overrides).
+    pub scenario: Scenario,
+    env: Box<dyn Plant>,
+    /// Episode starts.
+    env_rng: SimRng,
+}
+
+impl Trainer {
+    /// A fresh run on the plant `config.task` names: networks initialised from
+    /// `seed::training_stream(seed, "init")`.
+    pub fn new(config: TrainConfig) -> Result<Trainer, Error> {
+        let scenario = scenario(&config.task)?;
+        Trainer::on(config, scenario)
+    }
+
+    /// A fresh run on a given plant (a run folder's recorded `scenario.toml`). Every limit is
+    /// checked before anything large is allocated.
+    pub fn on(config: TrainConfig, scenario: Scenario) -> Result<Trainer, Error> {
+        config.validate()?;
+        check_eval_episodes(&config, &scenario)?;
+        let env = make_env(&config, &scenario)?;
+        let agent = &env.agents()[0];
+        let (observations, space) = (agent.observation_space.dim(), &agent.action_space);
+        export::check_supported(observations, space.dim(), config.agent.hidden)?;
+        let learner = Learner::new(&config.sections(), observations, &space.low, &space.high)?;
+        Ok(Trainer {
+            learner,
+            env_rng: seed::training_stream(config.seed, "env"),
+            env,
+            scenario,
+            config,
+            episode: 0,
+            total_steps: 0,
+            metrics: Vec::new(),
+        })
+    }
+
+    /// Continues a run from its checkpoint; `episodes` (if given) replaces the episode budget.
+    pub fn resume(
+        checkpoint: Checkpoint,
+        episodes: Option<usize>,
+        path: &Path,
+    ) -> Result<Trainer, Error> {
+        let bad = |message: String| Error::Checkpoint {
+            path: path.to_path_buf(),
+            message,
+        };
+        let mut config: TrainConfig =
+            toml::from_str(&checkpoint.config_toml).map_err(|e| bad(one_line(&e.to_string())))?;
+        if let Some(n) = episodes {
+            config.episodes = n;
+        }
+        config.validate()?;
+        let scenario = Scenario::from_toml_str(&checkpoint.scenario_toml)
+            .map_err(|e| bad(format!("its recorded plant does not load: {e}")))?;
+        let mut learner = checkpoint.learner;
+        learner.configure(&config.sections()).map_err(bad)?;
+        Ok(Trainer {
+            learner,
+            env: make_env(&config, &scenario)?,
+            env_rng: checkpoint.env_rng.restore(),
+            scenario,
+            episode: checkpoint.episode,
+            total_steps: checkpoint.total_steps,
+            metrics: checkpoint.metrics,
+            config,
+        })
+    }
+
+    /// The state to save.
+    pub fn checkpoint(&self) -> Checkpoint {
+        Checkpoint {
+            config_toml: self.config.to_toml(),
+            scenario_toml: scenario_toml(&self.scenario),
+            learner: self.learner.clone(),
+            episode: self.episode,
+            total_steps: self.total_steps,
+            metrics: self.metrics.clone(),
+            env_rng: RngState::of(&self.env_rng),
+        }
+    }
+
+    /// The run's algorithm.
+    pub fn algorithm(&self) -> &dyn Algorithm {
+        self.learner.get()
+    }
+
+    /// Whether the episode budget is used up.
+    pub fn done(&self) -> bool {
+        self.episode >= self.config.episodes
+    }
+
+    /// Success rate over the last `window` episodes.
+    pub fn recent_success(&self, window: usize) -> f32 {
+        let recent = &self.metrics[self.metrics.len().saturating_sub(window)..];
+        recent.iter().filter(|r| r.success).count() as f32 / recent.len().max(1) as f32
+    }
+
+    /// The value of the algorithm's metrics column `name` in the last episode's row.
+    pub fn last_stat(&self, name: &str) -> Option<f32> {
+        self.metrics
+            .last()?
+            .stat(self.algorithm().stat_names(), name)
+    }
+
+    /// Runs one episode with exploration and updates. On a non-finite loss or weight it returns
+    /// `Error::Diverged` (without a checkpoint path: [`run`] adds it) and the trainer must be
+    /// dropped: its state is no longer good.
+    pub fn run_episode(&mut self) -> Result<&EpisodeRow, Error> {
+        let started = Instant::now();
+        let mut turn = self.env.reset(self.env_rng.next_u64());
+        let (mut ret, mut steps) = (0.0f32, 0usize);
+        let (mut reached, mut final_distance) = (false, 0.0);
+        // The success rule is the scenario's (firmware-sim's `Metrics::settled`), on the
+        // distances of the last `settle_window` steps.
+        let rule = &self.scenario.metrics;
+        let window = rule.settle_window as usize;
+        let mut recent = VecDeque::with_capacity(window);
+        let algo = self.learner.algorithm();
+        algo.start_episode(self.episode, self.config.episodes);
+        while let Some(decision) = turn.decide.take() {
+            let action = algo.act(&decision.observation);
+            turn = self.env.act(&action);
+            // One agent: its transition from this decision closes with this action.
+            for outcome in &turn.closed {
+                self.total_steps += 1;
+                let learned = algo.learn(&Step {
+                    obs: &decision.observation,
+                    reward: outcome.reward,
+                    next_obs: &outcome.observation,
+                    terminated: outcome.terminated,
+                    truncated: outcome.truncated,
+                    total_steps: self.total_steps,
+                });
+                if let Err(what) = learned {
+                    return Err(diverged(self.episode, what));
+                }
+                ret += outcome.reward;
+                steps += 1;
+                final_distance = distance(&outcome.observation);
+                if recent.len() == window {
+                    recent.pop_front();
+                }
+                recent.push_back(final_distance);
+                reached = outcome.terminated && rule.settled([f64::from(final_distance)]);
+            }
+        }
+        if !algo.is_finite() {
+            return Err(diverged(self.episode, "network weights"));
+        }
+        let stats = algo.episode_stats();
+        let settled = rule.settled(recent.iter().map(|&d| f64::from(d)));
+        self.episode += 1;
+        self.metrics.push(EpisodeRow {
+            episode: self.episode,
+            ret,
+            steps,
+            success: reached || settled,
+            final_distance,
+            stats,
+            total_steps: self.total_steps,
+            steps_per_s: steps as f32 / started.elapsed().as_secs_f32().max(1e-9),
+        });
+        Ok(&self.metrics[self.metrics.len() - 1])
+    }
+
+    /// Writes checkpoint, metrics and plot of the current state.
+    pub fn save(&self, run: &RunDir) -> Result<(), Error> {
+        self.checkpoint().save(&run.file(folder::CHECKPOINT))?;
+        self.save_metrics(run)
+    }
+
+    /// Writes `metrics.csv` and the learning-curve SVG.
+    pub fn save_metrics(&self, run: &RunDir) -> Result<(), Error> {
+        let names = self.algorithm().stat_names();
+        run.write(
+            folder::METRICS,
+            metrics_csv(names, &self.metrics).as_bytes(),
+        )?;
+        run.write(
+            folder::CURVE,
+            learning_curve(&self.config.run_name(), &self.metrics).as_bytes(),
+        )
+    }
+
+    /// The policy blob (what gets flashed), from the current networks.
+    pub fn policy_blob(&self, label: &str) -> Result<Vec<u8>, Error> {
+        self.algorithm().policy_blob(label)
+    }
+
+    /// Exports `policy.postcard` and, for algorithms with a Q(s, a) critic, `critic.postcard`;
+    /// returns the policy blob.
+    pub fn export(&self, run: &RunDir) -> Result<Vec<u8>, Error> {
+        let label = self.config.blob_label();
+        let policy = self.policy_blob(&label)?;
+        run.write(folder::POLICY, &policy)?;
+        if let Some(critic) = self.algorithm().critic_blob(&label) {
+            run.write(folder::CRITIC, &critic?)?;
+        }
+        Ok(policy)
+    }
+}
+
+fn diverged(done: usize, what: &str) -> Error {
+    Error::Diverged {
+        episode: done + 1,
+        what: what.into(),
+        checkpoint: None,
+    }
+}
+
+/// The training plant: the run's scenario with its reward, and the learner's γ for the exit
+/// penalty (leaving the arena pays worst/(1 - γ), so leaving never pays).
+fn make_env(config: &TrainConfig, base: &Scenario) -> Result<Box<dyn Plant>, Error> {
+    let mut scenario = base.clone();
+    scenario.reward = config.reward.into();
+    scenario.gamma = config.agent.gamma;
+    let sim = |message: String| Error::Sim {
+        context: format!("task {:?}", config.task),
+        message,
+    };
+    let plant = scenario.plant().map_err(|e| sim(e.to_string()))?;
+    match plant.agents().len() {
+        1 => Ok(plant),
+        n => Err(sim(format!(
+            "the trainer trains one agent; this plant has {n}"
+        ))),
+    }
+}
+
+/// The end-of-training evaluation's settings must pass firmware-sim's checks (its episode
+/// maximum among them) before the run starts, not after it.
+fn check_eval_episodes(config: &TrainConfig, scenario: &Scenario) -> Result<(), Error> {
+    let eval = EvalConfig {
+        episodes: config.eval_episodes,
+        ..EvalConfig::default()
+    };
+    eval.validate(scenario).map_err(|e| Error::InvalidConfig {
+        what: "eval_episodes".into(),
+        expected: "a count firmware-sim accepts".into(),
+        found: e.to_string(),
+    })
+}
+
+/// A scenario as TOML text (how run folders and checkpoints record the plant).
+pub fn scenario_toml(scenario: &Scenario) -> String {
+    // Plain data with string keys always serialises; fall back to Debug rather than panic.
+    toml::to_string(scenario)
+        .unwrap_or_else(|e| format!("# could not serialise the scenario: {e}\n# {scenario:?}\n"))
+}
+
+/// Distance of a navigation observation (the position) from the goal at the origin.
+fn distance(obs: &[f32]) -> f32 {
+    obs.iter().map(|x| x * x).sum::<f32>().sqrt()
+}
+
+/// How a call to [`run`] ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    /// The episode budget is used up.
+    Finished,
+    /// `on_episode` asked to stop (Ctrl-C); a checkpoint of the last episode was written.
+    Stopped {
+        /// Completed episodes.
+        episode: usize,
+    },
+}
+
+/// Trains until the budget is used, checkpointing every `checkpoint_every` episodes, or until
+/// `on_episode` returns `ControlFlow::Break`, which writes a checkpoint and stops.
+///
+/// A fresh run writes its config, its plant and an episode-0 checkpoint first, so a diverged or
+/// killed run always has a last good state to continue from. On divergence, the metrics of the
+/// completed episodes are written, the checkpoint is left untouched, and `Error::Diverged`
+/// names it.
+pub fn run(
+    trainer: &mut Trainer,
+    run: &RunDir,
+    on_episode: &mut dyn FnMut(&EpisodeRow, &Trainer) -> ControlFlow<()>,
+) -> Result<Outcome, Error> {
+    if trainer.episode == 0 {
+        run.write(folder::CONFIG, trainer.config.to_toml().as_bytes())?;
+        run.write(
+            folder::SCENARIO,
+            scenario_toml(&trainer.scenario).as_bytes(),
+        )?;
+        trainer.save(run)?;
+    }
+    while !trainer.done() {
+        let row = match trainer.run_episode() {
+            Ok(row) => row.clone(),
+            Err(Error::Diverged { episode, what, .. }) => {
+                trainer.save_metrics(run)?;
+                return Err(Error::Diverged {
+                    episode,
+                    what,
+                    checkpoint: Some(run.file(folder::CHECKPOINT)),
+                });
+            }
+            Err(e) => return Err(e),
+        };
+        crash_test::episode_done(trainer.episode);
+        let flow = on_episode(&row, trainer);
+        if flow.is_break() {
+            trainer.save(run)?;
+            return Ok(Outcome::Stopped {
+                episode: trainer.episode,
+            });
+        }
+        if trainer.episode % trainer.config.checkpoint_every == 0 || trainer.done() {
+            trainer.save(run)?;
+        }
+    }
+    Ok(Outcome::Finished)
+}

@@ -1,0 +1,84 @@
+//! What became of a sweep's run: one row of the summary, with the run's evaluation.
+
+use std::fs;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::algorithms::Algo;
+use crate::run::folder;
+use crate::Error;
+
+/// The columns of a finished run's `eval.json` (firmware-sim's report) that the summary shows.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EvalSummary {
+    /// Fraction of test starts that settled within 2 of the centre.
+    pub success_rate: f64,
+    /// Mean settled distance from the centre.
+    pub mean_error: f64,
+    /// Fraction flagged stuck at a margin.
+    pub stuck_rate: f64,
+    /// Fraction that came within 0.25 of the centre.
+    pub near_pass_rate: f64,
+    /// Fraction that held within 0.1 of the centre for 10 steps.
+    pub strict_reach_rate: f64,
+}
+
+pub(super) fn read_eval(dir: &Path) -> Result<EvalSummary, Error> {
+    let path = dir.join(folder::EVAL);
+    let text = fs::read_to_string(&path).map_err(|source| Error::Io {
+        path: path.clone(),
+        source,
+    })?;
+    serde_json::from_str(&text).map_err(|e| Error::ConfigFile {
+        path,
+        message: format!("not a firmware-sim report: {e}"),
+    })
+}
+
+/// How a run of the sweep ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Status {
+    /// Trained (or continued) to the end by this sweep.
+    Finished,
+    /// Already finished before this sweep; untouched.
+    Skipped,
+    /// Its process failed; the row says how.
+    Failed,
+    /// Stopped by Ctrl-C at a checkpoint; the next sweep continues it.
+    Interrupted,
+    /// Not started because the sweep was interrupted first.
+    Pending,
+}
+
+/// One row of the summary.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunRecord {
+    /// The task as the folder names it.
+    pub task: String,
+    /// The algorithm.
+    pub algo: Algo,
+    /// The seed.
+    pub seed: u64,
+    /// How it ended.
+    pub status: Status,
+    /// Wall-clock seconds of this sweep's process for it (none when skipped).
+    pub wall_seconds: Option<f64>,
+    /// The child's exit code (none if killed by a signal or not run).
+    pub exit_code: Option<i32>,
+    /// The signal that killed the child, if one did.
+    pub signal: Option<i32>,
+    /// The last line the child printed (its error, for a failed run).
+    pub last_line: Option<String>,
+    /// The run's evaluation (finished and skipped runs).
+    pub eval: Option<EvalSummary>,
+}
+
+pub(super) fn exit_text(record: &RunRecord) -> String {
+    match (record.exit_code, record.signal) {
+        (Some(code), _) => format!("exit {code}"),
+        (None, Some(signal)) => format!("signal {signal}"),
+        (None, None) => "not run".into(),
+    }
+}

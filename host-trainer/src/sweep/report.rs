@@ -1,0 +1,278 @@
+//! Reporting a sweep: one row per run, then per (task, algo) the mean and a 95 % Student-t
+//! interval over the finished seeds ([`super::stats`]), as Markdown and JSON.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use firmware_sim::files;
+use serde::Serialize;
+
+use super::record::{exit_text, RunRecord, Status};
+use super::stats::{self, MeanInterval};
+use crate::algorithms::Algo;
+use crate::Error;
+
+/// The summary table, in the sweep's output folder.
+pub const SUMMARY_MD: &str = "sweep.md";
+/// The summary as JSON.
+pub const SUMMARY_JSON: &str = "sweep.json";
+
+/// A column of the summary: header, JSON key, value of a run, decimals.
+struct Column {
+    header: &'static str,
+    key: &'static str,
+    value: fn(&RunRecord) -> Option<f64>,
+    decimals: usize,
+}
+
+/// Rates are shown in percent, as `train` and `eval` print them.
+const COLUMNS: [Column; 6] = [
+    Column {
+        header: "wall s",
+        key: "wall_seconds",
+        value: |r| r.wall_seconds,
+        decimals: 1,
+    },
+    Column {
+        header: "success %",
+        key: "success_pct",
+        value: |r| r.eval.map(|e| 100.0 * e.success_rate),
+        decimals: 1,
+    },
+    Column {
+        header: "settled error",
+        key: "mean_error",
+        value: |r| r.eval.map(|e| e.mean_error),
+        decimals: 3,
+    },
+    Column {
+        header: "stuck at margin %",
+        key: "stuck_pct",
+        value: |r| r.eval.map(|e| 100.0 * e.stuck_rate),
+        decimals: 1,
+    },
+    Column {
+        header: "pass within 0.25 %",
+        key: "near_pass_pct",
+        value: |r| r.eval.map(|e| 100.0 * e.near_pass_rate),
+        decimals: 1,
+    },
+    Column {
+        header: "strict reach %",
+        key: "strict_reach_pct",
+        value: |r| r.eval.map(|e| 100.0 * e.strict_reach_rate),
+        decimals: 1,
+    },
+];
+
+/// The (task, algo) groups in first-seen order, each with its runs that have a result.
+fn groups(records: &[RunRecord]) -> Vec<((String, Algo), Vec<&RunRecord>)> {
+    let mut groups: Vec<((String, Algo), Vec<&RunRecord>)> = Vec::new();
+    for r in records {
+        let key = (r.task.clone(), r.algo);
+        let at = match groups.iter().position(|(k, _)| *k == key) {
+            Some(at) => at,
+            None => {
+                groups.push((key, Vec::new()));
+                groups.len() - 1
+            }
+        };
+        if r.eval.is_some() {
+            groups[at].1.push(r);
+        }
+    }
+    groups
+}
+
+fn column_interval(runs: &[&RunRecord], column: &Column) -> Option<MeanInterval> {
+    let values: Vec<f64> = runs.iter().filter_map(|r| (column.value)(r)).collect();
+    stats::mean_interval(&values)
+}
+
+/// The summary as a markdown table of runs, then a table of means with 95 % intervals.
+pub fn markdown(records: &[RunRecord]) -> String {
+    let headers: Vec<&str> = COLUMNS.iter().map(|c| c.header).collect();
+    let mut md = String::from("## Runs\n\n");
+    let _ = writeln!(
+        md,
+        "| task | algo | seed | status | {} | note |",
+        headers.join(" | ")
+    );
+    let _ = writeln!(
+        md,
+        "|---|---|---:|---|{}---|",
+        "---:|".repeat(COLUMNS.len())
+    );
+    for r in records {
+        let cells: Vec<String> = COLUMNS
+            .iter()
+            .map(|c| (c.value)(r).map_or("-".into(), |v| format!("{v:.*}", c.decimals)))
+            .collect();
+        let note = match r.status {
+            Status::Failed | Status::Interrupted => format!(
+                "{}: {}",
+                exit_text(r),
+                r.last_line.as_deref().unwrap_or("no output")
+            ),
+            _ => String::new(),
+        };
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | {} |",
+            r.task,
+            r.algo,
+            r.seed,
+            status_text(r.status),
+            cells.join(" | "),
+            note.replace('|', "\\|")
+        );
+    }
+    md.push_str("\n## Mean ± 95 % confidence interval over the finished seeds\n\n");
+    md.push_str(
+        "Student's t, two-sided, n − 1 degrees of freedom; one seed has no interval (n/a).\n\n",
+    );
+    let _ = writeln!(md, "| task | algo | n | {} |", headers.join(" | "));
+    let _ = writeln!(md, "|---|---|---:|{}", "---:|".repeat(COLUMNS.len()));
+    for ((task, algo), runs) in groups(records) {
+        let cells: Vec<String> = COLUMNS
+            .iter()
+            .map(|c| match column_interval(&runs, c) {
+                None => "-".into(),
+                Some(m) => {
+                    let half = m
+                        .half_width
+                        .map_or("n/a".into(), |h| format!("{h:.*}", c.decimals));
+                    // Wall seconds exist only for runs this sweep ran, not for skipped ones.
+                    let n = if m.n == runs.len() {
+                        String::new()
+                    } else {
+                        format!(" (n={})", m.n)
+                    };
+                    format!("{:.*} ± {half}{n}", c.decimals, m.mean)
+                }
+            })
+            .collect();
+        let _ = writeln!(
+            md,
+            "| {task} | {algo} | {} | {} |",
+            runs.len(),
+            cells.join(" | ")
+        );
+    }
+    md
+}
+
+fn status_text(status: Status) -> &'static str {
+    match status {
+        Status::Finished => "finished",
+        Status::Skipped => "skipped",
+        Status::Failed => "failed",
+        Status::Interrupted => "interrupted",
+        Status::Pending => "not started",
+    }
+}
+
+/// One (task, algo) group's means and intervals in `sweep.json`.
+#[derive(Debug, Serialize)]
+struct GroupJson {
+    task: String,
+    algo: Algo,
+    /// Runs with a result (finished or skipped).
+    n: usize,
+    /// Per column key: `{ "n": .., "mean": .., "half_width": .. }` (`half_width` null for
+    /// n = 1; a column's n is below the group's for wall seconds, which skipped runs lack).
+    columns: serde_json::Map<String, serde_json::Value>,
+}
+
+/// The summary as JSON: `{"runs": [...], "groups": [...], "interval": "..."}`.
+pub fn json(records: &[RunRecord]) -> String {
+    let groups: Vec<GroupJson> = groups(records)
+        .into_iter()
+        .map(|((task, algo), runs)| {
+            let columns = COLUMNS
+                .iter()
+                .filter_map(|c| {
+                    let m = column_interval(&runs, c)?;
+                    let value =
+                        serde_json::json!({ "n": m.n, "mean": m.mean, "half_width": m.half_width });
+                    Some((c.key.to_string(), value))
+                })
+                .collect();
+            GroupJson {
+                task,
+                algo,
+                n: runs.len(),
+                columns,
+            }
+        })
+        .collect();
+    let doc = serde_json::json!({
+        "interval": "95 % two-sided Student's t over the finished seeds, df = n - 1",
+        "runs": records,
+        "groups": groups,
+    });
+    serde_json::to_string_pretty(&doc).unwrap_or_default() + "\n"
+}
+
+/// Writes `sweep.md` and `sweep.json` atomically into `out`.
+pub fn write_summary(out: &Path, records: &[RunRecord]) -> Result<(), Error> {
+    for (name, text) in [
+        (SUMMARY_MD, markdown(records)),
+        (SUMMARY_JSON, json(records)),
+    ] {
+        let path = out.join(name);
+        files::write_atomic(&path, text.as_bytes()).map_err(|source| Error::Io { path, source })?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sweep::record::EvalSummary;
+
+    fn record(seed: u64, status: Status, success: Option<f64>) -> RunRecord {
+        RunRecord {
+            task: "nav-walls".into(),
+            algo: Algo::Dcp,
+            seed,
+            status,
+            wall_seconds: Some(1.0),
+            exit_code: Some(if status == Status::Failed { 1 } else { 0 }),
+            signal: None,
+            last_line: (status == Status::Failed).then(|| "host-trainer: a | b".into()),
+            eval: success.map(|s| EvalSummary {
+                success_rate: s,
+                mean_error: 1.0,
+                stuck_rate: 0.0,
+                near_pass_rate: 0.0,
+                strict_reach_rate: 0.0,
+            }),
+        }
+    }
+
+    #[test]
+    fn the_summary_averages_finished_seeds_only() {
+        let records = [
+            record(0, Status::Finished, Some(0.1)),
+            record(1, Status::Skipped, Some(0.2)),
+            record(2, Status::Finished, Some(0.3)),
+            record(3, Status::Failed, None),
+        ];
+        let md = markdown(&records);
+        assert!(md.contains("| nav-walls | dcp | 3 | failed |"), "{md}");
+        assert!(md.contains("exit 1: host-trainer: a \\| b"), "{md}");
+        // success 10, 20, 30 %: mean 20, s = 10, t(0.975, 2) · 10 / √3 = 24.8.
+        assert!(
+            md.contains("| nav-walls | dcp | 3 | 1.0 ± 0.0 | 20.0 ± 24.8 |"),
+            "{md}"
+        );
+        let one = markdown(&records[..1]);
+        assert!(one.contains("10.0 ± n/a"), "{one}");
+        let doc: serde_json::Value = serde_json::from_str(&json(&records)).expect("json");
+        assert_eq!(doc["runs"].as_array().map(Vec::len), Some(4));
+        assert_eq!(doc["groups"][0]["n"], 3);
+        let half = doc["groups"][0]["columns"]["success_pct"]["half_width"].as_f64();
+        assert!(half.is_some_and(|h| (h - 24.842).abs() < 1e-3), "{half:?}");
+    }
+}
