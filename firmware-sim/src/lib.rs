@@ -38,16 +38,3 @@ pub mod sensor;
 pub mod slots;
 
 pub use error::Error;
-
-// Old paths, kept while the other crates move to the new ones.
-#[doc(hidden)]
-pub use nav::geometry;
-#[doc(hidden)]
-pub use nav::scenario;
-/// Old path of [`nav::test_protocol`] and [`boot`], kept while the other crates move.
-#[doc(hidden)]
-pub mod harness {
-    pub use crate::boot::{boot, boot_or_safe_state, PlantSizes};
-    pub use crate::nav::test_protocol::*;
-    pub use crate::pass::PassOutcome;
-}

@@ -23,10 +23,10 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use firmware_sim::env::Env;
-use firmware_sim::geometry::Vec2;
-use firmware_sim::harness::{evaluate, EvalConfig};
+use firmware_sim::nav::geometry::Vec2;
+use firmware_sim::nav::test_protocol::{evaluate, EvalConfig};
 use firmware_sim::nav::NavEnv;
-use firmware_sim::scenario::Scenario;
+use firmware_sim::nav::scenario::Scenario;
 use policy_core::{Critic, Policy};
 
 type Actor = Policy<2, 48, 3, 2>;

@@ -21,8 +21,9 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
 use firmware_sim::files;
-use firmware_sim::harness::{self, EvalConfig, PlantSizes, Report};
-use firmware_sim::scenario::Scenario;
+use firmware_sim::boot::{self, PlantSizes};
+use firmware_sim::nav::test_protocol::{self, EvalConfig, Report};
+use firmware_sim::nav::scenario::Scenario;
 use host_trainer::algorithms::noise::Noise;
 use host_trainer::algorithms::Algo;
 use host_trainer::blob::export::{self, ImageFormat, SlotTarget};
@@ -661,14 +662,14 @@ fn evaluate(
     episodes: usize,
     seed: u64,
 ) -> Result<Report> {
-    let mut policy = harness::boot(blob, &PlantSizes::of(scenario)?)
+    let mut policy = boot::boot(blob, &PlantSizes::of(scenario)?)
         .with_context(|| format!("{} does not boot", source.display()))?;
     let config = EvalConfig {
         episodes,
         seed,
         ..EvalConfig::default()
     };
-    harness::evaluate_controller(&mut policy, scenario, &config)
+    test_protocol::evaluate_controller(&mut policy, scenario, &config)
         .with_context(|| format!("evaluating the policy on {}", scenario.name))
 }
 

@@ -615,7 +615,7 @@ fn quantised_exports_inspect_and_evaluate() {
 /// without --slot, is a one-line error that writes nothing.
 #[test]
 fn export_writes_flash_slot_images() {
-    use firmware_sim::harness::PlantSizes;
+    use firmware_sim::boot::PlantSizes;
     use firmware_sim::slots::{boot_slots, FIRMWARE_SCRATCH_WIDTH};
     let base = scratch("slot-images");
     assert_ok(&train_smoke(&base, 2, &[]));

@@ -616,10 +616,10 @@ fn a_3x40_network_trains_and_exports() {
     };
     let (trainer, run) = train_to_end(c, &out);
     let blob = trainer.export(&run).expect("export");
-    let report = firmware_sim::harness::evaluate(
+    let report = firmware_sim::nav::test_protocol::evaluate(
         &blob,
         &trainer.scenario,
-        &firmware_sim::harness::EvalConfig {
+        &firmware_sim::nav::test_protocol::EvalConfig {
             episodes: 2,
             ..Default::default()
         },
