@@ -19,11 +19,11 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use firmware_sim::controller::Controller;
 use firmware_sim::boot::{boot, PlantSizes};
+use firmware_sim::controller::Controller;
+use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::test_protocol::{evaluate_controller, EvalConfig};
 use firmware_sim::refine::RefiningPolicy;
-use firmware_sim::nav::scenario::Scenario;
 use host_trainer::run::folder;
 use host_trainer::sweep::stats::mean_interval;
 

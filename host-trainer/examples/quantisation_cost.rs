@@ -16,8 +16,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use firmware_sim::nav::test_protocol::{evaluate, EvalConfig};
 use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::test_protocol::{evaluate, EvalConfig};
 use host_trainer::blob::export::encode;
 use host_trainer::run::folder;
 use host_trainer::sweep::stats::mean_interval;

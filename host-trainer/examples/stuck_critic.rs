@@ -24,9 +24,9 @@ use std::process::ExitCode;
 use anyhow::{bail, Context, Result};
 use firmware_sim::env::Env;
 use firmware_sim::nav::geometry::Vec2;
+use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::test_protocol::{evaluate, EvalConfig};
 use firmware_sim::nav::NavEnv;
-use firmware_sim::nav::scenario::Scenario;
 use policy_core::{Critic, Policy};
 
 type Actor = Policy<2, 48, 3, 2>;

@@ -20,10 +20,10 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
-use firmware_sim::files;
 use firmware_sim::boot::{self, PlantSizes};
-use firmware_sim::nav::test_protocol::{self, EvalConfig, Report};
+use firmware_sim::files;
 use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::test_protocol::{self, EvalConfig, Report};
 use host_trainer::algorithms::noise::Noise;
 use host_trainer::algorithms::Algo;
 use host_trainer::blob::export::{self, ImageFormat, SlotTarget};

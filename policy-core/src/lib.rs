@@ -75,3 +75,13 @@ pub use policy::Policy;
 #[cfg(doctest)]
 #[doc = include_str!("../../README.md")]
 pub struct ReadmeDoctests;
+
+/// The firmware examples of the Cortex-M page, run as doctests like the README's.
+#[cfg(doctest)]
+#[doc = include_str!("../../docs/cortex-m.md")]
+pub struct CortexMPageDoctests;
+
+/// This crate's own front page, run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct CrateReadmeDoctests;

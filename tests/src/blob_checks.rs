@@ -4,8 +4,8 @@
 //! `tests/tests/blob_mutations.rs`, so both harnesses check the same things. Every check
 //! panics with a message that names the broken property.
 
-use firmware_sim::controller::Controller;
 use firmware_sim::boot;
+use firmware_sim::controller::Controller;
 use policy_core::blob::{self, Compiled, Spec, Verified};
 use policy_core::model::{Model, Scratch};
 use policy_core::slot::{self, SlotId};

@@ -5,8 +5,8 @@
 
 use firmware_sim::env::Env;
 use firmware_sim::faults::Faults;
-use firmware_sim::nav::NavEnv;
 use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::NavEnv;
 
 /// Parses `text` as a scenario and checks all properties.
 pub fn check(text: &str) {

@@ -20,8 +20,8 @@ use std::path::Path;
 use std::time::Instant;
 
 use firmware_sim::env::Plant;
-use firmware_sim::nav::test_protocol::EvalConfig;
 use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::test_protocol::EvalConfig;
 use firmware_sim::seed::{self, SimRng};
 use rand_core::Rng as _;
 
