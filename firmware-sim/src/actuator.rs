@@ -7,7 +7,14 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::faults::ActuatorStuck;
+/// From `from_tick` on, actuator dimension `dim` keeps the value it had just before.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ActuatorStuck {
+    /// The stuck dimension.
+    pub dim: usize,
+    /// First tick (0-based) at which it is stuck.
+    pub from_tick: u32,
+}
 
 /// Actuator settings (saturation is always on; the rest is off by default).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]

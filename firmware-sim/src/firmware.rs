@@ -7,12 +7,11 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::actuator::{Actuator, ActuatorModel};
+use crate::actuator::{Actuator, ActuatorModel, ActuatorStuck};
 use crate::controller::Controller;
 use crate::env::BoxSpace;
-use crate::faults::Faults;
 use crate::seed::stream;
-use crate::sensor::{Sensor, SensorModel};
+use crate::sensor::{Dropout, Sensor, SensorModel};
 
 /// Inference time per tick (wall-clock; the only part of a report that is not deterministic).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -67,15 +66,16 @@ impl Firmware {
         space: &BoxSpace,
         sensor: SensorModel,
         actuator: ActuatorModel,
-        faults: &Faults,
+        dropout: Option<Dropout>,
+        stuck: Option<ActuatorStuck>,
         seed: u64,
         index: u64,
     ) -> Self {
         let noise = stream(seed, "sensor-noise", index);
         let drops = stream(seed, "sensor-dropout", index);
         Firmware {
-            sensor: Sensor::new(sensor, faults.dropout, noise, drops),
-            actuator: Actuator::new(&space.low, &space.high, actuator, faults.stuck),
+            sensor: Sensor::new(sensor, dropout, noise, drops),
+            actuator: Actuator::new(&space.low, &space.high, actuator, stuck),
             command: vec![0.0; space.dim()],
             action: vec![0.0; space.dim()],
             high: space.high.clone(),

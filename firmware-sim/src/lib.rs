@@ -11,8 +11,9 @@
 //!   state; [`boot`]: booting a blob against a plant's sizes; [`slots`]: booting from the A/B
 //!   flash slots with the firmware's own rule (policy-core's `slot::choose`); [`refine`]: DCP's
 //!   compare step on the device.
-//! - [`firmware`]: the firmware's side of each tick, around the controller: [`sensor`],
-//!   [`actuator`], and the [`faults`] injected into them; [`mod@pass`]: a run's verdict.
+//! - [`firmware`]: the firmware's side of each tick, around the controller: the [`sensor`]
+//!   (noise, delay, dropouts) and the [`actuator`] (saturation, rate limit, a stuck dimension);
+//!   [`mod@pass`]: a run's verdict.
 //! - [`files`]: atomic output files, output paths checked before work, bounded blob reads;
 //!   [`seed`]: the random streams; [`error`]: the crate's one error type.
 //! - [`nav`]: the navigation plant of experiment 1, its layouts, reference controllers and test
@@ -27,7 +28,6 @@ pub mod boot;
 pub mod controller;
 pub mod env;
 pub mod error;
-pub mod faults;
 pub mod files;
 pub mod firmware;
 pub mod nav;

@@ -2,8 +2,26 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::faults::{Dropout, DropoutMode};
 use crate::seed::{normal, uniform, SimRng};
+
+/// Sensor dropouts: each tick, independently, the reading is lost with `probability`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Dropout {
+    /// Chance per tick, in `[0, 1]`.
+    pub probability: f64,
+    /// What the firmware reads instead.
+    pub mode: DropoutMode,
+}
+
+/// What a lost sensor reading looks like to the firmware.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DropoutMode {
+    /// Every component is NaN.
+    Nan,
+    /// The previous reading, again.
+    Stale,
+}
 
 /// How the sensor distorts the true observation (ideal by default, like the trainer's plant).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]

@@ -2,7 +2,7 @@
 
 use core::fmt;
 
-use crate::blob::format::{Encoding, ModelKind, Shape};
+use crate::format::{Encoding, ModelKind, Shape};
 
 /// Everything that can go wrong when loading or writing a blob.
 ///

@@ -53,6 +53,9 @@ pub mod compare;
 pub mod crc32;
 pub mod critic;
 pub mod error;
+// The format's types (kind, encoding, shape, header): below `error` and `blob`, which both use
+// them; public as `blob::ModelKind` and so on.
+mod format;
 pub mod half;
 pub mod mlp;
 pub mod model;

@@ -5,9 +5,10 @@
 
 use std::sync::OnceLock;
 
-use firmware_sim::faults::{DropoutMode, Faults};
+use firmware_sim::nav::faults::Faults;
 use firmware_sim::nav::scenario::{Scenario, BUILTIN_NAMES};
 use firmware_sim::nav::test_protocol::EvalConfig;
+use firmware_sim::sensor::DropoutMode;
 
 /// Parses `text` as a fault list and checks all properties against the built-in scenarios.
 pub fn check(text: &str) {

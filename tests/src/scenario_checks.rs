@@ -4,7 +4,7 @@
 //! `tests/tests/scenario_mutations.rs`.
 
 use firmware_sim::env::Env;
-use firmware_sim::faults::Faults;
+use firmware_sim::nav::faults::Faults;
 use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::NavEnv;
 

@@ -5,7 +5,7 @@
 //! replaced, doubled or dropped. The text goes through [`tests::fault_checks::check`], the same
 //! properties the `faults` fuzz target checks.
 
-use firmware_sim::faults::Faults;
+use firmware_sim::nav::faults::Faults;
 use proptest::prelude::*;
 use tests::fault_checks;
 

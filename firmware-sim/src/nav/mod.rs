@@ -8,10 +8,13 @@
 //! - [`plant`]: the plant ([`NavEnv`], an [`crate::env::Env`]);
 //! - [`straight`] and [`oracle`]: the reference controllers (the naive one a wall catches, and
 //!   the planner that follows the gaps); [`mod@reference`]: them by name;
+//! - [`faults`]: the faults a test injects (sensor dropouts, a stuck actuator, a wall that
+//!   appears or moves);
 //! - [`test_protocol`]: the firmware loop run against the plant for a set of test starts, scored
 //!   by the margin [`metrics`]; its report as JSON ([`json_report`]) and as a trajectory plot
 //!   ([`svg`]).
 
+pub mod faults;
 pub mod geometry;
 pub mod json_report;
 pub mod metrics;

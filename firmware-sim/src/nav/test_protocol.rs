@@ -44,8 +44,8 @@ use crate::actuator::ActuatorModel;
 use crate::boot::{boot_or_safe_state, check_sizes, PlantSizes};
 use crate::controller::Controller;
 use crate::env::Env;
-use crate::faults::Faults;
 use crate::firmware::{Clock, Firmware, Timing};
+use crate::nav::faults::Faults;
 use crate::pass::PassOutcome;
 use crate::seed::episode_seed;
 use crate::sensor::SensorModel;
@@ -373,7 +373,8 @@ fn run_episode(
         env.action_space(),
         cfg.sensor,
         cfg.actuator,
-        &cfg.faults,
+        cfg.faults.dropout,
+        cfg.faults.stuck,
         cfg.seed,
         index,
     );

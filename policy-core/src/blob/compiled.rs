@@ -3,11 +3,11 @@
 //! path both use (their `load_into`, `from_blob`, `write_blob` and `to_blob` methods are
 //! written once, by [`blob_methods!`]).
 
-use super::format::{Encoding, ModelKind, Shape, Spec};
 use super::params::{check_parameters, values};
 use super::read::{verify, Verified};
 use super::write::{encoded_len, write};
 use crate::error::Error;
+use crate::format::{Encoding, ModelKind, Shape, Spec};
 use crate::mlp::activation::Activation;
 
 /// A model whose shape is fixed at compile time ([`Policy`](crate::Policy),

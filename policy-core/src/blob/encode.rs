@@ -1,10 +1,10 @@
 //! Re-encoding a verified f32 blob into another weight [`Encoding`] (host side).
 
-use super::format::{Encoding, Spec};
 use super::params::{check_parameters, values};
 use super::read::verify;
 use super::write::to_vec_with;
 use crate::error::Error;
+use crate::format::{Encoding, Spec};
 
 /// The blob `bytes` (f32 weights) with its weights stored in `encoding` instead (host side): the
 /// same kind, shape, activation, label, normaliser, bounds, action table and biases; [`write()`](super::write())

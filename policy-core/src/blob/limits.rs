@@ -1,7 +1,7 @@
 //! The sizes the format allows, and the one check of a shape against them.
 
-use super::format::{ModelKind, Shape};
 use crate::error::Error;
+use crate::format::{ModelKind, Shape};
 
 /// The largest observation size a blob may declare.
 pub const MAX_OBSERVATIONS: usize = 1024;

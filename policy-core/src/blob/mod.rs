@@ -19,7 +19,7 @@
 //! [`load_into`] both run; [`load_into`] also checks kind and shape against its type. Nothing
 //! runs, and nothing is written to a slot, unless every check passed.
 //!
-//! The files split it by what each part does, from the bottom up: `format.rs` (the types: kind,
+//! The files split it by what each part does, from the bottom up: the crate's `format.rs` (the types: kind,
 //! encoding, shape, header, layer layout, write spec), `limits.rs` (the sizes allowed and the
 //! shape check), `read.rs` (verifying a blob, version 1 included), `params.rs` (the parameter
 //! rules and the decoded values), `quantise.rs` (f16 and int8 weights), `write.rs` (writing a
@@ -30,23 +30,22 @@
 mod compiled;
 #[cfg(feature = "std")]
 mod encode;
-pub(crate) mod format;
 mod limits;
 mod params;
 mod quantise;
 mod read;
 mod write;
 
+pub use crate::format::{
+    Encoding, Header, LayerLayout, ModelKind, Params, Shape, Spec, CRC_LEN, LABEL_CAPACITY, MAGIC,
+    MAX_BLOB_LEN, MAX_HEADER_LEN, MAX_PAYLOAD_LEN, VERSION, VERSIONS_READ, VERSION_QUANTISED,
+};
 pub(crate) use compiled::blob_methods;
 #[cfg(feature = "std")]
 pub use compiled::to_vec;
 pub use compiled::{blob_len, load_into, write_into, Compiled};
 #[cfg(feature = "std")]
 pub use encode::encode;
-pub use format::{
-    Encoding, Header, LayerLayout, ModelKind, Params, Shape, Spec, CRC_LEN, LABEL_CAPACITY, MAGIC,
-    MAX_BLOB_LEN, MAX_HEADER_LEN, MAX_PAYLOAD_LEN, VERSION, VERSIONS_READ, VERSION_QUANTISED,
-};
 pub use limits::{MAX_ACTIONS, MAX_CHOICES, MAX_DEPTH, MAX_OBSERVATIONS, MAX_WIDTH};
 pub use params::{check_parameters, values};
 pub use read::{payload_values, verify, Verified};

@@ -3,9 +3,9 @@
 //! loader ([`load_into`](crate::blob::load_into)) and `encode` all go through these, so they accept
 //! exactly the same blobs and read the same numbers.
 
-use super::format::{Encoding, Header, LayerLayout, ModelKind};
 use super::read::payload_values;
 use crate::error::Error;
+use crate::format::{Encoding, Header, LayerLayout, ModelKind};
 use crate::half::f16_to_f32;
 use crate::{bounds, normalizer};
 

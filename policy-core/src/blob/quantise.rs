@@ -2,8 +2,8 @@
 //! or int8 (one scale per output, `max |w| / 127`, `q = round(w / scale)`); everything else
 //! stays f32.
 
-use super::format::{Encoding, LayerLayout, ModelKind, Params, Shape, Spec};
 use crate::error::Error;
+use crate::format::{Encoding, LayerLayout, ModelKind, Params, Shape, Spec};
 use crate::half::{f16_to_f32, f32_to_f16};
 
 /// Where parameter `n` (in blob order) lies in a payload.

@@ -5,12 +5,12 @@
 use heapless::String;
 use serde::Deserialize;
 
-use super::format::{
+use crate::crc32::crc32;
+use crate::error::Error;
+use crate::format::{
     padded_header_len, Encoding, Header, ModelKind, Shape, CRC_LEN, LABEL_CAPACITY, MAGIC,
     MAX_PAYLOAD_LEN, VERSION, VERSION_QUANTISED,
 };
-use crate::crc32::crc32;
-use crate::error::Error;
 use crate::mlp::activation::Activation;
 
 /// A header and the payload bytes it describes, after the length and checksum checks.

@@ -3,13 +3,13 @@
 
 use heapless::String;
 
-use super::format::{
-    padded_header_len, Encoding, Header, Params, Spec, CRC_LEN, MAGIC, MAX_HEADER_LEN,
-    MAX_PAYLOAD_LEN,
-};
 use super::quantise::quantise;
 use crate::crc32::crc32;
 use crate::error::Error;
+use crate::format::{
+    padded_header_len, Encoding, Header, Params, Spec, CRC_LEN, MAGIC, MAX_HEADER_LEN,
+    MAX_PAYLOAD_LEN,
+};
 
 impl Spec<'_> {
     fn header(&self) -> Result<Header, Error> {

@@ -1,7 +1,9 @@
 //! The format's type definitions: what a blob says about itself (kind, weight encoding, shape,
-//! header), where a layer lies in a payload, and the [`Spec`] of a blob to write. Pure arithmetic that cannot fail in a way that
-//! needs an [`Error`](crate::error::Error): the reader (`read.rs`) and the limits
-//! (`limits.rs`) check, the writer (`write.rs`) builds.
+//! header), where a layer lies in a payload, and the [`Spec`] of a blob to write. Pure
+//! arithmetic that cannot fail in a way that needs an [`Error`](crate::error::Error): the
+//! reader (`blob/read.rs`) and the limits (`blob/limits.rs`) check, the writer
+//! (`blob/write.rs`) builds. It sits below `error` and `blob`, which both name its types; the
+//! public paths are `blob::ModelKind`, `blob::Shape` and so on.
 
 use heapless::String;
 use serde::{Deserialize, Serialize};

@@ -1,5 +1,6 @@
-//! Fault injection for the firmware loop: sensor dropouts, a stuck actuator, a wall that
-//! appears or moves during the episode.
+//! The faults of navigation's test protocol: sensor dropouts and a stuck actuator (the firmware
+//! loop's own faults, defined with the sensor and the actuator) and a wall that appears or moves
+//! during the episode (the navigation plant's).
 //!
 //! Faults are written as a comma-separated list (the CLI's `--faults`):
 //!
@@ -16,7 +17,8 @@
 //! rather than the last one silently winning.
 //!
 //! ```
-//! use firmware_sim::faults::{DropoutMode, Faults};
+//! use firmware_sim::nav::faults::Faults;
+//! use firmware_sim::sensor::DropoutMode;
 //! let f: Faults = "dropout-nan:0.1,stuck:0@50,wall:20@-2/0/2/0".parse().unwrap();
 //! assert_eq!(f.dropout.unwrap().mode, DropoutMode::Nan);
 //! assert_eq!(f.stuck.unwrap().from_tick, 50);
@@ -30,7 +32,9 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
+use crate::actuator::ActuatorStuck;
 use crate::nav::scenario::{Scenario, Wall};
+use crate::sensor::{Dropout, DropoutMode};
 use crate::Error;
 
 /// Every fault of one evaluation (none by default).
@@ -42,34 +46,6 @@ pub struct Faults {
     pub stuck: Option<ActuatorStuck>,
     /// A wall that appears or moves.
     pub wall: Option<WallChange>,
-}
-
-/// Sensor dropouts: each tick, independently, the reading is lost with `probability`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Dropout {
-    /// Chance per tick, in `[0, 1]`.
-    pub probability: f64,
-    /// What the firmware reads instead.
-    pub mode: DropoutMode,
-}
-
-/// What a lost sensor reading looks like to the firmware.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum DropoutMode {
-    /// Every component is NaN.
-    Nan,
-    /// The previous reading, again.
-    Stale,
-}
-
-/// From `from_tick` on, actuator dimension `dim` keeps the value it had just before.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct ActuatorStuck {
-    /// The stuck dimension.
-    pub dim: usize,
-    /// First tick (0-based) at which it is stuck.
-    pub from_tick: u32,
 }
 
 /// At `at_tick`, `wall` appears (or replaces the scenario's wall number `replaces`).
@@ -87,7 +63,7 @@ impl Faults {
     /// Checks the faults against the plant: probabilities, dimensions, wall positions.
     ///
     /// ```
-    /// use firmware_sim::faults::Faults;
+    /// use firmware_sim::nav::faults::Faults;
     /// use firmware_sim::nav::scenario::Scenario;
     /// let s = Scenario::builtin("nav-walls").unwrap();
     /// let ok: Faults = "wall:10@-1/-3/1/-3@8".parse().unwrap();
