@@ -74,9 +74,25 @@ pub fn boot<'a>(blob: &'a [u8], plant: &PlantSizes) -> Result<BlobPolicy<'a>, Er
     let fits = policy
         .model()
         .expect_sizes(plant.observations, plant.actions);
-    fits.map_err(|e| match e {
-        // The plant's sizes are what did not fit: said as firmware-sim says it for any
-        // controller ([`check_sizes`]), not as a blob rejected on its own.
+    fits.map_err(plant_error)?;
+    Ok(policy)
+}
+
+/// Checks any controller (a blob, a reference controller, the trainer's own) against the
+/// plant's declared sizes, with policy-core's one size check; a booted blob was checked by it
+/// already ([`boot`]).
+pub(crate) fn check_sizes(c: &dyn Controller, plant: &PlantSizes) -> Result<(), Error> {
+    policy_core::model::check_sizes(
+        (plant.observations, plant.actions),
+        (c.observations(), c.actions()),
+    )
+    .map_err(plant_error)
+}
+
+/// The plant's sizes are what did not fit: said as firmware-sim says it for any controller,
+/// not as a blob rejected on its own.
+fn plant_error(e: policy_core::Error) -> Error {
+    match e {
         policy_core::Error::SizeMismatch {
             what,
             expected,
@@ -87,24 +103,5 @@ pub fn boot<'a>(blob: &'a [u8], plant: &PlantSizes) -> Result<BlobPolicy<'a>, Er
             found,
         },
         other => Error::from(other),
-    })?;
-    Ok(policy)
-}
-
-/// Checks any controller (a blob, a reference controller, the trainer's own) against the
-/// plant's declared sizes; a booted blob was checked by policy-core already ([`boot`]).
-pub(crate) fn check_sizes(c: &dyn Controller, plant: &PlantSizes) -> Result<(), Error> {
-    for (what, expected, found) in [
-        ("observation size", plant.observations, c.observations()),
-        ("action size", plant.actions, c.actions()),
-    ] {
-        if expected != found {
-            return Err(Error::SizeMismatch {
-                what,
-                expected,
-                found,
-            });
-        }
     }
-    Ok(())
 }

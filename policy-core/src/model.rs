@@ -191,19 +191,7 @@ impl<'a> Model<'a> {
     /// ```
     pub fn expect_sizes(&self, observations: usize, actions: usize) -> Result<(), Error> {
         let l = &self.layout;
-        for (what, expected, found) in [
-            ("observation size", observations, l.observations),
-            ("action size", actions, l.actions),
-        ] {
-            if expected != found {
-                return Err(Error::SizeMismatch {
-                    what,
-                    expected,
-                    found,
-                });
-            }
-        }
-        Ok(())
+        check_sizes((observations, actions), (l.observations, l.actions))
     }
 
     /// Every parameter, in blob order, decoded: an f16 weight as its exact f32 value, an int8
@@ -448,4 +436,30 @@ impl<'a> Floats<'a> {
     fn first(self) -> Option<f32> {
         self.iter().next()
     }
+}
+
+/// The one size check: the `(observations, actions)` a firmware or plant `expected` against the
+/// sizes a controller has (`found`). [`Model::expect_sizes`] asks it for a blob; a host whose
+/// controllers are not all blobs asks it directly.
+///
+/// ```
+/// use policy_core::{model::check_sizes, Error};
+/// assert_eq!(check_sizes((2, 2), (2, 2)), Ok(()));
+/// let err = check_sizes((2, 2), (3, 2)).unwrap_err();
+/// assert_eq!(err, Error::SizeMismatch { what: "observation size", expected: 2, found: 3 });
+/// ```
+pub fn check_sizes(expected: (usize, usize), found: (usize, usize)) -> Result<(), Error> {
+    for (what, expected, found) in [
+        ("observation size", expected.0, found.0),
+        ("action size", expected.1, found.1),
+    ] {
+        if expected != found {
+            return Err(Error::SizeMismatch {
+                what,
+                expected,
+                found,
+            });
+        }
+    }
+    Ok(())
 }
