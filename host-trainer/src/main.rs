@@ -233,12 +233,7 @@ fn main() -> ExitCode {
             return ExitCode::SUCCESS;
         }
         Err(e) => {
-            let text = e.to_string();
-            let first = text.lines().next().unwrap_or("invalid arguments");
-            eprintln!(
-                "host-trainer: {} (see --help)",
-                first.trim_start_matches("error: ")
-            );
+            eprintln!("host-trainer: {} (see --help)", usage_error(&e));
             return ExitCode::from(2);
         }
     };
@@ -261,6 +256,25 @@ fn main() -> ExitCode {
             eprintln!("host-trainer: {e:#}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// A command-line error as one line: clap's message up to its usage block, folded, so the
+/// names of missing arguments (listed on the lines after the first) and the accepted values
+/// are kept, as firmware-sim prints them.
+fn usage_error(e: &clap::Error) -> String {
+    let text = e.to_string();
+    let head: Vec<&str> = text
+        .lines()
+        .take_while(|l| !l.trim().is_empty())
+        .map(str::trim)
+        .collect();
+    let line = head.join(" ");
+    let line = line.trim_start_matches("error: ");
+    if line.is_empty() {
+        "invalid arguments".to_string()
+    } else {
+        line.to_string()
     }
 }
 

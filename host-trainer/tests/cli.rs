@@ -707,3 +707,33 @@ fn export_writes_flash_slot_images() {
     assert_eq!(entries(&run), before, "no new file");
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+#[test]
+fn usage_errors_name_the_missing_arguments_and_the_accepted_values() {
+    let base = scratch("usage-errors");
+    for (args, needles) in [
+        (
+            vec![
+                "export",
+                "--run",
+                s(&base),
+                "--image",
+                "bin",
+                "--sequence",
+                "1",
+            ],
+            vec!["--slot"],
+        ),
+        (vec!["sweep", "--seeds", "0"], vec!["--out"]),
+        (
+            vec!["export", "--run", s(&base), "--image", "elf"],
+            vec!["elf", "bin", "hex"],
+        ),
+        (vec!["train", "--algo", "foo"], vec!["foo", "dcp", "ppo"]),
+    ] {
+        let out = host_trainer(&args);
+        assert_one_line_error(&out, &needles);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+    }
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
