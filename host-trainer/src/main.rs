@@ -556,6 +556,16 @@ fn eval_command(args: EvalArgs) -> Result<()> {
 }
 
 fn export_command(args: ExportArgs) -> Result<()> {
+    // Without a checkpoint there is no trained policy: exporting the recorded config's freshly
+    // initialised networks would write an untrained policy under the run's name.
+    let run = RunDir::open(&args.run)?;
+    if !run.file(folder::CHECKPOINT).exists() {
+        anyhow::bail!(
+            "{} has no checkpoint: nothing to export (train it, or continue it with train --resume {})",
+            run.path().display(),
+            run.path().display()
+        );
+    }
     let (trainer, run) = resume(&args.run, None)?;
     let name = folder::policy_file(args.encoding);
     let f32 = trainer.policy_blob(&trainer.config.blob_label())?;

@@ -737,3 +737,18 @@ fn usage_errors_name_the_missing_arguments_and_the_accepted_values() {
     }
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+/// A run folder killed before its first checkpoint holds only its config: `export` wrote the
+/// config's untrained networks as the run's policy and exited 0.
+#[test]
+fn export_of_a_run_without_a_checkpoint_is_refused() {
+    let base = scratch("export-no-checkpoint");
+    let run = base.join("run");
+    std::fs::create_dir_all(&run).expect("run folder");
+    let config = smoke_config_file(&base, 2);
+    std::fs::copy(&config, run.join("config.toml")).expect("config");
+    let out = host_trainer(&["export", "--run", s(&run)]);
+    assert_one_line_error(&out, &["no checkpoint", "nothing to export"]);
+    assert_eq!(entries(&run), ["config.toml"]);
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
