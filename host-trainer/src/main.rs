@@ -457,7 +457,7 @@ fn restart(run: &RunDir, episodes: Option<usize>) -> Result<Trainer> {
     // config, and the task it names is then the plant (nothing has trained on it yet).
     let scenario_path = run.file(folder::SCENARIO);
     let scenario = if scenario_path.exists() {
-        Scenario::load(&scenario_path)
+        trainer::scenario_file(&scenario_path)
             .with_context(|| format!("the recorded plant of {}", run.path().display()))?
     } else {
         trainer::scenario(&config.task)?

@@ -752,3 +752,35 @@ fn export_of_a_run_without_a_checkpoint_is_refused() {
     assert_eq!(entries(&run), ["config.toml"]);
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+/// `--config` and `--task` files were read whole: `/dev/zero` grew the trainer (and a sweep)
+/// to gigabytes before anything was said. A file past the limit, or an endless one, is refused.
+#[test]
+fn endless_or_huge_config_and_task_files_are_refused_in_one_line() {
+    let base = scratch("huge-inputs");
+    let huge = base.join("huge.toml");
+    let file = std::fs::File::create(&huge).expect("huge file");
+    file.set_len(64 << 20).expect("sparse 64 MiB");
+    let out_dir = base.join("out");
+    std::fs::create_dir_all(&out_dir).expect("out");
+    for input in [s(&huge), "/dev/zero"] {
+        for args in [
+            vec!["train", "--config", input, "--out", s(&out_dir)],
+            vec!["train", "--task", input, "--out", s(&out_dir)],
+            vec![
+                "sweep",
+                "--config",
+                input,
+                "--seeds",
+                "1",
+                "--out",
+                s(&out_dir),
+            ],
+        ] {
+            let out = host_trainer(&args);
+            assert_one_line_error(&out, &["longer than 1 MiB"]);
+        }
+    }
+    assert!(entries(&out_dir).is_empty(), "{:?}", entries(&out_dir));
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}

@@ -38,8 +38,23 @@ use crate::Error;
 
 /// The plant of a task: a built-in scenario name or a scenario file.
 pub fn scenario(task: &str) -> Result<Scenario, Error> {
-    Scenario::resolve(task).map_err(|e| Error::Sim {
+    let sim = |e: firmware_sim::Error| Error::Sim {
         context: format!("task {task:?}"),
+        message: e.to_string(),
+    };
+    if Scenario::builtin(task).is_none() && std::path::Path::new(task).exists() {
+        // A scenario file is read through the one bounded reader, then parsed.
+        return scenario_file(std::path::Path::new(task));
+    }
+    Scenario::resolve(task).map_err(sim)
+}
+
+/// A scenario file (a task, or a run's recorded plant), read with the bounded
+/// [`read_text`](crate::run::config::read_text).
+pub fn scenario_file(path: &std::path::Path) -> Result<Scenario, Error> {
+    let text = crate::run::config::read_text(path)?;
+    Scenario::from_toml_str(&text).map_err(|e| Error::Sim {
+        context: format!("scenario {}", path.display()),
         message: e.to_string(),
     })
 }
