@@ -784,3 +784,38 @@ fn endless_or_huge_config_and_task_files_are_refused_in_one_line() {
     assert!(entries(&out_dir).is_empty(), "{:?}", entries(&out_dir));
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+/// `--image hex` at 0xFFFFFFFF said the slot had 1 byte while `--image bin` at the same address
+/// exited 0, and an unaligned slot address was accepted although the payload's alignment depends
+/// on it. Both kinds go through one check, and nothing is written.
+#[test]
+fn slot_addresses_are_checked_the_same_way_for_bin_and_hex() {
+    let base = scratch("slot-address");
+    assert_ok(&train_smoke(&base, 1, &[]));
+    let run = base.join("nav-walls__dcp__3");
+    let before = entries(&run);
+    for image in ["bin", "hex"] {
+        for (address, needle) in [
+            ("0xFFFFFFFF", "multiple of 4"),
+            ("0xFFFFFFF0", "room for"),
+            ("0x40001", "multiple of 4"),
+        ] {
+            let out = host_trainer(&[
+                "export",
+                "--run",
+                s(&run),
+                "--image",
+                image,
+                "--slot",
+                "a",
+                "--sequence",
+                "1",
+                "--address",
+                address,
+            ]);
+            assert_one_line_error(&out, &[needle]);
+        }
+    }
+    assert_eq!(entries(&run), before);
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
