@@ -433,7 +433,14 @@ fn resume(dir: &Path, episodes: Option<usize>) -> Result<(Trainer, RunDir)> {
     let run = RunDir::open(dir)?;
     let path = run.file(folder::CHECKPOINT);
     let trainer = if path.exists() {
-        Trainer::resume(Checkpoint::load(&path)?, episodes, &path)?
+        let trainer = Trainer::resume(Checkpoint::load(&path)?, episodes, &path)?;
+        if episodes.is_some() {
+            // The new budget is the run's: recorded in its checkpoint and its config.toml, so a
+            // sweep sees the run's real budget and a later --resume keeps it.
+            trainer.save(&run)?;
+            run.write(folder::CONFIG, trainer.config.to_toml().as_bytes())?;
+        }
+        trainer
     } else {
         restart(&run, episodes)?
     };

@@ -819,3 +819,33 @@ fn slot_addresses_are_checked_the_same_way_for_bin_and_hex() {
     assert_eq!(entries(&run), before);
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+/// `train --resume R --episodes N` below the checkpoint's episode exited 0 as "trained", and
+/// above it left `config.toml` at the old budget, so a sweep of the old budget counted the
+/// longer run as its own. A lower budget is refused; a higher one is recorded, and the sweep
+/// sees it.
+#[test]
+fn resume_with_episodes_records_the_new_budget_and_refuses_a_smaller_one() {
+    let base = scratch("resume-budget");
+    assert_ok(&train_smoke(&base, 2, &[]));
+    let run = base.join("nav-walls__dcp__3");
+    let out = host_trainer(&["train", "--resume", s(&run), "--episodes", "1", "--quiet"]);
+    assert_one_line_error(&out, &["--episodes", "at least the 2 episodes"]);
+    let out = host_trainer(&["train", "--resume", s(&run), "--episodes", "3", "--quiet"]);
+    assert_ok(&out);
+    let recorded = std::fs::read_to_string(run.join("config.toml")).expect("config");
+    assert!(recorded.contains("episodes = 3"), "{recorded}");
+    let config = smoke_config_file(&base, 2);
+    let out = host_trainer(&[
+        "sweep",
+        "--config",
+        s(&config),
+        "--seeds",
+        "3",
+        "--out",
+        s(&base),
+        "--quiet",
+    ]);
+    assert_one_line_error(&out, &["episodes = 3 recorded, 2 in the sweep"]);
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}

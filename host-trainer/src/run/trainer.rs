@@ -122,6 +122,18 @@ impl Trainer {
         let mut config: TrainConfig =
             toml::from_str(&checkpoint.config_toml).map_err(|e| bad(one_line(&e.to_string())))?;
         if let Some(n) = episodes {
+            // The budget can grow, not shrink below what is trained: a smaller one would mark
+            // the run finished with more episodes than its budget says.
+            if n < checkpoint.episode {
+                return Err(Error::invalid(
+                    "--episodes",
+                    format!(
+                        "at least the {} episodes the checkpoint has trained",
+                        checkpoint.episode
+                    ),
+                    n,
+                ));
+            }
             config.episodes = n;
         }
         config.validate()?;
