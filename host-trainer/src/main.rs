@@ -377,6 +377,7 @@ fn fresh(args: TrainArgs) -> Result<(Trainer, RunDir)> {
         None => TrainConfig::default(),
     };
     apply_flags(&mut config, &args);
+    check_flags_used(config.algo, &args)?;
     let trainer = Trainer::new(config)?;
     let out = match args.out {
         Some(out) => out,
@@ -425,6 +426,28 @@ fn apply_flags(config: &mut TrainConfig, args: &TrainArgs) {
     if let Some(v) = args.seed {
         config.seed = v;
     }
+}
+
+/// A flag the run's algorithm does not read would be recorded in `config.toml` and change
+/// nothing: it is refused, naming the algorithms that use it.
+fn check_flags_used(algo: Algo, args: &TrainArgs) -> Result<()> {
+    use Algo::{Dcp, Ddpg, Td3};
+    let flags: [(&str, bool, &[Algo]); 4] = [
+        ("--t", args.t.is_some(), &[Dcp]),
+        ("--sigma", args.sigma.is_some(), &[Dcp, Ddpg, Td3]),
+        ("--noise", args.noise.is_some(), &[Dcp, Ddpg, Td3]),
+        ("--dropout", args.dropout.is_some(), &[Dcp, Ddpg, Td3]),
+    ];
+    for (flag, given, users) in flags {
+        if given && !users.contains(&algo) {
+            let names: Vec<String> = users.iter().map(Algo::to_string).collect();
+            anyhow::bail!(
+                "{flag} is not used by {algo}, only by {}: remove it or choose one of those with --algo",
+                names.join(", ")
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Continues a run from its folder alone. A run killed before its first checkpoint starts

@@ -849,3 +849,46 @@ fn resume_with_episodes_records_the_new_budget_and_refuses_a_smaller_one() {
     assert_one_line_error(&out, &["episodes = 3 recorded, 2 in the sweep"]);
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+/// `--algo dqn|ppo` with `--sigma`, `--noise`, `--t` or `--dropout`, and `--algo ddpg --t`,
+/// were recorded in `config.toml` and changed nothing. A flag the algorithm ignores is refused,
+/// naming the algorithms that use it, and nothing is written.
+#[test]
+fn flags_the_algorithm_does_not_use_are_refused() {
+    let base = scratch("unused-flags");
+    for algo in ["dqn", "ppo"] {
+        for (flag, value, users) in [
+            ("--sigma", "0.9", "dcp, ddpg, td3"),
+            ("--noise", "ou", "dcp, ddpg, td3"),
+            ("--t", "3", "dcp"),
+            ("--dropout", "0.5", "dcp, ddpg, td3"),
+        ] {
+            let out = host_trainer(&[
+                "train",
+                "--algo",
+                algo,
+                flag,
+                value,
+                "--out",
+                s(&base),
+                "--episodes",
+                "1",
+            ]);
+            assert_one_line_error(&out, &[flag, algo, users]);
+        }
+    }
+    let out = host_trainer(&[
+        "train",
+        "--algo",
+        "ddpg",
+        "--t",
+        "100000",
+        "--out",
+        s(&base),
+        "--episodes",
+        "1",
+    ]);
+    assert_one_line_error(&out, &["--t", "ddpg", "only by dcp"]);
+    assert!(entries(&base).is_empty(), "{:?}", entries(&base));
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
