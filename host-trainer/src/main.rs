@@ -32,6 +32,7 @@ use host_trainer::nn::hidden::Hidden;
 use host_trainer::run::checkpoint::Checkpoint;
 use host_trainer::run::config::{RewardKind, TrainConfig};
 use host_trainer::run::folder::{self, RunDir};
+use host_trainer::run::lock::{self, FolderLock};
 use host_trainer::run::progress;
 use host_trainer::run::trainer::{self, Outcome, Trainer};
 use host_trainer::sweep::plan::{self, Seeds};
@@ -321,7 +322,7 @@ fn set_ctrl_c_handler(handler: fn()) {
 
 fn train_command(args: TrainArgs) -> Result<ExitCode> {
     let quiet = args.quiet;
-    let (mut trainer, run) = match &args.resume {
+    let (mut trainer, run, _lock) = match &args.resume {
         Some(dir) => resume(dir, args.episodes)?,
         None => fresh(args)?,
     };
@@ -371,7 +372,7 @@ fn train_command(args: TrainArgs) -> Result<ExitCode> {
 
 /// A new run: defaults, then the config file, then flags; nothing is written until the
 /// configuration is valid and the trainer is built.
-fn fresh(args: TrainArgs) -> Result<(Trainer, RunDir)> {
+fn fresh(args: TrainArgs) -> Result<(Trainer, RunDir, FolderLock)> {
     let mut config = match &args.config {
         Some(path) => TrainConfig::from_file(path)?,
         None => TrainConfig::default(),
@@ -389,7 +390,8 @@ fn fresh(args: TrainArgs) -> Result<(Trainer, RunDir)> {
         }
     };
     let run = RunDir::create(&out, &trainer.config.run_name())?;
-    Ok((trainer, run))
+    let lock = lock::acquire(run.path())?;
+    Ok((trainer, run, lock))
 }
 
 fn apply_flags(config: &mut TrainConfig, args: &TrainArgs) {
@@ -452,8 +454,10 @@ fn check_flags_used(algo: Algo, args: &TrainArgs) -> Result<()> {
 
 /// Continues a run from its folder alone. A run killed before its first checkpoint starts
 /// again from its recorded config and plant (the result is the same: one seed drives it all).
-fn resume(dir: &Path, episodes: Option<usize>) -> Result<(Trainer, RunDir)> {
+fn resume(dir: &Path, episodes: Option<usize>) -> Result<(Trainer, RunDir, FolderLock)> {
     let run = RunDir::open(dir)?;
+    // Held until the command ends: a second trainer, export or sweep child is refused.
+    let lock = lock::acquire(run.path())?;
     let path = run.file(folder::CHECKPOINT);
     let trainer = if path.exists() {
         let trainer = Trainer::resume(Checkpoint::load(&path)?, episodes, &path)?;
@@ -468,7 +472,7 @@ fn resume(dir: &Path, episodes: Option<usize>) -> Result<(Trainer, RunDir)> {
         restart(&run, episodes)?
     };
     note_changed_plant(&trainer);
-    Ok((trainer, run))
+    Ok((trainer, run, lock))
 }
 
 fn restart(run: &RunDir, episodes: Option<usize>) -> Result<Trainer> {
@@ -531,6 +535,13 @@ fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
             algos.push(algo);
         }
     }
+    // One sweep per folder: a second one would resume the first one's runs under it. (A
+    // missing folder is reported by the plan.)
+    let _lock = if args.out.is_dir() {
+        Some(lock::acquire(&args.out)?)
+    } else {
+        None
+    };
     let plan = plan::runs(&base, &algos, &args.seeds.0, &args.out)?;
     let jobs = match args.jobs {
         Some(n) => n as usize,
@@ -596,7 +607,7 @@ fn export_command(args: ExportArgs) -> Result<()> {
             run.path().display()
         );
     }
-    let (trainer, run) = resume(&args.run, None)?;
+    let (trainer, run, _lock) = resume(&args.run, None)?;
     let name = folder::policy_file(args.encoding);
     let f32 = trainer.policy_blob(&trainer.config.blob_label())?;
     let policy = match args.encoding {

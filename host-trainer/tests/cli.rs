@@ -892,3 +892,49 @@ fn flags_the_algorithm_does_not_use_are_refused() {
     assert!(entries(&base).is_empty(), "{:?}", entries(&base));
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+/// Two sweeps on one `--out` both ran, marking each other's runs failed or resuming runs the
+/// other was still training; a trainer could start in a folder another was writing. A folder
+/// has one writer: a second is refused naming the holder's pid, and nothing is touched.
+#[test]
+fn a_second_writer_of_a_locked_sweep_or_run_folder_is_refused() {
+    let base = scratch("folder-lock");
+    assert_ok(&train_smoke(&base, 1, &[]));
+    let run = base.join("nav-walls__dcp__3");
+    let config = smoke_config_file(&base, 1);
+    let before = std::fs::read(run.join("checkpoint.postcard")).expect("checkpoint");
+    let pid = std::process::id().to_string();
+    {
+        // This test process stands for a running sweep, then for a running trainer.
+        let _sweep = host_trainer::run::lock::acquire(&base).expect("lock the sweep folder");
+        let out = host_trainer(&[
+            "sweep",
+            "--config",
+            s(&config),
+            "--seeds",
+            "3",
+            "--out",
+            s(&base),
+            "--quiet",
+        ]);
+        assert_one_line_error(&out, &["in use by host-trainer process", &pid]);
+    }
+    {
+        let _trainer = host_trainer::run::lock::acquire(&run).expect("lock the run folder");
+        for args in [
+            vec!["train", "--resume", s(&run), "--episodes", "2", "--quiet"],
+            vec!["export", "--run", s(&run)],
+        ] {
+            let out = host_trainer(&args);
+            assert_one_line_error(&out, &["in use by host-trainer process", &pid]);
+        }
+    }
+    assert_eq!(
+        std::fs::read(run.join("checkpoint.postcard")).expect("kept"),
+        before
+    );
+    assert!(!base.join("sweep.md").exists());
+    // Released (as when its holder dies), the lock is taken over.
+    assert_ok(&host_trainer(&["export", "--run", s(&run)]));
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
