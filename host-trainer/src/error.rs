@@ -63,6 +63,13 @@ pub enum Error {
         /// The first setting that differs, e.g. `episodes = 4 recorded, 6 in the sweep`.
         difference: String,
     },
+    /// Another process writes into the folder (it holds the folder's lock).
+    Locked {
+        /// The run or sweep folder.
+        path: PathBuf,
+        /// Who holds it, e.g. "host-trainer process 4242".
+        holder: String,
+    },
     /// A checkpoint could not be encoded or decoded.
     Checkpoint {
         /// The file.
@@ -122,6 +129,11 @@ impl fmt::Display for Error {
             Error::RunDiffers { path, difference } => write!(
                 f,
                 "{} holds a run of other settings than this sweep's ({difference}); sweep into another --out, or move the folder away",
+                path.display()
+            ),
+            Error::Locked { path, holder } => write!(
+                f,
+                "{} is in use by {holder}: one train, export or sweep writes a folder at a time; wait for it or stop it",
                 path.display()
             ),
             Error::Checkpoint { path, message } => {

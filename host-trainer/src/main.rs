@@ -32,6 +32,7 @@ use host_trainer::nn::hidden::Hidden;
 use host_trainer::run::checkpoint::Checkpoint;
 use host_trainer::run::config::{RewardKind, TrainConfig};
 use host_trainer::run::folder::{self, RunDir};
+use host_trainer::run::lock::{self, FolderLock};
 use host_trainer::run::progress;
 use host_trainer::run::trainer::{self, Outcome, Trainer};
 use host_trainer::sweep::plan::{self, Seeds};
@@ -233,12 +234,7 @@ fn main() -> ExitCode {
             return ExitCode::SUCCESS;
         }
         Err(e) => {
-            let text = e.to_string();
-            let first = text.lines().next().unwrap_or("invalid arguments");
-            eprintln!(
-                "host-trainer: {} (see --help)",
-                first.trim_start_matches("error: ")
-            );
+            eprintln!("host-trainer: {} (see --help)", usage_error(&e));
             return ExitCode::from(2);
         }
     };
@@ -261,6 +257,25 @@ fn main() -> ExitCode {
             eprintln!("host-trainer: {e:#}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// A command-line error as one line: clap's message up to its usage block, folded, so the
+/// names of missing arguments (listed on the lines after the first) and the accepted values
+/// are kept, as firmware-sim prints them.
+fn usage_error(e: &clap::Error) -> String {
+    let text = e.to_string();
+    let head: Vec<&str> = text
+        .lines()
+        .take_while(|l| !l.trim().is_empty())
+        .map(str::trim)
+        .collect();
+    let line = head.join(" ");
+    let line = line.trim_start_matches("error: ");
+    if line.is_empty() {
+        "invalid arguments".to_string()
+    } else {
+        line.to_string()
     }
 }
 
@@ -307,7 +322,7 @@ fn set_ctrl_c_handler(handler: fn()) {
 
 fn train_command(args: TrainArgs) -> Result<ExitCode> {
     let quiet = args.quiet;
-    let (mut trainer, run) = match &args.resume {
+    let (mut trainer, run, _lock) = match &args.resume {
         Some(dir) => resume(dir, args.episodes)?,
         None => fresh(args)?,
     };
@@ -357,12 +372,13 @@ fn train_command(args: TrainArgs) -> Result<ExitCode> {
 
 /// A new run: defaults, then the config file, then flags; nothing is written until the
 /// configuration is valid and the trainer is built.
-fn fresh(args: TrainArgs) -> Result<(Trainer, RunDir)> {
+fn fresh(args: TrainArgs) -> Result<(Trainer, RunDir, FolderLock)> {
     let mut config = match &args.config {
         Some(path) => TrainConfig::from_file(path)?,
         None => TrainConfig::default(),
     };
     apply_flags(&mut config, &args);
+    check_flags_used(config.algo, &args)?;
     let trainer = Trainer::new(config)?;
     let out = match args.out {
         Some(out) => out,
@@ -374,7 +390,8 @@ fn fresh(args: TrainArgs) -> Result<(Trainer, RunDir)> {
         }
     };
     let run = RunDir::create(&out, &trainer.config.run_name())?;
-    Ok((trainer, run))
+    let lock = lock::acquire(run.path())?;
+    Ok((trainer, run, lock))
 }
 
 fn apply_flags(config: &mut TrainConfig, args: &TrainArgs) {
@@ -413,18 +430,49 @@ fn apply_flags(config: &mut TrainConfig, args: &TrainArgs) {
     }
 }
 
+/// A flag the run's algorithm does not read would be recorded in `config.toml` and change
+/// nothing: it is refused, naming the algorithms that use it.
+fn check_flags_used(algo: Algo, args: &TrainArgs) -> Result<()> {
+    use Algo::{Dcp, Ddpg, Td3};
+    let flags: [(&str, bool, &[Algo]); 4] = [
+        ("--t", args.t.is_some(), &[Dcp]),
+        ("--sigma", args.sigma.is_some(), &[Dcp, Ddpg, Td3]),
+        ("--noise", args.noise.is_some(), &[Dcp, Ddpg, Td3]),
+        ("--dropout", args.dropout.is_some(), &[Dcp, Ddpg, Td3]),
+    ];
+    for (flag, given, users) in flags {
+        if given && !users.contains(&algo) {
+            let names: Vec<String> = users.iter().map(Algo::to_string).collect();
+            anyhow::bail!(
+                "{flag} is not used by {algo}, only by {}: remove it or choose one of those with --algo",
+                names.join(", ")
+            );
+        }
+    }
+    Ok(())
+}
+
 /// Continues a run from its folder alone. A run killed before its first checkpoint starts
 /// again from its recorded config and plant (the result is the same: one seed drives it all).
-fn resume(dir: &Path, episodes: Option<usize>) -> Result<(Trainer, RunDir)> {
+fn resume(dir: &Path, episodes: Option<usize>) -> Result<(Trainer, RunDir, FolderLock)> {
     let run = RunDir::open(dir)?;
+    // Held until the command ends: a second trainer, export or sweep child is refused.
+    let lock = lock::acquire(run.path())?;
     let path = run.file(folder::CHECKPOINT);
     let trainer = if path.exists() {
-        Trainer::resume(Checkpoint::load(&path)?, episodes, &path)?
+        let trainer = Trainer::resume(Checkpoint::load(&path)?, episodes, &path)?;
+        if episodes.is_some() {
+            // The new budget is the run's: recorded in its checkpoint and its config.toml, so a
+            // sweep sees the run's real budget and a later --resume keeps it.
+            trainer.save(&run)?;
+            run.write(folder::CONFIG, trainer.config.to_toml().as_bytes())?;
+        }
+        trainer
     } else {
         restart(&run, episodes)?
     };
     note_changed_plant(&trainer);
-    Ok((trainer, run))
+    Ok((trainer, run, lock))
 }
 
 fn restart(run: &RunDir, episodes: Option<usize>) -> Result<Trainer> {
@@ -443,7 +491,7 @@ fn restart(run: &RunDir, episodes: Option<usize>) -> Result<Trainer> {
     // config, and the task it names is then the plant (nothing has trained on it yet).
     let scenario_path = run.file(folder::SCENARIO);
     let scenario = if scenario_path.exists() {
-        Scenario::load(&scenario_path)
+        trainer::scenario_file(&scenario_path)
             .with_context(|| format!("the recorded plant of {}", run.path().display()))?
     } else {
         trainer::scenario(&config.task)?
@@ -487,6 +535,13 @@ fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
             algos.push(algo);
         }
     }
+    // One sweep per folder: a second one would resume the first one's runs under it. (A
+    // missing folder is reported by the plan.)
+    let _lock = if args.out.is_dir() {
+        Some(lock::acquire(&args.out)?)
+    } else {
+        None
+    };
     let plan = plan::runs(&base, &algos, &args.seeds.0, &args.out)?;
     let jobs = match args.jobs {
         Some(n) => n as usize,
@@ -542,7 +597,17 @@ fn eval_command(args: EvalArgs) -> Result<()> {
 }
 
 fn export_command(args: ExportArgs) -> Result<()> {
-    let (trainer, run) = resume(&args.run, None)?;
+    // Without a checkpoint there is no trained policy: exporting the recorded config's freshly
+    // initialised networks would write an untrained policy under the run's name.
+    let run = RunDir::open(&args.run)?;
+    if !run.file(folder::CHECKPOINT).exists() {
+        anyhow::bail!(
+            "{} has no checkpoint: nothing to export (train it, or continue it with train --resume {})",
+            run.path().display(),
+            run.path().display()
+        );
+    }
+    let (trainer, run, _lock) = resume(&args.run, None)?;
     let name = folder::policy_file(args.encoding);
     let f32 = trainer.policy_blob(&trainer.config.blob_label())?;
     let policy = match args.encoding {

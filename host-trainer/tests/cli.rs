@@ -707,3 +707,234 @@ fn export_writes_flash_slot_images() {
     assert_eq!(entries(&run), before, "no new file");
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+#[test]
+fn usage_errors_name_the_missing_arguments_and_the_accepted_values() {
+    let base = scratch("usage-errors");
+    for (args, needles) in [
+        (
+            vec![
+                "export",
+                "--run",
+                s(&base),
+                "--image",
+                "bin",
+                "--sequence",
+                "1",
+            ],
+            vec!["--slot"],
+        ),
+        (vec!["sweep", "--seeds", "0"], vec!["--out"]),
+        (
+            vec!["export", "--run", s(&base), "--image", "elf"],
+            vec!["elf", "bin", "hex"],
+        ),
+        (vec!["train", "--algo", "foo"], vec!["foo", "dcp", "ppo"]),
+    ] {
+        let out = host_trainer(&args);
+        assert_one_line_error(&out, &needles);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+    }
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// A run folder killed before its first checkpoint holds only its config: `export` wrote the
+/// config's untrained networks as the run's policy and exited 0.
+#[test]
+fn export_of_a_run_without_a_checkpoint_is_refused() {
+    let base = scratch("export-no-checkpoint");
+    let run = base.join("run");
+    std::fs::create_dir_all(&run).expect("run folder");
+    let config = smoke_config_file(&base, 2);
+    std::fs::copy(&config, run.join("config.toml")).expect("config");
+    let out = host_trainer(&["export", "--run", s(&run)]);
+    assert_one_line_error(&out, &["no checkpoint", "nothing to export"]);
+    assert_eq!(entries(&run), ["config.toml"]);
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// `--config` and `--task` files were read whole: `/dev/zero` grew the trainer (and a sweep)
+/// to gigabytes before anything was said. A file past the limit, or an endless one, is refused.
+#[test]
+fn endless_or_huge_config_and_task_files_are_refused_in_one_line() {
+    let base = scratch("huge-inputs");
+    let huge = base.join("huge.toml");
+    let file = std::fs::File::create(&huge).expect("huge file");
+    file.set_len(64 << 20).expect("sparse 64 MiB");
+    let out_dir = base.join("out");
+    std::fs::create_dir_all(&out_dir).expect("out");
+    for input in [s(&huge), "/dev/zero"] {
+        for args in [
+            vec!["train", "--config", input, "--out", s(&out_dir)],
+            vec!["train", "--task", input, "--out", s(&out_dir)],
+            vec![
+                "sweep",
+                "--config",
+                input,
+                "--seeds",
+                "1",
+                "--out",
+                s(&out_dir),
+            ],
+        ] {
+            let out = host_trainer(&args);
+            assert_one_line_error(&out, &["longer than 1 MiB"]);
+        }
+    }
+    assert!(entries(&out_dir).is_empty(), "{:?}", entries(&out_dir));
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// `--image hex` at 0xFFFFFFFF said the slot had 1 byte while `--image bin` at the same address
+/// exited 0, and an unaligned slot address was accepted although the payload's alignment depends
+/// on it. Both kinds go through one check, and nothing is written.
+#[test]
+fn slot_addresses_are_checked_the_same_way_for_bin_and_hex() {
+    let base = scratch("slot-address");
+    assert_ok(&train_smoke(&base, 1, &[]));
+    let run = base.join("nav-walls__dcp__3");
+    let before = entries(&run);
+    for image in ["bin", "hex"] {
+        for (address, needle) in [
+            ("0xFFFFFFFF", "multiple of 4"),
+            ("0xFFFFFFF0", "room for"),
+            ("0x40001", "multiple of 4"),
+        ] {
+            let out = host_trainer(&[
+                "export",
+                "--run",
+                s(&run),
+                "--image",
+                image,
+                "--slot",
+                "a",
+                "--sequence",
+                "1",
+                "--address",
+                address,
+            ]);
+            assert_one_line_error(&out, &[needle]);
+        }
+    }
+    assert_eq!(entries(&run), before);
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// `train --resume R --episodes N` below the checkpoint's episode exited 0 as "trained", and
+/// above it left `config.toml` at the old budget, so a sweep of the old budget counted the
+/// longer run as its own. A lower budget is refused; a higher one is recorded, and the sweep
+/// sees it.
+#[test]
+fn resume_with_episodes_records_the_new_budget_and_refuses_a_smaller_one() {
+    let base = scratch("resume-budget");
+    assert_ok(&train_smoke(&base, 2, &[]));
+    let run = base.join("nav-walls__dcp__3");
+    let out = host_trainer(&["train", "--resume", s(&run), "--episodes", "1", "--quiet"]);
+    assert_one_line_error(&out, &["--episodes", "at least the 2 episodes"]);
+    let out = host_trainer(&["train", "--resume", s(&run), "--episodes", "3", "--quiet"]);
+    assert_ok(&out);
+    let recorded = std::fs::read_to_string(run.join("config.toml")).expect("config");
+    assert!(recorded.contains("episodes = 3"), "{recorded}");
+    let config = smoke_config_file(&base, 2);
+    let out = host_trainer(&[
+        "sweep",
+        "--config",
+        s(&config),
+        "--seeds",
+        "3",
+        "--out",
+        s(&base),
+        "--quiet",
+    ]);
+    assert_one_line_error(&out, &["episodes = 3 recorded, 2 in the sweep"]);
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// `--algo dqn|ppo` with `--sigma`, `--noise`, `--t` or `--dropout`, and `--algo ddpg --t`,
+/// were recorded in `config.toml` and changed nothing. A flag the algorithm ignores is refused,
+/// naming the algorithms that use it, and nothing is written.
+#[test]
+fn flags_the_algorithm_does_not_use_are_refused() {
+    let base = scratch("unused-flags");
+    for algo in ["dqn", "ppo"] {
+        for (flag, value, users) in [
+            ("--sigma", "0.9", "dcp, ddpg, td3"),
+            ("--noise", "ou", "dcp, ddpg, td3"),
+            ("--t", "3", "dcp"),
+            ("--dropout", "0.5", "dcp, ddpg, td3"),
+        ] {
+            let out = host_trainer(&[
+                "train",
+                "--algo",
+                algo,
+                flag,
+                value,
+                "--out",
+                s(&base),
+                "--episodes",
+                "1",
+            ]);
+            assert_one_line_error(&out, &[flag, algo, users]);
+        }
+    }
+    let out = host_trainer(&[
+        "train",
+        "--algo",
+        "ddpg",
+        "--t",
+        "100000",
+        "--out",
+        s(&base),
+        "--episodes",
+        "1",
+    ]);
+    assert_one_line_error(&out, &["--t", "ddpg", "only by dcp"]);
+    assert!(entries(&base).is_empty(), "{:?}", entries(&base));
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// Two sweeps on one `--out` both ran, marking each other's runs failed or resuming runs the
+/// other was still training; a trainer could start in a folder another was writing. A folder
+/// has one writer: a second is refused naming the holder's pid, and nothing is touched.
+#[test]
+fn a_second_writer_of_a_locked_sweep_or_run_folder_is_refused() {
+    let base = scratch("folder-lock");
+    assert_ok(&train_smoke(&base, 1, &[]));
+    let run = base.join("nav-walls__dcp__3");
+    let config = smoke_config_file(&base, 1);
+    let before = std::fs::read(run.join("checkpoint.postcard")).expect("checkpoint");
+    let pid = std::process::id().to_string();
+    {
+        // This test process stands for a running sweep, then for a running trainer.
+        let _sweep = host_trainer::run::lock::acquire(&base).expect("lock the sweep folder");
+        let out = host_trainer(&[
+            "sweep",
+            "--config",
+            s(&config),
+            "--seeds",
+            "3",
+            "--out",
+            s(&base),
+            "--quiet",
+        ]);
+        assert_one_line_error(&out, &["in use by host-trainer process", &pid]);
+    }
+    {
+        let _trainer = host_trainer::run::lock::acquire(&run).expect("lock the run folder");
+        for args in [
+            vec!["train", "--resume", s(&run), "--episodes", "2", "--quiet"],
+            vec!["export", "--run", s(&run)],
+        ] {
+            let out = host_trainer(&args);
+            assert_one_line_error(&out, &["in use by host-trainer process", &pid]);
+        }
+    }
+    assert_eq!(
+        std::fs::read(run.join("checkpoint.postcard")).expect("kept"),
+        before
+    );
+    assert!(!base.join("sweep.md").exists());
+    // Released (as when its holder dies), the lock is taken over.
+    assert_ok(&host_trainer(&["export", "--run", s(&run)]));
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}

@@ -410,6 +410,11 @@ fn a_run_folder_of_other_settings_is_refused_before_anything_starts() {
         &result,
         &[s(&existing), "episodes = 3 recorded, 4 in the sweep"],
     );
-    assert_eq!(entries(&out), ["nav-walls__dcp__0"], "nothing started");
+    // The sweep's folder lock is all it adds.
+    assert_eq!(
+        entries(&out),
+        [".host-trainer.lock", "nav-walls__dcp__0"],
+        "nothing started"
+    );
     std::fs::remove_dir_all(&base).expect("cleanup");
 }

@@ -708,8 +708,31 @@ pub struct SlotTarget {
 pub fn slot_image(blob: &[u8], format: ImageFormat, target: SlotTarget) -> Result<Vec<u8>, Error> {
     Model::from_blob(blob)?;
     let record = policy_core::slot::record(blob, target.sequence, target.size)?;
+    check_slot_address(target.address, record.len())?;
     Ok(match format {
         ImageFormat::Bin => record,
         ImageFormat::Hex => policy_core::slot::intel_hex(&record, target.address)?.into_bytes(),
     })
+}
+
+/// The one address check of both image kinds: the slot starts at a 4-byte boundary (the
+/// payload follows a 16-byte header, and the firmware reads its weights as `f32` words in place,
+/// docs/blob-format.md), and the record ends inside the 32-bit address space.
+fn check_slot_address(address: u32, record_len: usize) -> Result<(), Error> {
+    if address % 4 != 0 {
+        return Err(Error::invalid(
+            "--address",
+            "a slot address that is a multiple of 4 (the blob's weights are read in place as f32 words)",
+            format!("{address:#x}"),
+        ));
+    }
+    let end = u64::from(address) + record_len as u64;
+    if end > 1 << 32 {
+        return Err(Error::invalid(
+            "--address",
+            format!("room for the {record_len}-byte record below 0x1_0000_0000"),
+            format!("{address:#x} (the record would end at {end:#x})"),
+        ));
+    }
+    Ok(())
 }

@@ -100,10 +100,7 @@ impl TrainConfig {
     /// Parses a config file: TOML, or JSON when the name ends in `.json`. Unknown keys are
     /// errors; missing keys take their defaults.
     pub fn from_file(path: &Path) -> Result<TrainConfig, Error> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = read_text(path)?;
         let parsed = if path.extension().is_some_and(|e| e == "json") {
             serde_json::from_str(&text).map_err(|e| e.to_string())
         } else {
@@ -182,6 +179,38 @@ impl TrainConfig {
             dqn: &self.dqn,
         }
     }
+}
+
+/// The most bytes a text file the CLI reads (config, task scenario, a run's recorded plant) may
+/// hold: 1 MiB, hundreds of times a real one. Reading stops one byte past it, so a device or
+/// FIFO that never ends (`--config /dev/zero`) is refused instead of filling memory.
+pub const MAX_TEXT_BYTES: u64 = 1 << 20;
+
+/// Reads a text file the CLI was given, at most [`MAX_TEXT_BYTES`]; every text input of
+/// host-trainer is read here, so the limit is one.
+pub fn read_text(path: &Path) -> Result<String, Error> {
+    use std::io::Read;
+    let io = |source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let file = std::fs::File::open(path).map_err(io)?;
+    let mut bytes = Vec::new();
+    file.take(MAX_TEXT_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(io)?;
+    if bytes.len() as u64 > MAX_TEXT_BYTES {
+        return Err(io(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            "longer than 1 MiB (or endless): not a config or scenario file",
+        )));
+    }
+    String::from_utf8(bytes).map_err(|_| {
+        io(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            "not UTF-8 text",
+        ))
+    })
 }
 
 /// `s` on one line (TOML and JSON errors span several).

@@ -5,6 +5,7 @@ pub mod checkpoint;
 pub mod config;
 pub(crate) mod crash_test;
 pub mod folder;
+pub mod lock;
 pub mod metrics;
 pub mod plot;
 pub mod progress;

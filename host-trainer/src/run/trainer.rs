@@ -38,8 +38,23 @@ use crate::Error;
 
 /// The plant of a task: a built-in scenario name or a scenario file.
 pub fn scenario(task: &str) -> Result<Scenario, Error> {
-    Scenario::resolve(task).map_err(|e| Error::Sim {
+    let sim = |e: firmware_sim::Error| Error::Sim {
         context: format!("task {task:?}"),
+        message: e.to_string(),
+    };
+    if Scenario::builtin(task).is_none() && std::path::Path::new(task).exists() {
+        // A scenario file is read through the one bounded reader, then parsed.
+        return scenario_file(std::path::Path::new(task));
+    }
+    Scenario::resolve(task).map_err(sim)
+}
+
+/// A scenario file (a task, or a run's recorded plant), read with the bounded
+/// [`read_text`](crate::run::config::read_text).
+pub fn scenario_file(path: &std::path::Path) -> Result<Scenario, Error> {
+    let text = crate::run::config::read_text(path)?;
+    Scenario::from_toml_str(&text).map_err(|e| Error::Sim {
+        context: format!("scenario {}", path.display()),
         message: e.to_string(),
     })
 }
@@ -107,6 +122,18 @@ impl Trainer {
         let mut config: TrainConfig =
             toml::from_str(&checkpoint.config_toml).map_err(|e| bad(one_line(&e.to_string())))?;
         if let Some(n) = episodes {
+            // The budget can grow, not shrink below what is trained: a smaller one would mark
+            // the run finished with more episodes than its budget says.
+            if n < checkpoint.episode {
+                return Err(Error::invalid(
+                    "--episodes",
+                    format!(
+                        "at least the {} episodes the checkpoint has trained",
+                        checkpoint.episode
+                    ),
+                    n,
+                ));
+            }
             config.episodes = n;
         }
         config.validate()?;
