@@ -5,6 +5,10 @@
 //!   the new complete file, never half of one. On failure, or when dropped without
 //!   [`AtomicFile::commit`], the temporary file is removed; temporaries left by a process that
 //!   was killed are removed the next time anything writes that file ([`remove_stale_temps`]).
+//!   The rename is only for regular files (and paths that do not exist yet): a path naming a
+//!   FIFO or a device is written through, as `>` in a shell would, and a symbolic link is
+//!   followed, its target written (atomically when that is a regular file). Renaming over them
+//!   would replace the device, pipe or link with a plain file.
 //! - [`check_output`]: an output path is checked (its folder exists and is writable, it is not a
 //!   folder) before any work, so a long evaluation never ends in "cannot write".
 //! - [`read_blob`]: reads a blob file, refusing one larger than any blob can be
@@ -38,16 +42,74 @@ static NEXT_TEMP: AtomicU64 = AtomicU64::new(0);
 #[derive(Debug)]
 pub struct AtomicFile {
     target: PathBuf,
+    /// The file the bytes go to: a temporary sibling of `target`, or `target` itself when it is
+    /// written through (a FIFO or a device).
     temp: PathBuf,
+    /// Whether `temp` is `target` itself (nothing to rename or remove).
+    through: bool,
     /// `None` once committed.
     file: Option<io::BufWriter<fs::File>>,
 }
 
+/// Where the bytes of an output named `path` go.
+enum Target {
+    /// A regular file, or nothing yet: temporary sibling and rename.
+    Atomic(PathBuf),
+    /// A FIFO, a character or block device: opened and written in place.
+    Through(PathBuf),
+}
+
+/// Classifies `path`, following a symbolic link to what it names. A link whose target is missing
+/// is refused: creating the file there would write somewhere the user may not expect.
+fn target_of(path: &Path) -> io::Result<Target> {
+    let meta = match fs::symlink_metadata(path) {
+        Ok(meta) => meta,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => {
+            return Ok(Target::Atomic(path.to_path_buf()))
+        }
+        Err(e) => return Err(e),
+    };
+    if meta.file_type().is_symlink() {
+        let real = fs::canonicalize(path).map_err(|e| {
+            io::Error::new(
+                e.kind(),
+                format!("is a symbolic link whose target cannot be reached ({e})"),
+            )
+        })?;
+        let meta = fs::metadata(&real)?;
+        return Ok(if meta.is_file() || meta.is_dir() {
+            Target::Atomic(real)
+        } else {
+            Target::Through(real)
+        });
+    }
+    Ok(if meta.is_file() || meta.is_dir() {
+        // A folder stays on the atomic path: its rename fails with the system's message.
+        Target::Atomic(path.to_path_buf())
+    } else {
+        Target::Through(path.to_path_buf())
+    })
+}
+
 impl AtomicFile {
     /// Starts writing `path`; removes temporaries of `path` that dead processes left behind.
+    /// A FIFO or device is opened for writing in place (a FIFO waits for its reader here); a
+    /// symbolic link is followed.
     pub fn create(path: &Path) -> io::Result<AtomicFile> {
-        let name = file_name(path)?;
-        let dir = folder_of(path);
+        let path = match target_of(path)? {
+            Target::Atomic(path) => path,
+            Target::Through(path) => {
+                let file = fs::OpenOptions::new().write(true).open(&path)?;
+                return Ok(AtomicFile {
+                    target: path.clone(),
+                    temp: path,
+                    through: true,
+                    file: Some(io::BufWriter::new(file)),
+                });
+            }
+        };
+        let name = file_name(&path)?;
+        let dir = folder_of(&path);
         remove_stale_temps(dir, Some(&name))?;
         let n = NEXT_TEMP.fetch_add(1, Ordering::Relaxed);
         let temp = dir.join(format!(".{name}.tmp-{}-{n}", std::process::id()));
@@ -56,20 +118,24 @@ impl AtomicFile {
             .create_new(true)
             .open(&temp)?;
         Ok(AtomicFile {
-            target: path.to_path_buf(),
+            target: path.clone(),
             temp,
+            through: false,
             file: Some(io::BufWriter::new(file)),
         })
     }
 
-    /// Flushes, syncs to disk and renames the temporary file over the target.
+    /// Flushes, syncs to disk and renames the temporary file over the target (written through:
+    /// flushes only, since a pipe or device cannot be synced).
     pub fn commit(mut self) -> io::Result<()> {
         let Some(writer) = self.file.take() else {
             return Ok(());
         };
-        let result = writer
-            .into_inner()
-            .map_err(|e| e.into_error())
+        let file = writer.into_inner().map_err(|e| e.into_error());
+        if self.through {
+            return file.map(drop);
+        }
+        let result = file
             .and_then(|file| file.sync_all())
             .and_then(|()| fs::rename(&self.temp, &self.target));
         if result.is_err() {
@@ -79,7 +145,7 @@ impl AtomicFile {
     }
 
     /// The temporary file's path: the bytes written so far, before the commit (the JSON report
-    /// reads its episode spool back from it).
+    /// reads its episode spool back from it). Written through, it is the target itself.
     pub fn temp_path(&self) -> &Path {
         &self.temp
     }
@@ -103,7 +169,7 @@ impl Write for AtomicFile {
 
 impl Drop for AtomicFile {
     fn drop(&mut self) {
-        if self.file.take().is_some() {
+        if self.file.take().is_some() && !self.through {
             // Best effort: an uncommitted write leaves nothing behind.
             let _ = fs::remove_file(&self.temp);
         }
@@ -182,7 +248,7 @@ fn process_alive(pid: u32) -> bool {
 /// assert!(check_output(&dir).is_err()); // a folder, not a file
 /// ```
 pub fn check_output(path: &Path) -> io::Result<()> {
-    let name = file_name(path)?;
+    file_name(path)?;
     if path.is_dir() {
         return Err(io::Error::new(
             io::ErrorKind::IsADirectory,
@@ -196,7 +262,12 @@ pub fn check_output(path: &Path) -> io::Result<()> {
             format!("folder does not exist: {}", dir.display()),
         ));
     }
-    let probe = AtomicFile::create(&dir.join(name))?;
+    let path = match target_of(path)? {
+        Target::Atomic(path) => path,
+        // Opening a FIFO to probe it would wait for a reader: the write reports what fails.
+        Target::Through(_) => return Ok(()),
+    };
+    let probe = AtomicFile::create(&path)?;
     drop(probe); // removes the probe
     Ok(())
 }
@@ -368,6 +439,57 @@ mod tests {
         let missing = check_output(&dir.join("nope").join("r.json")).expect_err("missing");
         assert!(missing.to_string().contains("folder does not exist"));
         assert!(check_output(&dir).is_err());
+        fs::remove_dir_all(&dir).expect("cleanup");
+    }
+
+    /// Regression: a FIFO given as an output was replaced by a regular file (so was a device,
+    /// `/dev/null` included, when run as root): the bytes must go through the pipe.
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_output_is_written_through_not_replaced() {
+        use std::os::unix::fs::FileTypeExt;
+        let dir = scratch("fifo");
+        let fifo = dir.join("out.fifo");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        assert!(made.expect("mkfifo runs").success());
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || fs::read(fifo).expect("read the fifo"))
+        };
+        check_output(&fifo).expect("a fifo is a valid output");
+        write_atomic(&fifo, b"report").expect("write through");
+        assert_eq!(reader.join().expect("reader"), b"report");
+        let kind = fs::symlink_metadata(&fifo)
+            .expect("still there")
+            .file_type();
+        assert!(kind.is_fifo(), "the fifo was replaced: {kind:?}");
+        assert_eq!(names(&dir), ["out.fifo"]);
+        fs::remove_dir_all(&dir).expect("cleanup");
+    }
+
+    /// Regression: a symbolic link given as an output was replaced by a file, its target left
+    /// untouched. The link stays and its target gets the bytes (atomically).
+    #[cfg(unix)]
+    #[test]
+    fn a_symlink_output_writes_its_target_and_stays_a_link() {
+        let dir = scratch("symlink");
+        let target = dir.join("real.json");
+        fs::write(&target, b"old").expect("target");
+        let link = dir.join("link.json");
+        std::os::unix::fs::symlink("real.json", &link).expect("symlink");
+        check_output(&link).expect("a link to a file is a valid output");
+        write_atomic(&link, b"new").expect("write via the link");
+        assert!(fs::symlink_metadata(&link)
+            .expect("link")
+            .file_type()
+            .is_symlink());
+        assert_eq!(fs::read(&target).expect("target"), b"new");
+        assert_eq!(names(&dir), ["link.json", "real.json"]);
+        // A dangling link is refused in one line rather than guessed at.
+        let dangling = dir.join("dangling.json");
+        std::os::unix::fs::symlink("missing/x.json", &dangling).expect("symlink");
+        let e = write_atomic(&dangling, b"x").expect_err("dangling");
+        assert!(e.to_string().contains("symbolic link"), "{e}");
         fs::remove_dir_all(&dir).expect("cleanup");
     }
 
