@@ -11,6 +11,9 @@
 //!   would replace the device, pipe or link with a plain file.
 //! - [`check_output`]: an output path is checked (its folder exists and is writable, it is not a
 //!   folder) before any work, so a long evaluation never ends in "cannot write".
+//! - [`read_config_text`]: reads a config or scenario file (TOML), refusing one larger than
+//!   [`MAX_CONFIG_FILE`] before reading it, and never reading more than that from a pipe or a
+//!   device (`/dev/zero`): every text file either binary reads comes through it.
 //! - [`read_blob`]: reads a blob file, refusing one larger than any blob can be
 //!   ([`policy_core::blob::MAX_BLOB_LEN`]) before reading it.
 
@@ -291,6 +294,49 @@ pub fn read_blob(path: &Path) -> io::Result<Vec<u8>> {
     })
 }
 
+/// The largest config or scenario file [`read_config_text`] takes (1 MiB): the shipped ones are
+/// under 4 KiB, and a larger file is almost surely the wrong file.
+pub const MAX_CONFIG_FILE: u64 = 1 << 20;
+
+/// Reads a config or scenario file as text, refusing a file larger than [`MAX_CONFIG_FILE`]
+/// from its size before reading it, a stream (a pipe, `/dev/zero`) after at most that many
+/// bytes and one more, and bytes that are not UTF-8.
+///
+/// ```
+/// use firmware_sim::files::read_config_text;
+/// let path = std::env::temp_dir().join(format!("read-config-doc-{}.toml", std::process::id()));
+/// std::fs::write(&path, "episodes = 5\n").unwrap();
+/// assert_eq!(read_config_text(&path).unwrap(), "episodes = 5\n");
+/// std::fs::write(&path, vec![b'#'; 2 << 20]).unwrap();
+/// let err = read_config_text(&path).unwrap_err().to_string();
+/// assert!(err.contains("larger than"), "{err}");
+/// # std::fs::remove_file(&path).unwrap();
+/// ```
+pub fn read_config_text(path: &Path) -> io::Result<String> {
+    read_text(path, MAX_CONFIG_FILE)
+}
+
+/// Reads at most `max` bytes of `path` as UTF-8 text (see [`read_config_text`]).
+///
+/// ```
+/// let path = std::env::temp_dir().join(format!("read-text-doc-{}.txt", std::process::id()));
+/// std::fs::write(&path, "0123456789").unwrap();
+/// assert_eq!(firmware_sim::files::read_text(&path, 10).unwrap(), "0123456789");
+/// assert!(firmware_sim::files::read_text(&path, 9).is_err());
+/// # std::fs::remove_file(&path).unwrap();
+/// ```
+pub fn read_text(path: &Path, max: u64) -> io::Result<String> {
+    let bytes = read_bounded(path, max, |size| {
+        format!("file is {size} bytes or more, larger than the {max} bytes a text input may have")
+    })?;
+    String::from_utf8(bytes).map_err(|e| {
+        io::Error::new(
+            io::ErrorKind::InvalidData,
+            format!("is not UTF-8 text (byte {})", e.utf8_error().valid_up_to()),
+        )
+    })
+}
+
 /// Reads at most `max` bytes of `path`; a larger file (by its size, or by what a pipe or a
 /// growing file delivers) is `InvalidData` with `too_large(size)` as the message.
 fn read_bounded(path: &Path, max: u64, too_large: impl Fn(u64) -> String) -> io::Result<Vec<u8>> {
@@ -490,6 +536,22 @@ mod tests {
         std::os::unix::fs::symlink("missing/x.json", &dangling).expect("symlink");
         let e = write_atomic(&dangling, b"x").expect_err("dangling");
         assert!(e.to_string().contains("symbolic link"), "{e}");
+        fs::remove_dir_all(&dir).expect("cleanup");
+    }
+
+    /// Regression: `--scenario /dev/zero` (or any endless stream) grew until the process ran
+    /// out of memory; a huge file was read whole.
+    #[cfg(unix)]
+    #[test]
+    fn an_endless_or_huge_config_file_is_refused() {
+        let e = read_config_text(Path::new("/dev/zero")).expect_err("endless");
+        assert!(e.to_string().contains("larger than"), "{e}");
+        let dir = scratch("big-config");
+        let path = dir.join("huge.toml");
+        let file = fs::File::create(&path).expect("create");
+        file.set_len(300 << 20).expect("sparse 300 MB");
+        let e = read_config_text(&path).expect_err("huge");
+        assert!(e.to_string().contains("314572800 bytes"), "{e}");
         fs::remove_dir_all(&dir).expect("cleanup");
     }
 

@@ -168,7 +168,7 @@ impl Config {
             return Ok(Self::builtin());
         }
         let path = Path::new(name_or_path);
-        let text = std::fs::read_to_string(path).map_err(|e| Error::Io {
+        let text = crate::files::read_config_text(path).map_err(|e| Error::Io {
             path: path.display().to_string(),
             message: e.to_string(),
         })?;

@@ -344,7 +344,7 @@ impl Scenario {
     /// assert!(err.contains("firmware-sim-doc-load.toml:1:8"), "{err}");
     /// ```
     pub fn load(path: &Path) -> Result<Scenario, Error> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::Io {
+        let text = crate::files::read_config_text(path).map_err(|e| Error::Io {
             path: path.display().to_string(),
             message: e.to_string(),
         })?;
