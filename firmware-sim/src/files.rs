@@ -275,6 +275,48 @@ pub fn check_output(path: &Path) -> io::Result<()> {
     Ok(())
 }
 
+/// Checks the outputs of one command together, before any work: each as [`check_output`]
+/// does, and no two naming the same file, compared by canonical folder and file name (so
+/// `same.out` and `./same.out`, or a link and its target, are caught: one would overwrite the
+/// other's report).
+///
+/// ```
+/// use firmware_sim::files::check_outputs;
+/// use std::path::Path;
+/// let dir = std::env::temp_dir();
+/// let (a, b) = (dir.join("a.json"), dir.join("b.svg"));
+/// assert!(check_outputs(&[&a, &b]).is_ok());
+/// let same = dir.join(".").join("a.json");
+/// let err = check_outputs(&[&a, &same]).unwrap_err().to_string();
+/// assert!(err.contains("same file"), "{err}");
+/// ```
+pub fn check_outputs(paths: &[&Path]) -> io::Result<()> {
+    let mut seen: Vec<(PathBuf, &Path)> = Vec::new();
+    for path in paths {
+        check_output(path).map_err(|e| {
+            io::Error::new(e.kind(), format!("cannot write {}: {e}", path.display()))
+        })?;
+        let real = match target_of(path)? {
+            Target::Atomic(p) | Target::Through(p) => p,
+        };
+        let dir = fs::canonicalize(folder_of(&real))?;
+        let key = dir.join(file_name(&real)?);
+        if let Some((_, first)) = seen.iter().find(|(k, _)| *k == key) {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!(
+                    "{} and {} name the same file {}: give two different files",
+                    first.display(),
+                    path.display(),
+                    key.display()
+                ),
+            ));
+        }
+        seen.push((key, path));
+    }
+    Ok(())
+}
+
 /// Reads a blob file. A file larger than any blob can be ([`policy_core::blob::MAX_BLOB_LEN`])
 /// is refused from its size, before it is read; the bytes are not checked otherwise (booting
 /// them does that).

@@ -195,7 +195,7 @@ fn usage_error(e: &clap::Error) -> String {
 
 /// Runs the evaluation; `Ok(passed)`. All input is checked before the first episode.
 fn run(args: &RunArgs) -> Result<bool> {
-    check_outputs(args)?;
+    outputs_ok(args.json.as_deref(), args.svg.as_deref())?;
     let scenario = Scenario::resolve(&args.scenario)?;
     let cfg = eval_config(args)?;
     cfg.validate(&scenario)?;
@@ -260,7 +260,7 @@ fn play(args: &MatchArgs) -> Result<bool> {
     if !(1..=MAX_GAMES).contains(&args.games) {
         anyhow::bail!("--games must be in 1..={MAX_GAMES}, found {}", args.games);
     }
-    outputs_differ(args.json.as_deref(), args.svg.as_deref())?;
+    outputs_ok(args.json.as_deref(), args.svg.as_deref())?;
     let config = badminton::Config::resolve(&args.scenario)?;
     let kinds = [args.p0.clone(), args.p1.clone()];
     let mut drawn: Option<badminton::game::Rally> = None;
@@ -306,31 +306,12 @@ fn play(args: &MatchArgs) -> Result<bool> {
     Ok(report.pass.passed)
 }
 
-/// Two outputs must be two files; each must be writable, checked before any work.
-fn outputs_differ(json: Option<&Path>, svg: Option<&Path>) -> Result<()> {
-    if let (Some(json), Some(svg)) = (json, svg) {
-        if json == svg {
-            anyhow::bail!("--json and --svg name the same file {}", json.display());
-        }
-    }
-    for path in json.iter().chain(svg.iter()) {
-        files::check_output(path).with_context(|| format!("cannot write {}", path.display()))?;
-    }
-    Ok(())
-}
-
-/// A path that cannot be written is reported before the work, so a long run never ends in
-/// "cannot write" with its results lost.
-fn check_outputs(args: &RunArgs) -> Result<()> {
-    if let (Some(json), Some(svg)) = (&args.json, &args.svg) {
-        if json == svg {
-            anyhow::bail!("--json and --svg name the same file {}", json.display());
-        }
-    }
-    for path in args.json.iter().chain(&args.svg) {
-        files::check_output(path).with_context(|| format!("cannot write {}", path.display()))?;
-    }
-    Ok(())
+/// The outputs of one command, checked together before any work (writable, two different
+/// files even when spelt differently), so a long run never ends in "cannot write" and never
+/// writes one report over the other.
+fn outputs_ok(json: Option<&Path>, svg: Option<&Path>) -> Result<()> {
+    let paths: Vec<&Path> = json.into_iter().chain(svg).collect();
+    Ok(files::check_outputs(&paths)?)
 }
 
 fn eval_config(args: &RunArgs) -> Result<EvalConfig> {

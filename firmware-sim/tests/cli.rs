@@ -379,8 +379,29 @@ fn output_paths_are_checked_before_any_work() {
             "--svg",
             path(&same),
         ]),
-        &["--json and --svg name the same file"],
+        &["name the same file"],
     );
+}
+
+/// Regression: `--json s.out --svg ./s.out` exited 0 and left only one of the two reports.
+#[test]
+fn two_spellings_of_one_output_file_are_refused_before_any_work() {
+    let dir = scratch("two-spellings");
+    let plain = dir.join("s.out");
+    let dotted = dir.join(".").join("s.out");
+    let o = run(&[
+        "--controller",
+        "straight",
+        "--episodes",
+        "2",
+        "--json",
+        path(&plain),
+        "--svg",
+        path(&dotted),
+    ]);
+    assert_bad_input(&o, &["name the same file"]);
+    assert!(o.stdout.is_empty(), "no episode ran");
+    assert!(names(&dir).is_empty(), "{:?}", names(&dir));
 }
 
 /// Regression: no subcommand printed the description and exited 2 without
