@@ -141,5 +141,37 @@ pub(crate) fn parse_error(e: &toml::de::Error, text: &str, origin: &str) -> Erro
         }
         None => origin.to_string(),
     };
-    Error::Parse { location, message }
+    // A file's NUL bytes and other control characters are escaped, not echoed into the line.
+    Error::Parse {
+        location,
+        message: printable(&message),
+    }
+}
+
+/// `text` with control characters escaped (`\u{0}`), so bytes from a file can be quoted in a
+/// one-line error without breaking it or the terminal.
+pub(crate) fn printable(text: &str) -> String {
+    text.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    /// Regression: NUL bytes of a scenario file were echoed into the error line.
+    #[test]
+    fn nul_bytes_of_a_file_are_escaped_in_parse_errors() {
+        let text = "time_limit = \"a\0b\u{1b}[31m\"\n";
+        let e = crate::nav::scenario::Scenario::from_toml_str(text)
+            .expect_err("a string for a number")
+            .to_string();
+        assert!(!e.chars().any(char::is_control), "{e:?}");
+        assert!(e.contains("\\u{0}"), "{e}");
+    }
 }
