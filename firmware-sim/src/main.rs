@@ -95,7 +95,9 @@ struct RunArgs {
     slot_b: Option<PathBuf>,
     /// The actor's critic blob (critic.postcard): with --refine, each action is DCP's compare
     /// step on the device (policy-core's `compare::refine_model`).
-    #[arg(long, requires = "refine", conflicts_with = "controller")]
+    /// (The compare step runs from --blob only: a slot boot would run the plain actor, so
+    /// --critic with --slot-a/--slot-b is refused.)
+    #[arg(long, requires = "refine", conflicts_with_all = ["controller", "slot_a", "slot_b"])]
     critic: Option<PathBuf>,
     /// T,SIGMA: before each action, T proposals around the actor's unit action with noise σ,
     /// the best under the critic replacing it only if its Q is higher (needs --critic).
@@ -351,11 +353,21 @@ fn read_blob(args: &RunArgs) -> Result<Option<Vec<u8>>> {
         .transpose()
 }
 
+/// `T,SIGMA`, checked here with the compare step's own rule, so a bad value is refused
+/// whatever else is given (even with a blob that does not boot).
 fn parse_refine(s: &str) -> Result<(usize, f32), String> {
-    let parsed = s
+    let parsed: Option<(usize, f32)> = s
         .split_once(',')
         .and_then(|(t, sigma)| Some((t.trim().parse().ok()?, sigma.trim().parse().ok()?)));
-    parsed.ok_or_else(|| format!("expected T,SIGMA such as 16,0.2, found {s:?}"))
+    let (t, sigma) =
+        parsed.ok_or_else(|| format!("expected T,SIGMA such as 16,0.2, found {s:?}"))?;
+    if !(sigma.is_finite() && sigma > 0.0) || t > firmware_sim::refine::MAX_T {
+        return Err(format!(
+            "expected T in 0..={} and SIGMA finite and > 0, found {s:?}",
+            firmware_sim::refine::MAX_T
+        ));
+    }
+    Ok((t, sigma))
 }
 
 /// The bytes of a slot image, or none (an empty slot) when the slot is not given.

@@ -609,6 +609,21 @@ fn the_compare_step_runs_in_the_loop() {
         &run(&["--blob", &actor, "--critic", &critic, "--refine", "4"]),
         &["T,SIGMA"],
     );
+    // Regression: `--refine 16,nan` was accepted with a blob that does not boot (and from slots).
+    for bad in ["16,nan", "16,0", "16,-1", "5000,0.2"] {
+        assert_bad_input(
+            &run(&["--blob", &critic, "--critic", &critic, "--refine", bad]),
+            &["SIGMA finite"],
+        );
+    }
+    // Regression: from slots the compare step was skipped without a word, running the plain
+    // actor.
+    assert_bad_input(
+        &run(&[
+            "--slot-a", &actor, "--critic", &critic, "--refine", "16,0.2",
+        ]),
+        &["--critic", "--slot-a"],
+    );
     let wrong_kind = run(&["--blob", &actor, "--critic", &actor, "--refine", "4,0.2"]);
     assert_eq!(wrong_kind.status.code(), Some(2), "{}", stderr(&wrong_kind));
     assert!(
