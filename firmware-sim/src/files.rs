@@ -329,11 +329,20 @@ pub fn check_outputs(paths: &[&Path]) -> io::Result<()> {
 /// ```
 pub fn read_blob(path: &Path) -> io::Result<Vec<u8>> {
     let max = policy_core::blob::MAX_BLOB_LEN as u64;
-    read_bounded(path, max, |size| {
+    let bytes = read_bounded(path, max, |size| {
         format!(
             "file is {size} bytes, larger than any blob can be ({max} bytes): not a policy blob"
         )
-    })
+    })?;
+    // A slot image starts with the slot record's magic, not a blob's: say what it is (the
+    // blob's own check would only say "found [68, 67, 80, 83]").
+    if bytes.starts_with(&policy_core::slot::MAGIC) {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidData,
+            "this looks like a flash slot image: give it with --slot-a/--slot-b, or give the blob (policy.postcard)",
+        ));
+    }
+    Ok(bytes)
 }
 
 /// The largest config or scenario file [`read_config_text`] takes (1 MiB): the shipped ones are

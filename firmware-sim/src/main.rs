@@ -105,8 +105,8 @@ struct RunArgs {
     refine: Option<(usize, f32)>,
     /// With --slot-a/--slot-b: the firmware's scratch width; a blob with a wider layer is refused
     /// as the chip refuses it [default: 64, the example firmware's].
-    #[arg(long, default_value_t = firmware_sim::slots::FIRMWARE_SCRATCH_WIDTH)]
-    scratch_width: usize,
+    #[arg(long)]
+    scratch_width: Option<usize>,
     /// A reference controller instead of a blob: straight or oracle.
     #[arg(long)]
     controller: Option<String>,
@@ -198,7 +198,22 @@ fn usage_error(e: &clap::Error) -> String {
 /// Runs the evaluation; `Ok(passed)`. All input is checked before the first episode.
 fn run(args: &RunArgs) -> Result<bool> {
     outputs_ok(args.json.as_deref(), args.svg.as_deref())?;
-    let scenario = Scenario::resolve(&args.scenario)?;
+    if args.scratch_width.is_some() && args.slot_a.is_none() && args.slot_b.is_none() {
+        // A blob boots with the width it declares; only the firmware's slot boot has a limit.
+        anyhow::bail!("--scratch-width applies to slot boots only (--slot-a/--slot-b)");
+    }
+    let scenario = Scenario::resolve(&args.scenario).map_err(|e| {
+        // A badminton scenario parses as a navigation scenario only up to its `[court]`.
+        if badminton::Config::resolve(&args.scenario).is_ok() {
+            anyhow::anyhow!(
+                "{} is a badminton scenario: play it with `firmware-sim match --scenario {}`",
+                args.scenario,
+                args.scenario
+            )
+        } else {
+            e.into()
+        }
+    })?;
     let cfg = eval_config(args)?;
     cfg.validate(&scenario)?;
     // The blob's bytes outlive the policy that runs from them, as flash outlives the firmware.
@@ -213,7 +228,8 @@ fn run(args: &RunArgs) -> Result<bool> {
             &slot_a,
             &slot_b,
             &PlantSizes::of(&scenario)?,
-            args.scratch_width,
+            args.scratch_width
+                .unwrap_or(firmware_sim::slots::FIRMWARE_SCRATCH_WIDTH),
         )?;
         print!("{}", boot.describe());
         (boot.controller, boot.error)

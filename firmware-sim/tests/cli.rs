@@ -404,6 +404,30 @@ fn two_spellings_of_one_output_file_are_refused_before_any_work() {
     assert!(names(&dir).is_empty(), "{:?}", names(&dir));
 }
 
+/// Regression: `run --scenario badminton.toml` said "unknown field `court`" without saying
+/// that badminton is played with `match`.
+#[test]
+fn a_badminton_scenario_given_to_run_points_to_match() {
+    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/badminton.toml");
+    for scenario in [file, "badminton"] {
+        assert_bad_input(
+            &run(&["--controller", "straight", "--scenario", scenario]),
+            &["badminton scenario", "firmware-sim match"],
+        );
+    }
+}
+
+/// Regression: `--scratch-width` with `--blob` was accepted and silently ignored.
+#[test]
+fn scratch_width_without_slots_is_refused() {
+    let golden = concat!(env!("CARGO_MANIFEST_DIR"), "/../policy-core/tests/golden/");
+    let actor = format!("{golden}actor_2x32.postcard");
+    assert_bad_input(
+        &run(&["--blob", &actor, "--scratch-width", "8"]),
+        &["--scratch-width applies to slot boots only"],
+    );
+}
+
 /// Regression: no subcommand printed the description and exited 2 without
 /// saying what was missing.
 #[test]
@@ -546,6 +570,11 @@ fn slot_images_boot_like_the_firmware() {
 
     assert_bad_input(&run(&["--slot-a", &hex]), &["Intel HEX", ".bin"]);
     assert_bad_input(&run(&["--slot-a", &a, "--blob", &a]), &["--blob"]);
+    // Regression: a slot image given as --blob said only "found [68, 67, 80, 83]".
+    assert_bad_input(
+        &run(&["--blob", &a, "--episodes", "2"]),
+        &["flash slot image", "--slot-a"],
+    );
     assert_bad_input(
         &run(&["--slot-a", &a, "--scratch-width", "0"]),
         &["scratch width"],
