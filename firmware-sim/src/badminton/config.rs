@@ -16,6 +16,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::error::number;
 use crate::error::parse_error;
 use crate::Error;
 
@@ -373,16 +374,6 @@ fn in_range(key: &'static str, v: f64, lo: f64, hi: f64, closed: bool) -> Option
         };
         (key, message)
     })
-}
-
-/// A number for a message: as written for ordinary magnitudes, in exponent form past them, so
-/// 1e308 does not print as a 309-digit decimal.
-pub(crate) fn number(v: f64) -> String {
-    if v != 0.0 && v.is_finite() && !(1e-4..1e9).contains(&v.abs()) {
-        format!("{v:e}")
-    } else {
-        format!("{v}")
-    }
 }
 
 /// The line (from 1) of `section.key` in the TOML text, for errors found after parsing.
