@@ -45,7 +45,8 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Boot a blob (or a reference controller) and run the scenario's test protocol.
-    Run(RunArgs),
+    // Boxed: the run's flags outweigh the match's many times (clippy::large_enum_variant).
+    Run(Box<RunArgs>),
     /// Play a badminton match between two players and judge it by the scenario's criteria.
     Match(MatchArgs),
 }
