@@ -141,5 +141,65 @@ pub(crate) fn parse_error(e: &toml::de::Error, text: &str, origin: &str) -> Erro
         }
         None => origin.to_string(),
     };
-    Error::Parse { location, message }
+    // A file's NUL bytes and other control characters are escaped, not echoed into the line.
+    Error::Parse {
+        location,
+        message: printable(&message),
+    }
+}
+
+/// A number for a message: as written for ordinary magnitudes, in exponent form past them, so
+/// 1e308 or `f32::MAX` does not print as a 309- or 39-digit decimal.
+pub(crate) fn number<T>(v: T) -> String
+where
+    T: Into<f64> + fmt::Display + fmt::LowerExp + Copy,
+{
+    let x: f64 = v.into();
+    if x != 0.0 && x.is_finite() && !(1e-4..1e9).contains(&x.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// `text` with control characters escaped (`\u{0}`), so bytes from a file can be quoted in a
+/// one-line error without breaking it or the terminal.
+pub(crate) fn printable(text: &str) -> String {
+    text.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    /// Regression: `f32::MAX` printed as a 39-digit decimal in scenario errors.
+    #[test]
+    fn huge_numbers_print_in_exponent_form() {
+        assert_eq!(super::number(f32::MAX), "3.4028235e38");
+        assert_eq!(super::number(1e308), "1e308");
+        assert_eq!(super::number(0.25f32), "0.25");
+        let text = include_str!("../scenarios/nav-open.toml")
+            .replace("arena_half_size = ", "arena_half_size = 1e39 #");
+        let e = crate::nav::scenario::Scenario::from_toml_str(&text)
+            .expect_err("too large")
+            .to_string();
+        assert!(e.len() < 150, "{e}");
+    }
+
+    /// Regression: NUL bytes of a scenario file were echoed into the error line.
+    #[test]
+    fn nul_bytes_of_a_file_are_escaped_in_parse_errors() {
+        let text = "time_limit = \"a\0b\u{1b}[31m\"\n";
+        let e = crate::nav::scenario::Scenario::from_toml_str(text)
+            .expect_err("a string for a number")
+            .to_string();
+        assert!(!e.chars().any(char::is_control), "{e:?}");
+        assert!(e.contains("\\u{0}"), "{e}");
+    }
 }

@@ -5,8 +5,15 @@
 //!   the new complete file, never half of one. On failure, or when dropped without
 //!   [`AtomicFile::commit`], the temporary file is removed; temporaries left by a process that
 //!   was killed are removed the next time anything writes that file ([`remove_stale_temps`]).
+//!   The rename is only for regular files (and paths that do not exist yet): a path naming a
+//!   FIFO or a device is written through, as `>` in a shell would, and a symbolic link is
+//!   followed, its target written (atomically when that is a regular file). Renaming over them
+//!   would replace the device, pipe or link with a plain file.
 //! - [`check_output`]: an output path is checked (its folder exists and is writable, it is not a
 //!   folder) before any work, so a long evaluation never ends in "cannot write".
+//! - [`read_config_text`]: reads a config or scenario file (TOML), refusing one larger than
+//!   [`MAX_CONFIG_FILE`] before reading it, and never reading more than that from a pipe or a
+//!   device (`/dev/zero`): every text file either binary reads comes through it.
 //! - [`read_blob`]: reads a blob file, refusing one larger than any blob can be
 //!   ([`policy_core::blob::MAX_BLOB_LEN`]) before reading it.
 
@@ -38,16 +45,74 @@ static NEXT_TEMP: AtomicU64 = AtomicU64::new(0);
 #[derive(Debug)]
 pub struct AtomicFile {
     target: PathBuf,
+    /// The file the bytes go to: a temporary sibling of `target`, or `target` itself when it is
+    /// written through (a FIFO or a device).
     temp: PathBuf,
+    /// Whether `temp` is `target` itself (nothing to rename or remove).
+    through: bool,
     /// `None` once committed.
     file: Option<io::BufWriter<fs::File>>,
 }
 
+/// Where the bytes of an output named `path` go.
+enum Target {
+    /// A regular file, or nothing yet: temporary sibling and rename.
+    Atomic(PathBuf),
+    /// A FIFO, a character or block device: opened and written in place.
+    Through(PathBuf),
+}
+
+/// Classifies `path`, following a symbolic link to what it names. A link whose target is missing
+/// is refused: creating the file there would write somewhere the user may not expect.
+fn target_of(path: &Path) -> io::Result<Target> {
+    let meta = match fs::symlink_metadata(path) {
+        Ok(meta) => meta,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => {
+            return Ok(Target::Atomic(path.to_path_buf()))
+        }
+        Err(e) => return Err(e),
+    };
+    if meta.file_type().is_symlink() {
+        let real = fs::canonicalize(path).map_err(|e| {
+            io::Error::new(
+                e.kind(),
+                format!("is a symbolic link whose target cannot be reached ({e})"),
+            )
+        })?;
+        let meta = fs::metadata(&real)?;
+        return Ok(if meta.is_file() || meta.is_dir() {
+            Target::Atomic(real)
+        } else {
+            Target::Through(real)
+        });
+    }
+    Ok(if meta.is_file() || meta.is_dir() {
+        // A folder stays on the atomic path: its rename fails with the system's message.
+        Target::Atomic(path.to_path_buf())
+    } else {
+        Target::Through(path.to_path_buf())
+    })
+}
+
 impl AtomicFile {
     /// Starts writing `path`; removes temporaries of `path` that dead processes left behind.
+    /// A FIFO or device is opened for writing in place (a FIFO waits for its reader here); a
+    /// symbolic link is followed.
     pub fn create(path: &Path) -> io::Result<AtomicFile> {
-        let name = file_name(path)?;
-        let dir = folder_of(path);
+        let path = match target_of(path)? {
+            Target::Atomic(path) => path,
+            Target::Through(path) => {
+                let file = fs::OpenOptions::new().write(true).open(&path)?;
+                return Ok(AtomicFile {
+                    target: path.clone(),
+                    temp: path,
+                    through: true,
+                    file: Some(io::BufWriter::new(file)),
+                });
+            }
+        };
+        let name = file_name(&path)?;
+        let dir = folder_of(&path);
         remove_stale_temps(dir, Some(&name))?;
         let n = NEXT_TEMP.fetch_add(1, Ordering::Relaxed);
         let temp = dir.join(format!(".{name}.tmp-{}-{n}", std::process::id()));
@@ -56,20 +121,24 @@ impl AtomicFile {
             .create_new(true)
             .open(&temp)?;
         Ok(AtomicFile {
-            target: path.to_path_buf(),
+            target: path.clone(),
             temp,
+            through: false,
             file: Some(io::BufWriter::new(file)),
         })
     }
 
-    /// Flushes, syncs to disk and renames the temporary file over the target.
+    /// Flushes, syncs to disk and renames the temporary file over the target (written through:
+    /// flushes only, since a pipe or device cannot be synced).
     pub fn commit(mut self) -> io::Result<()> {
         let Some(writer) = self.file.take() else {
             return Ok(());
         };
-        let result = writer
-            .into_inner()
-            .map_err(|e| e.into_error())
+        let file = writer.into_inner().map_err(|e| e.into_error());
+        if self.through {
+            return file.map(drop);
+        }
+        let result = file
             .and_then(|file| file.sync_all())
             .and_then(|()| fs::rename(&self.temp, &self.target));
         if result.is_err() {
@@ -79,7 +148,7 @@ impl AtomicFile {
     }
 
     /// The temporary file's path: the bytes written so far, before the commit (the JSON report
-    /// reads its episode spool back from it).
+    /// reads its episode spool back from it). Written through, it is the target itself.
     pub fn temp_path(&self) -> &Path {
         &self.temp
     }
@@ -103,7 +172,7 @@ impl Write for AtomicFile {
 
 impl Drop for AtomicFile {
     fn drop(&mut self) {
-        if self.file.take().is_some() {
+        if self.file.take().is_some() && !self.through {
             // Best effort: an uncommitted write leaves nothing behind.
             let _ = fs::remove_file(&self.temp);
         }
@@ -182,7 +251,7 @@ fn process_alive(pid: u32) -> bool {
 /// assert!(check_output(&dir).is_err()); // a folder, not a file
 /// ```
 pub fn check_output(path: &Path) -> io::Result<()> {
-    let name = file_name(path)?;
+    file_name(path)?;
     if path.is_dir() {
         return Err(io::Error::new(
             io::ErrorKind::IsADirectory,
@@ -196,8 +265,55 @@ pub fn check_output(path: &Path) -> io::Result<()> {
             format!("folder does not exist: {}", dir.display()),
         ));
     }
-    let probe = AtomicFile::create(&dir.join(name))?;
+    let path = match target_of(path)? {
+        Target::Atomic(path) => path,
+        // Opening a FIFO to probe it would wait for a reader: the write reports what fails.
+        Target::Through(_) => return Ok(()),
+    };
+    let probe = AtomicFile::create(&path)?;
     drop(probe); // removes the probe
+    Ok(())
+}
+
+/// Checks the outputs of one command together, before any work: each as [`check_output`]
+/// does, and no two naming the same file, compared by canonical folder and file name (so
+/// `same.out` and `./same.out`, or a link and its target, are caught: one would overwrite the
+/// other's report).
+///
+/// ```
+/// use firmware_sim::files::check_outputs;
+/// use std::path::Path;
+/// let dir = std::env::temp_dir();
+/// let (a, b) = (dir.join("a.json"), dir.join("b.svg"));
+/// assert!(check_outputs(&[&a, &b]).is_ok());
+/// let same = dir.join(".").join("a.json");
+/// let err = check_outputs(&[&a, &same]).unwrap_err().to_string();
+/// assert!(err.contains("same file"), "{err}");
+/// ```
+pub fn check_outputs(paths: &[&Path]) -> io::Result<()> {
+    let mut seen: Vec<(PathBuf, &Path)> = Vec::new();
+    for path in paths {
+        check_output(path).map_err(|e| {
+            io::Error::new(e.kind(), format!("cannot write {}: {e}", path.display()))
+        })?;
+        let real = match target_of(path)? {
+            Target::Atomic(p) | Target::Through(p) => p,
+        };
+        let dir = fs::canonicalize(folder_of(&real))?;
+        let key = dir.join(file_name(&real)?);
+        if let Some((_, first)) = seen.iter().find(|(k, _)| *k == key) {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!(
+                    "{} and {} name the same file {}: give two different files",
+                    first.display(),
+                    path.display(),
+                    key.display()
+                ),
+            ));
+        }
+        seen.push((key, path));
+    }
     Ok(())
 }
 
@@ -213,9 +329,61 @@ pub fn check_output(path: &Path) -> io::Result<()> {
 /// ```
 pub fn read_blob(path: &Path) -> io::Result<Vec<u8>> {
     let max = policy_core::blob::MAX_BLOB_LEN as u64;
-    read_bounded(path, max, |size| {
+    let bytes = read_bounded(path, max, |size| {
         format!(
             "file is {size} bytes, larger than any blob can be ({max} bytes): not a policy blob"
+        )
+    })?;
+    // A slot image starts with the slot record's magic, not a blob's: say what it is (the
+    // blob's own check would only say "found [68, 67, 80, 83]").
+    if bytes.starts_with(&policy_core::slot::MAGIC) {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidData,
+            "this looks like a flash slot image: give it with --slot-a/--slot-b, or give the blob (policy.postcard)",
+        ));
+    }
+    Ok(bytes)
+}
+
+/// The largest config or scenario file [`read_config_text`] takes (1 MiB): the shipped ones are
+/// under 4 KiB, and a larger file is almost surely the wrong file.
+pub const MAX_CONFIG_FILE: u64 = 1 << 20;
+
+/// Reads a config or scenario file as text, refusing a file larger than [`MAX_CONFIG_FILE`]
+/// from its size before reading it, a stream (a pipe, `/dev/zero`) after at most that many
+/// bytes and one more, and bytes that are not UTF-8.
+///
+/// ```
+/// use firmware_sim::files::read_config_text;
+/// let path = std::env::temp_dir().join(format!("read-config-doc-{}.toml", std::process::id()));
+/// std::fs::write(&path, "episodes = 5\n").unwrap();
+/// assert_eq!(read_config_text(&path).unwrap(), "episodes = 5\n");
+/// std::fs::write(&path, vec![b'#'; 2 << 20]).unwrap();
+/// let err = read_config_text(&path).unwrap_err().to_string();
+/// assert!(err.contains("larger than"), "{err}");
+/// # std::fs::remove_file(&path).unwrap();
+/// ```
+pub fn read_config_text(path: &Path) -> io::Result<String> {
+    read_text(path, MAX_CONFIG_FILE)
+}
+
+/// Reads at most `max` bytes of `path` as UTF-8 text (see [`read_config_text`]).
+///
+/// ```
+/// let path = std::env::temp_dir().join(format!("read-text-doc-{}.txt", std::process::id()));
+/// std::fs::write(&path, "0123456789").unwrap();
+/// assert_eq!(firmware_sim::files::read_text(&path, 10).unwrap(), "0123456789");
+/// assert!(firmware_sim::files::read_text(&path, 9).is_err());
+/// # std::fs::remove_file(&path).unwrap();
+/// ```
+pub fn read_text(path: &Path, max: u64) -> io::Result<String> {
+    let bytes = read_bounded(path, max, |size| {
+        format!("file is {size} bytes or more, larger than the {max} bytes a text input may have")
+    })?;
+    String::from_utf8(bytes).map_err(|e| {
+        io::Error::new(
+            io::ErrorKind::InvalidData,
+            format!("is not UTF-8 text (byte {})", e.utf8_error().valid_up_to()),
         )
     })
 }
@@ -368,6 +536,73 @@ mod tests {
         let missing = check_output(&dir.join("nope").join("r.json")).expect_err("missing");
         assert!(missing.to_string().contains("folder does not exist"));
         assert!(check_output(&dir).is_err());
+        fs::remove_dir_all(&dir).expect("cleanup");
+    }
+
+    /// Regression: a FIFO given as an output was replaced by a regular file (so was a device,
+    /// `/dev/null` included, when run as root): the bytes must go through the pipe.
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_output_is_written_through_not_replaced() {
+        use std::os::unix::fs::FileTypeExt;
+        let dir = scratch("fifo");
+        let fifo = dir.join("out.fifo");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        assert!(made.expect("mkfifo runs").success());
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || fs::read(fifo).expect("read the fifo"))
+        };
+        check_output(&fifo).expect("a fifo is a valid output");
+        write_atomic(&fifo, b"report").expect("write through");
+        assert_eq!(reader.join().expect("reader"), b"report");
+        let kind = fs::symlink_metadata(&fifo)
+            .expect("still there")
+            .file_type();
+        assert!(kind.is_fifo(), "the fifo was replaced: {kind:?}");
+        assert_eq!(names(&dir), ["out.fifo"]);
+        fs::remove_dir_all(&dir).expect("cleanup");
+    }
+
+    /// Regression: a symbolic link given as an output was replaced by a file, its target left
+    /// untouched. The link stays and its target gets the bytes (atomically).
+    #[cfg(unix)]
+    #[test]
+    fn a_symlink_output_writes_its_target_and_stays_a_link() {
+        let dir = scratch("symlink");
+        let target = dir.join("real.json");
+        fs::write(&target, b"old").expect("target");
+        let link = dir.join("link.json");
+        std::os::unix::fs::symlink("real.json", &link).expect("symlink");
+        check_output(&link).expect("a link to a file is a valid output");
+        write_atomic(&link, b"new").expect("write via the link");
+        assert!(fs::symlink_metadata(&link)
+            .expect("link")
+            .file_type()
+            .is_symlink());
+        assert_eq!(fs::read(&target).expect("target"), b"new");
+        assert_eq!(names(&dir), ["link.json", "real.json"]);
+        // A dangling link is refused in one line rather than guessed at.
+        let dangling = dir.join("dangling.json");
+        std::os::unix::fs::symlink("missing/x.json", &dangling).expect("symlink");
+        let e = write_atomic(&dangling, b"x").expect_err("dangling");
+        assert!(e.to_string().contains("symbolic link"), "{e}");
+        fs::remove_dir_all(&dir).expect("cleanup");
+    }
+
+    /// Regression: `--scenario /dev/zero` (or any endless stream) grew until the process ran
+    /// out of memory; a huge file was read whole.
+    #[cfg(unix)]
+    #[test]
+    fn an_endless_or_huge_config_file_is_refused() {
+        let e = read_config_text(Path::new("/dev/zero")).expect_err("endless");
+        assert!(e.to_string().contains("larger than"), "{e}");
+        let dir = scratch("big-config");
+        let path = dir.join("huge.toml");
+        let file = fs::File::create(&path).expect("create");
+        file.set_len(300 << 20).expect("sparse 300 MB");
+        let e = read_config_text(&path).expect_err("huge");
+        assert!(e.to_string().contains("314572800 bytes"), "{e}");
         fs::remove_dir_all(&dir).expect("cleanup");
     }
 

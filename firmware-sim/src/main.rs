@@ -45,7 +45,8 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Boot a blob (or a reference controller) and run the scenario's test protocol.
-    Run(RunArgs),
+    // Boxed: the run's flags outweigh the match's many times (clippy::large_enum_variant).
+    Run(Box<RunArgs>),
     /// Play a badminton match between two players and judge it by the scenario's criteria.
     Match(MatchArgs),
 }
@@ -95,7 +96,9 @@ struct RunArgs {
     slot_b: Option<PathBuf>,
     /// The actor's critic blob (critic.postcard): with --refine, each action is DCP's compare
     /// step on the device (policy-core's `compare::refine_model`).
-    #[arg(long, requires = "refine", conflicts_with = "controller")]
+    /// (The compare step runs from --blob only: a slot boot would run the plain actor, so
+    /// --critic with --slot-a/--slot-b is refused.)
+    #[arg(long, requires = "refine", conflicts_with_all = ["controller", "slot_a", "slot_b"])]
     critic: Option<PathBuf>,
     /// T,SIGMA: before each action, T proposals around the actor's unit action with noise σ,
     /// the best under the critic replacing it only if its Q is higher (needs --critic).
@@ -103,8 +106,8 @@ struct RunArgs {
     refine: Option<(usize, f32)>,
     /// With --slot-a/--slot-b: the firmware's scratch width; a blob with a wider layer is refused
     /// as the chip refuses it [default: 64, the example firmware's].
-    #[arg(long, default_value_t = firmware_sim::slots::FIRMWARE_SCRATCH_WIDTH)]
-    scratch_width: usize,
+    #[arg(long)]
+    scratch_width: Option<usize>,
     /// A reference controller instead of a blob: straight or oracle.
     #[arg(long)]
     controller: Option<String>,
@@ -195,8 +198,23 @@ fn usage_error(e: &clap::Error) -> String {
 
 /// Runs the evaluation; `Ok(passed)`. All input is checked before the first episode.
 fn run(args: &RunArgs) -> Result<bool> {
-    check_outputs(args)?;
-    let scenario = Scenario::resolve(&args.scenario)?;
+    outputs_ok(args.json.as_deref(), args.svg.as_deref())?;
+    if args.scratch_width.is_some() && args.slot_a.is_none() && args.slot_b.is_none() {
+        // A blob boots with the width it declares; only the firmware's slot boot has a limit.
+        anyhow::bail!("--scratch-width applies to slot boots only (--slot-a/--slot-b)");
+    }
+    let scenario = Scenario::resolve(&args.scenario).map_err(|e| {
+        // A badminton scenario parses as a navigation scenario only up to its `[court]`.
+        if badminton::Config::resolve(&args.scenario).is_ok() {
+            anyhow::anyhow!(
+                "{} is a badminton scenario: play it with `firmware-sim match --scenario {}`",
+                args.scenario,
+                args.scenario
+            )
+        } else {
+            e.into()
+        }
+    })?;
     let cfg = eval_config(args)?;
     cfg.validate(&scenario)?;
     // The blob's bytes outlive the policy that runs from them, as flash outlives the firmware.
@@ -211,7 +229,8 @@ fn run(args: &RunArgs) -> Result<bool> {
             &slot_a,
             &slot_b,
             &PlantSizes::of(&scenario)?,
-            args.scratch_width,
+            args.scratch_width
+                .unwrap_or(firmware_sim::slots::FIRMWARE_SCRATCH_WIDTH),
         )?;
         print!("{}", boot.describe());
         (boot.controller, boot.error)
@@ -260,7 +279,7 @@ fn play(args: &MatchArgs) -> Result<bool> {
     if !(1..=MAX_GAMES).contains(&args.games) {
         anyhow::bail!("--games must be in 1..={MAX_GAMES}, found {}", args.games);
     }
-    outputs_differ(args.json.as_deref(), args.svg.as_deref())?;
+    outputs_ok(args.json.as_deref(), args.svg.as_deref())?;
     let config = badminton::Config::resolve(&args.scenario)?;
     let kinds = [args.p0.clone(), args.p1.clone()];
     let mut drawn: Option<badminton::game::Rally> = None;
@@ -306,31 +325,12 @@ fn play(args: &MatchArgs) -> Result<bool> {
     Ok(report.pass.passed)
 }
 
-/// Two outputs must be two files; each must be writable, checked before any work.
-fn outputs_differ(json: Option<&Path>, svg: Option<&Path>) -> Result<()> {
-    if let (Some(json), Some(svg)) = (json, svg) {
-        if json == svg {
-            anyhow::bail!("--json and --svg name the same file {}", json.display());
-        }
-    }
-    for path in json.iter().chain(svg.iter()) {
-        files::check_output(path).with_context(|| format!("cannot write {}", path.display()))?;
-    }
-    Ok(())
-}
-
-/// A path that cannot be written is reported before the work, so a long run never ends in
-/// "cannot write" with its results lost.
-fn check_outputs(args: &RunArgs) -> Result<()> {
-    if let (Some(json), Some(svg)) = (&args.json, &args.svg) {
-        if json == svg {
-            anyhow::bail!("--json and --svg name the same file {}", json.display());
-        }
-    }
-    for path in args.json.iter().chain(&args.svg) {
-        files::check_output(path).with_context(|| format!("cannot write {}", path.display()))?;
-    }
-    Ok(())
+/// The outputs of one command, checked together before any work (writable, two different
+/// files even when spelt differently), so a long run never ends in "cannot write" and never
+/// writes one report over the other.
+fn outputs_ok(json: Option<&Path>, svg: Option<&Path>) -> Result<()> {
+    let paths: Vec<&Path> = json.into_iter().chain(svg).collect();
+    Ok(files::check_outputs(&paths)?)
 }
 
 fn eval_config(args: &RunArgs) -> Result<EvalConfig> {
@@ -370,11 +370,21 @@ fn read_blob(args: &RunArgs) -> Result<Option<Vec<u8>>> {
         .transpose()
 }
 
+/// `T,SIGMA`, checked here with the compare step's own rule, so a bad value is refused
+/// whatever else is given (even with a blob that does not boot).
 fn parse_refine(s: &str) -> Result<(usize, f32), String> {
-    let parsed = s
+    let parsed: Option<(usize, f32)> = s
         .split_once(',')
         .and_then(|(t, sigma)| Some((t.trim().parse().ok()?, sigma.trim().parse().ok()?)));
-    parsed.ok_or_else(|| format!("expected T,SIGMA such as 16,0.2, found {s:?}"))
+    let (t, sigma) =
+        parsed.ok_or_else(|| format!("expected T,SIGMA such as 16,0.2, found {s:?}"))?;
+    if !(sigma.is_finite() && sigma > 0.0) || t > firmware_sim::refine::MAX_T {
+        return Err(format!(
+            "expected T in 0..={} and SIGMA finite and > 0, found {s:?}",
+            firmware_sim::refine::MAX_T
+        ));
+    }
+    Ok((t, sigma))
 }
 
 /// The bytes of a slot image, or none (an empty slot) when the slot is not given.

@@ -379,7 +379,52 @@ fn output_paths_are_checked_before_any_work() {
             "--svg",
             path(&same),
         ]),
-        &["--json and --svg name the same file"],
+        &["name the same file"],
+    );
+}
+
+/// Regression: `--json s.out --svg ./s.out` exited 0 and left only one of the two reports.
+#[test]
+fn two_spellings_of_one_output_file_are_refused_before_any_work() {
+    let dir = scratch("two-spellings");
+    let plain = dir.join("s.out");
+    let dotted = dir.join(".").join("s.out");
+    let o = run(&[
+        "--controller",
+        "straight",
+        "--episodes",
+        "2",
+        "--json",
+        path(&plain),
+        "--svg",
+        path(&dotted),
+    ]);
+    assert_bad_input(&o, &["name the same file"]);
+    assert!(o.stdout.is_empty(), "no episode ran");
+    assert!(names(&dir).is_empty(), "{:?}", names(&dir));
+}
+
+/// Regression: `run --scenario badminton.toml` said "unknown field `court`" without saying
+/// that badminton is played with `match`.
+#[test]
+fn a_badminton_scenario_given_to_run_points_to_match() {
+    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/badminton.toml");
+    for scenario in [file, "badminton"] {
+        assert_bad_input(
+            &run(&["--controller", "straight", "--scenario", scenario]),
+            &["badminton scenario", "firmware-sim match"],
+        );
+    }
+}
+
+/// Regression: `--scratch-width` with `--blob` was accepted and silently ignored.
+#[test]
+fn scratch_width_without_slots_is_refused() {
+    let golden = concat!(env!("CARGO_MANIFEST_DIR"), "/../policy-core/tests/golden/");
+    let actor = format!("{golden}actor_2x32.postcard");
+    assert_bad_input(
+        &run(&["--blob", &actor, "--scratch-width", "8"]),
+        &["--scratch-width applies to slot boots only"],
     );
 }
 
@@ -525,6 +570,11 @@ fn slot_images_boot_like_the_firmware() {
 
     assert_bad_input(&run(&["--slot-a", &hex]), &["Intel HEX", ".bin"]);
     assert_bad_input(&run(&["--slot-a", &a, "--blob", &a]), &["--blob"]);
+    // Regression: a slot image given as --blob said only "found [68, 67, 80, 83]".
+    assert_bad_input(
+        &run(&["--blob", &a, "--episodes", "2"]),
+        &["flash slot image", "--slot-a"],
+    );
     assert_bad_input(
         &run(&["--slot-a", &a, "--scratch-width", "0"]),
         &["scratch width"],
@@ -587,6 +637,21 @@ fn the_compare_step_runs_in_the_loop() {
     assert_bad_input(
         &run(&["--blob", &actor, "--critic", &critic, "--refine", "4"]),
         &["T,SIGMA"],
+    );
+    // Regression: `--refine 16,nan` was accepted with a blob that does not boot (and from slots).
+    for bad in ["16,nan", "16,0", "16,-1", "5000,0.2"] {
+        assert_bad_input(
+            &run(&["--blob", &critic, "--critic", &critic, "--refine", bad]),
+            &["SIGMA finite"],
+        );
+    }
+    // Regression: from slots the compare step was skipped without a word, running the plain
+    // actor.
+    assert_bad_input(
+        &run(&[
+            "--slot-a", &actor, "--critic", &critic, "--refine", "16,0.2",
+        ]),
+        &["--critic", "--slot-a"],
     );
     let wrong_kind = run(&["--blob", &actor, "--critic", &actor, "--refine", "4,0.2"]);
     assert_eq!(wrong_kind.status.code(), Some(2), "{}", stderr(&wrong_kind));

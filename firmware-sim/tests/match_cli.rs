@@ -151,6 +151,12 @@ fn bad_arguments_are_one_line_exit_2_and_leave_no_file() {
         "--p0", "random", "--p1", "random", "--json", &json, "--svg", &json,
     ]);
     assert_bad_input(&o, "same file");
+    // Regression: `--json same.out --svg ./same.out` exited 0 and left only the SVG.
+    let dotted = dir.file("./out.json");
+    let o = play(&[
+        "--p0", "random", "--p1", "random", "--json", &json, "--svg", &dotted,
+    ]);
+    assert_bad_input(&o, "same file");
     let folder = dir.0.join("folder");
     std::fs::create_dir(&folder).expect("folder");
     let o = play(&[

@@ -10,6 +10,7 @@
 //! functions, so the two harnesses cannot drift apart.
 #![deny(missing_docs)]
 
+pub mod badminton_checks;
 pub mod blob_checks;
 pub mod fault_checks;
 pub mod scenario_checks;

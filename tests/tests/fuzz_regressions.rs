@@ -4,13 +4,13 @@
 
 use std::path::{Path, PathBuf};
 
-use tests::{blob_checks, fault_checks, scenario_checks};
+use tests::{badminton_checks, blob_checks, fault_checks, scenario_checks};
 
 /// Every reproducer, as (target, path).
 fn reproducers() -> Vec<(String, PathBuf)> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/regressions");
     let mut out = Vec::new();
-    for target in ["blob", "scenario", "faults"] {
+    for target in ["blob", "scenario", "faults", "badminton"] {
         let Ok(dir) = std::fs::read_dir(root.join(target)) else {
             continue;
         };
@@ -28,6 +28,7 @@ fn replay(target: &str, path: &Path) {
         ("blob", _) => blob_checks::check(&bytes),
         ("scenario", Ok(text)) => scenario_checks::check(text),
         ("faults", Ok(text)) => fault_checks::check(text),
+        ("badminton", Ok(text)) => badminton_checks::check(text),
         _ => {}
     }
 }

@@ -8,6 +8,9 @@ mod blob_mutations;
 // Scenario TOML assembled from valid fragments with values, types and keys mutated, checked by
 // `tests::scenario_checks` as the `scenario` fuzz target is.
 mod scenario_mutations;
+// The shipped badminton scenario with values, types and keys mutated line by line, checked by
+// `tests::badminton_checks` as the `badminton` fuzz target is.
+mod badminton_mutations;
 // Fault strings assembled from the `--faults` grammar with numbers and separators mutated,
 // checked by `tests::fault_checks` as the `faults` fuzz target is.
 mod fault_mutations;

@@ -16,6 +16,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::error::number;
 use crate::error::parse_error;
 use crate::Error;
 
@@ -168,7 +169,7 @@ impl Config {
             return Ok(Self::builtin());
         }
         let path = Path::new(name_or_path);
-        let text = std::fs::read_to_string(path).map_err(|e| Error::Io {
+        let text = crate::files::read_config_text(path).map_err(|e| Error::Io {
             path: path.display().to_string(),
             message: e.to_string(),
         })?;
@@ -258,11 +259,20 @@ impl Config {
             })
             .or_else(|| in_range("hit.max_azimuth", h.max_azimuth, 0.0, 90.0, true))
             .or_else(|| {
-                // Both ends closed: the box must be a real interval and stay below 90°.
-                (h.max_azimuth >= 90.0 || h.min_elevation <= -90.0).then(|| {
+                // Both ends closed above: the box must stay off the poles (±90°), and the error
+                // names the key that reaches one.
+                (h.max_azimuth >= 90.0).then(|| {
                     (
                         "hit.max_azimuth",
-                        format!("must be below 90, found {}", h.max_azimuth),
+                        format!("must be below 90, found {}", number(h.max_azimuth)),
+                    )
+                })
+            })
+            .or_else(|| {
+                (h.min_elevation <= -90.0).then(|| {
+                    (
+                        "hit.min_elevation",
+                        format!("must be above -90, found {}", number(h.min_elevation)),
                     )
                 })
             })
@@ -346,12 +356,24 @@ fn point<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 2], D::Error> {
     }
 }
 
-/// `Some` unless `v` is finite and in `(lo, hi]` (or `[lo, hi]` when `closed`).
+/// `Some` unless `v` is finite and in `(lo, hi]` (or `[lo, hi]` when `closed`). When the range
+/// is empty (its ends come from other keys) the message says so rather than quoting `(50, 50]`.
 fn in_range(key: &'static str, v: f64, lo: f64, hi: f64, closed: bool) -> Option<Broken> {
     let above = if closed { v >= lo } else { v > lo };
     let ok = v.is_finite() && above && v <= hi;
     let open = if closed { '[' } else { '(' };
-    (!ok).then(|| (key, format!("must be in {open}{lo}, {hi}], found {v}")))
+    let empty = if closed { lo > hi } else { lo >= hi };
+    let (lo, hi, found) = (number(lo), number(hi), number(v));
+    (!ok).then(|| {
+        let message = if empty {
+            format!(
+                "no value fits: the keys it depends on leave an empty range {open}{lo}, {hi}] (found {found})"
+            )
+        } else {
+            format!("must be in {open}{lo}, {hi}], found {found}")
+        };
+        (key, message)
+    })
 }
 
 /// The line (from 1) of `section.key` in the TOML text, for errors found after parsing.
@@ -468,6 +490,30 @@ mod tests {
                 "{to}: {e}"
             );
         }
+    }
+
+    /// Regression: `min_elevation = -90.0` reported `hit.max_azimuth: must be below 90,
+    /// found 50`.
+    #[test]
+    fn a_pole_elevation_names_min_elevation() {
+        let e = refused("min_elevation = -30.0", "min_elevation = -90.0");
+        assert!(e.contains("hit.min_elevation: must be above -90"), "{e}");
+    }
+
+    /// Regression: an empty range read "must be in (50, 50]", and 1e308 printed as a
+    /// 309-digit decimal.
+    #[test]
+    fn empty_ranges_and_huge_numbers_read_plainly() {
+        let text = Config::BUILTIN
+            .replace("min_elevation = -30.0", "min_elevation = 75.0")
+            .replace("serve_elevation = ", "serve_elevation = 75.0 #");
+        let e = Config::from_toml_str(&text, "court.toml")
+            .expect_err("empty")
+            .to_string();
+        assert!(e.contains("empty range"), "{e}");
+        let e = refused("max_speed = 77.0", "max_speed = 1e308");
+        assert!(e.contains("found 1e308"), "{e}");
+        assert!(e.len() < 200, "{e}");
     }
 
     #[test]

@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 
 use super::geometry::{Segment, Vec2};
 use super::reward::Reward;
-use crate::error::parse_error;
+use crate::error::{number, parse_error};
 use crate::Error;
 
 /// The default scenario: the pinwheel of docs/design.md §2.
@@ -344,7 +344,7 @@ impl Scenario {
     /// assert!(err.contains("firmware-sim-doc-load.toml:1:8"), "{err}");
     /// ```
     pub fn load(path: &Path) -> Result<Scenario, Error> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::Io {
+        let text = crate::files::read_config_text(path).map_err(|e| Error::Io {
             path: path.display().to_string(),
             message: e.to_string(),
         })?;
@@ -416,19 +416,27 @@ impl Scenario {
         self.check(
             h.is_finite() && h > 0.0 && h <= MAX_ARENA_HALF_SIZE,
             "arena_half_size",
-            format!("must be in (0, {MAX_ARENA_HALF_SIZE}], found {h}"),
+            format!(
+                "must be in (0, {}], found {}",
+                number(MAX_ARENA_HALF_SIZE),
+                number(h)
+            ),
         )?;
         let step = self.max_step;
         self.check(
             step.is_finite() && step > 0.0 && f64::from(step) < h,
             "max_step",
-            format!("must be > 0 and below arena_half_size {h}, found {step}"),
+            format!(
+                "must be > 0 and below arena_half_size {}, found {}",
+                number(h),
+                number(step)
+            ),
         )?;
         let g = self.gamma;
         self.check(
             (0.0..1.0).contains(&g),
             "gamma",
-            format!("must be in [0, 1), found {g}"),
+            format!("must be in [0, 1), found {}", number(g)),
         )?;
         let t = self.time_limit;
         self.check(
@@ -445,7 +453,7 @@ impl Scenario {
         self.check(
             r.is_finite() && r > 0.0,
             "goal_radius",
-            format!("must be > 0, found {r}"),
+            format!("must be > 0, found {}", number(r)),
         )?;
         self.validate_start()?;
         self.validate_metrics()?;
@@ -462,7 +470,11 @@ impl Scenario {
             StartRule::Boundary { inset } => self.check(
                 inset.is_finite() && *inset >= 0.0 && *inset < h,
                 "start.inset",
-                format!("must be in [0, arena_half_size {h}), found {inset}"),
+                format!(
+                    "must be in [0, arena_half_size {}), found {}",
+                    number(h),
+                    number(*inset)
+                ),
             ),
             StartRule::Points { points } => {
                 self.check(
@@ -501,20 +513,20 @@ impl Scenario {
             self.check(
                 v.is_finite() && v > 0.0,
                 field,
-                format!("must be > 0, found {v}"),
+                format!("must be > 0, found {}", number(v)),
             )?;
         }
         let c = m.stuck_min_command;
         self.check(
             c > 0.0 && c <= 1.0,
             "metrics.stuck_min_command",
-            format!("must be in (0, 1], found {c}"),
+            format!("must be in (0, 1], found {}", number(c)),
         )?;
         let p = m.stuck_max_progress;
         self.check(
             p.is_finite() && p >= 0.0,
             "metrics.stuck_max_progress",
-            format!("must be >= 0, found {p}"),
+            format!("must be >= 0, found {}", number(p)),
         )
     }
 
@@ -526,7 +538,7 @@ impl Scenario {
             self.check(
                 (0.0..=1.0).contains(&v),
                 field,
-                format!("must be in [0, 1], found {v}"),
+                format!("must be in [0, 1], found {}", number(v)),
             )?;
         }
         Ok(())
