@@ -778,7 +778,10 @@ fn endless_or_huge_config_and_task_files_are_refused_in_one_line() {
             ],
         ] {
             let out = host_trainer(&args);
-            assert_one_line_error(&out, &["longer than 1 MiB"]);
+            assert_one_line_error(
+                &out,
+                &["larger than the 1048576 bytes a text input may have"],
+            );
         }
     }
     assert!(entries(&out_dir).is_empty(), "{:?}", entries(&out_dir));

@@ -181,35 +181,14 @@ impl TrainConfig {
     }
 }
 
-/// The most bytes a text file the CLI reads (config, task scenario, a run's recorded plant) may
-/// hold: 1 MiB, hundreds of times a real one. Reading stops one byte past it, so a device or
-/// FIFO that never ends (`--config /dev/zero`) is refused instead of filling memory.
-pub const MAX_TEXT_BYTES: u64 = 1 << 20;
-
-/// Reads a text file the CLI was given, at most [`MAX_TEXT_BYTES`]; every text input of
-/// host-trainer is read here, so the limit is one.
+/// Reads a text file the CLI was given (config, task scenario, a run's recorded plant) through
+/// firmware-sim's one bounded reader ([`firmware_sim::files::read_config_text`], at most
+/// [`firmware_sim::files::MAX_CONFIG_FILE`] bytes, refused from the size or one byte past the
+/// limit, so `--config /dev/zero` is refused instead of filling memory).
 pub fn read_text(path: &Path) -> Result<String, Error> {
-    use std::io::Read;
-    let io = |source| Error::Io {
+    firmware_sim::files::read_config_text(path).map_err(|source| Error::Io {
         path: path.to_path_buf(),
         source,
-    };
-    let file = std::fs::File::open(path).map_err(io)?;
-    let mut bytes = Vec::new();
-    file.take(MAX_TEXT_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .map_err(io)?;
-    if bytes.len() as u64 > MAX_TEXT_BYTES {
-        return Err(io(std::io::Error::new(
-            std::io::ErrorKind::InvalidData,
-            "longer than 1 MiB (or endless): not a config or scenario file",
-        )));
-    }
-    String::from_utf8(bytes).map_err(|_| {
-        io(std::io::Error::new(
-            std::io::ErrorKind::InvalidData,
-            "not UTF-8 text",
-        ))
     })
 }
 
