@@ -18,7 +18,7 @@ pub fn check(text: &str) {
     }
 }
 
-/// An accepted scenario validates and plays [`POINTS`] points between the reference players
+/// An accepted scenario validates and plays three points between the reference players
 /// (scripted against random, both seats), ending with a report or a one-line error.
 pub fn check_accepted(config: &Config) {
     if let Err(e) = config.validate() {
