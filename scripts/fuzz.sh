@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# Coverage-guided fuzzing of the three parsers that read outside input (cargo-fuzz, libFuzzer).
+# Coverage-guided fuzzing of the parsers that read outside input (cargo-fuzz, libFuzzer).
 #
 #   scripts/fuzz.sh blob 600        # fuzz the blob loader and boot path for 600 s
 #   scripts/fuzz.sh scenario 600    # the scenario TOML parser
 #   scripts/fuzz.sh faults 600      # the --faults parser
 #   scripts/fuzz.sh badminton 600   # the badminton scenario parser, playing what it accepts
+#   scripts/fuzz.sh train_config 600 # host-trainer's config files, training what they accept
 #   scripts/fuzz.sh all 20          # each target in turn (what CI runs)
 #   scripts/fuzz.sh blob 60 -jobs=2 # extra arguments go to libFuzzer
 #
@@ -26,10 +27,10 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 fuzz="$root/fuzz"
 toolchain="${FUZZ_TOOLCHAIN:-stable}"
 sanitizer="${FUZZ_SANITIZER:-none}"
-targets=(blob scenario faults badminton)
+targets=(blob scenario faults badminton train_config)
 
 usage() {
-    echo "usage: scripts/fuzz.sh {blob|scenario|faults|badminton|all} [SECONDS] [LIBFUZZER_ARGS...]" >&2
+    echo "usage: scripts/fuzz.sh {blob|scenario|faults|badminton|train_config|all} [SECONDS] [LIBFUZZER_ARGS...]" >&2
     exit 2
 }
 
@@ -94,6 +95,6 @@ case "$1" in
         for t in "${targets[@]}"; do run "$t" "$seconds" "${@:3}" || status=1; done
         exit "$status"
         ;;
-    blob | scenario | faults | badminton) run "$1" "${2:-60}" "${@:3}" ;;
+    blob | scenario | faults | badminton | train_config) run "$1" "${2:-60}" "${@:3}" ;;
     *) usage ;;
 esac

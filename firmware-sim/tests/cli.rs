@@ -417,6 +417,31 @@ fn a_badminton_scenario_given_to_run_points_to_match() {
     }
 }
 
+/// Regression: `--noise=-3.4e38` printed a 39-digit decimal, `--noise=1e39` said "must be
+/// >= 0, found inf", and a fault number that did not read gave no hint of what was expected.
+#[test]
+fn sensor_and_fault_numbers_are_named_compactly() {
+    let cases: [(&str, &[&str]); 6] = [
+        ("--noise=-3.4e38", &["sensor.noise_std", "found -3.4e38"]),
+        ("--noise=1e39", &["must be finite and >= 0, found inf"]),
+        ("--quantum=-1e30", &["sensor.quantum", "found -1e30"]),
+        (
+            "--rate-limit=-1e30",
+            &["actuator.rate_limit", "found -1e30"],
+        ),
+        ("--faults=dropout-nan:1e30", &["in [0, 1], found 1e30"]),
+        (
+            "--faults=stuck:0.5@3",
+            &["\"0.5\"", "expected an action dimension D"],
+        ),
+    ];
+    for (arg, needles) in cases {
+        let out = run(&["--controller", "straight", "--episodes", "1", arg]);
+        assert_bad_input(&out, needles);
+        assert!(stderr(&out).len() < 200, "{arg}: {}", stderr(&out));
+    }
+}
+
 /// Regression: `--scratch-width` with `--blob` was accepted and silently ignored.
 #[test]
 fn scratch_width_without_slots_is_refused() {

@@ -56,6 +56,23 @@ pub enum Error {
         /// The run file found in it.
         found: String,
     },
+    /// `inspect --against`: the reference is not the f32 blob of the same model.
+    NotTheReference {
+        /// What differs, e.g. "the reference holds a critic and the blob an actor".
+        difference: String,
+    },
+    /// A setting away from its default that none of the chosen algorithms reads: it would be
+    /// recorded in `config.toml` and change nothing.
+    UnreadSetting {
+        /// The setting as `section.key`, or the flag that set it.
+        key: String,
+        /// Its value, or empty for a flag.
+        value: String,
+        /// The algorithms of the run or sweep, none of which reads it.
+        algos: String,
+        /// The algorithms that read it.
+        readers: String,
+    },
     /// A sweep's run folder holds a run of other settings than the sweep would run there.
     RunDiffers {
         /// The run folder.
@@ -126,6 +143,26 @@ impl fmt::Display for Error {
                 path.display(),
                 path.display()
             ),
+            Error::NotTheReference { difference } => write!(
+                f,
+                "{difference}: --against takes the f32 blob the quantised one was exported from (the same run's policy.postcard)"
+            ),
+            Error::UnreadSetting {
+                key,
+                value,
+                algos,
+                readers,
+            } => {
+                let value = if value.is_empty() {
+                    String::new()
+                } else {
+                    format!(" = {value}")
+                };
+                write!(
+                    f,
+                    "{key}{value} is not used by {algos}, only by {readers}: remove it or choose one of those with --algo"
+                )
+            }
             Error::RunDiffers { path, difference } => write!(
                 f,
                 "{} holds a run of other settings than this sweep's ({difference}); sweep into another --out, or move the folder away",

@@ -11,6 +11,7 @@
 //! ```
 //! Errors are one line on stderr and a non-zero exit.
 
+use std::io::Read as _;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -25,7 +26,7 @@ use firmware_sim::files;
 use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::test_protocol::{self, EvalConfig, Report};
 use host_trainer::algorithms::noise::Noise;
-use host_trainer::algorithms::Algo;
+use host_trainer::algorithms::{self, Algo};
 use host_trainer::blob::export::{self, ImageFormat, SlotTarget};
 use host_trainer::blob::inspect;
 use host_trainer::nn::hidden::Hidden;
@@ -119,6 +120,11 @@ struct TrainArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+    /// Stop as on Ctrl-C (checkpoint, exit 130) when standard input reaches its end. A sweep
+    /// starts its runs with this and holds their standard input open, so a sweep that dies by
+    /// any signal, SIGKILL included, takes its runs with it instead of leaving them training.
+    #[arg(long, hide = true)]
+    stop_when_stdin_closes: bool,
 }
 
 #[derive(Debug, Args)]
@@ -311,6 +317,23 @@ fn install_sweep_ctrl_c_handler() {
     });
 }
 
+/// Counts the end of standard input as a Ctrl-C press: the parent that holds the other end has
+/// gone (the kernel closes a dead process's pipes, whatever killed it).
+fn stop_when_parent_goes() {
+    std::thread::spawn(|| {
+        let mut buf = [0u8; 64];
+        loop {
+            match std::io::stdin().read(&mut buf) {
+                Ok(0) | Err(_) => break,
+                Ok(_) => {}
+            }
+        }
+        if INTERRUPTS.fetch_add(1, Ordering::SeqCst) == 0 {
+            eprintln!("host-trainer: the sweep that started this run has gone; stopping after this episode and writing a checkpoint");
+        }
+    });
+}
+
 fn set_ctrl_c_handler(handler: fn()) {
     // Without a handler (it can only fail if another one is installed) Ctrl-C still ends the
     // process, losing at most `checkpoint_every` episodes: worth a warning, not a failure.
@@ -322,11 +345,15 @@ fn set_ctrl_c_handler(handler: fn()) {
 
 fn train_command(args: TrainArgs) -> Result<ExitCode> {
     let quiet = args.quiet;
+    let stop_when_stdin_closes = args.stop_when_stdin_closes;
     let (mut trainer, run, _lock) = match &args.resume {
         Some(dir) => resume(dir, args.episodes)?,
         None => fresh(args)?,
     };
     install_ctrl_c_handler();
+    if stop_when_stdin_closes {
+        stop_when_parent_goes();
+    }
     let bar = progress::bar(trainer.config.episodes as u64, "episode", quiet);
     bar.set_position(trainer.episode as u64);
     let started = Instant::now();
@@ -379,6 +406,7 @@ fn fresh(args: TrainArgs) -> Result<(Trainer, RunDir, FolderLock)> {
     };
     apply_flags(&mut config, &args);
     check_flags_used(config.algo, &args)?;
+    config.check_read(&[config.algo])?;
     let trainer = Trainer::new(config)?;
     let out = match args.out {
         Some(out) => out,
@@ -431,22 +459,26 @@ fn apply_flags(config: &mut TrainConfig, args: &TrainArgs) {
 }
 
 /// A flag the run's algorithm does not read would be recorded in `config.toml` and change
-/// nothing: it is refused, naming the algorithms that use it.
+/// nothing: it is refused, naming the algorithms that use it (even at its default value; a
+/// config file's setting is refused only away from its default, see
+/// [`TrainConfig::check_read`]).
 fn check_flags_used(algo: Algo, args: &TrainArgs) -> Result<()> {
-    use Algo::{Dcp, Ddpg, Td3};
-    let flags: [(&str, bool, &[Algo]); 4] = [
-        ("--t", args.t.is_some(), &[Dcp]),
-        ("--sigma", args.sigma.is_some(), &[Dcp, Ddpg, Td3]),
-        ("--noise", args.noise.is_some(), &[Dcp, Ddpg, Td3]),
-        ("--dropout", args.dropout.is_some(), &[Dcp, Ddpg, Td3]),
+    let flags = [
+        ("--t", args.t.is_some(), ("dcp", "t")),
+        ("--sigma", args.sigma.is_some(), ("agent", "sigma")),
+        ("--noise", args.noise.is_some(), ("agent", "noise")),
+        ("--dropout", args.dropout.is_some(), ("agent", "dropout")),
     ];
-    for (flag, given, users) in flags {
-        if given && !users.contains(&algo) {
-            let names: Vec<String> = users.iter().map(Algo::to_string).collect();
-            anyhow::bail!(
-                "{flag} is not used by {algo}, only by {}: remove it or choose one of those with --algo",
-                names.join(", ")
-            );
+    for (flag, given, (section, key)) in flags {
+        let readers = algorithms::readers(section, key);
+        if given && !readers.contains(&algo) {
+            return Err(host_trainer::Error::UnreadSetting {
+                key: flag.into(),
+                value: String::new(),
+                algos: algo.to_string(),
+                readers: algorithms::names(readers),
+            }
+            .into());
         }
     }
     Ok(())
@@ -550,7 +582,6 @@ fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
     install_sweep_ctrl_c_handler();
     let runner = supervise::Runner {
         exe: std::env::current_exe().context("cannot find the host-trainer binary")?,
-        config_file: args.config,
         out: args.out.clone(),
         jobs,
         quiet: args.quiet,

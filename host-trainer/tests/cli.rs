@@ -3,11 +3,13 @@
 
 use std::path::{Path, PathBuf};
 
+use host_trainer::algorithms::Algo;
+use host_trainer::run::config::TrainConfig;
 use policy_core::{ActionBounds, Critic, Normalizer, Policy};
 
 use crate::support::{
     assert_ok, assert_one_line_error, command, entries, host_trainer, s, scratch,
-    smoke_config_file, temporaries, train_smoke,
+    smoke_config_file, smoke_config_file_of, temporaries, train_smoke,
 };
 
 #[test]
@@ -523,8 +525,16 @@ fn a_run_with_only_its_config_restarts_on_resume() {
 #[test]
 fn ppo_and_dqn_train_end_to_end_through_the_cli() {
     let base = scratch("ppo-dqn-cli");
-    for (algo, kind) in [("ppo", "actor"), ("dqn", "discrete policy")] {
-        let out = train_smoke(&base, 4, &["--algo", algo]);
+    for (algo, kind) in [(Algo::Ppo, "actor"), (Algo::Dqn, "discrete policy")] {
+        let config = smoke_config_file_of(&base, algo, 4);
+        let out = host_trainer(&[
+            "train",
+            "--config",
+            s(&config),
+            "--out",
+            s(&base),
+            "--quiet",
+        ]);
         assert_ok(&out);
         let stdout = String::from_utf8_lossy(&out.stdout);
         assert!(stdout.contains("5 test starts"), "{algo}: {stdout}");
@@ -893,6 +903,146 @@ fn flags_the_algorithm_does_not_use_are_refused() {
     ]);
     assert_one_line_error(&out, &["--t", "ddpg", "only by dcp"]);
     assert!(entries(&base).is_empty(), "{:?}", entries(&base));
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// `inspect X --against critic.postcard` read backwards ("expected critic, found actor") and
+/// spoke of a compiled shape; a quantised reference was accepted. Each names what the
+/// reference must be: the f32 blob of the same model.
+#[test]
+fn inspect_against_names_what_the_reference_must_be() {
+    let base = scratch("inspect-against");
+    let golden = Path::new(env!("CARGO_MANIFEST_DIR")).join("../policy-core/tests/golden");
+    let (actor, critic) = (
+        golden.join("actor_2x32.postcard"),
+        golden.join("critic_2x32.postcard"),
+    );
+    let int8 = base.join("actor-int8.postcard");
+    let bytes = std::fs::read(&actor).expect("golden actor");
+    let encoded = host_trainer::blob::export::encode(&bytes, policy_core::Encoding::Int8);
+    std::fs::write(&int8, encoded.expect("encodes")).expect("write");
+    let wide = golden.join("actor_4x48.postcard");
+    let cases: [(&Path, &Path, &[&str]); 3] = [
+        (
+            &int8,
+            &critic,
+            &["the reference holds a critic and the blob an actor"],
+        ),
+        (&int8, &int8, &["the reference is int8-encoded"]),
+        (
+            &int8,
+            &wide,
+            &["the reference's network is", "and the blob's"],
+        ),
+    ];
+    for (blob, reference, needles) in cases {
+        let out = host_trainer(&["inspect", s(blob), "--against", s(reference)]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{stderr}");
+        assert!(stderr.contains("--against takes the f32 blob"), "{stderr}");
+        assert!(!stderr.contains("compiled for"), "{stderr}");
+        for n in needles {
+            assert!(stderr.contains(n), "{n}: {stderr}");
+        }
+    }
+    assert_ok(&host_trainer(&[
+        "inspect",
+        s(&int8),
+        "--against",
+        s(&actor),
+    ]));
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// A config file's section for another algorithm was recorded and changed nothing, like the
+/// flags above. A setting away from its default that the run's algorithm does not read is
+/// refused by `train` naming its key and readers; a sweep accepts it when one of its algorithms
+/// reads it, and each run records its own algorithm's settings only.
+#[test]
+fn config_settings_the_algorithm_does_not_read_are_refused() {
+    let base = scratch("unread-settings");
+    let mut config = TrainConfig::smoke(Algo::Ddpg, 3);
+    config.dcp.t = 7;
+    let file = base.join("ddpg-with-dcp.toml");
+    std::fs::write(&file, config.to_toml()).expect("config");
+    let train = host_trainer(&["train", "--config", s(&file), "--out", s(&base)]);
+    assert_one_line_error(&train, &["dcp.t = 7", "not used by ddpg", "only by dcp"]);
+    let sweep = host_trainer(&[
+        "sweep",
+        "--config",
+        s(&file),
+        "--seeds",
+        "0",
+        "--out",
+        s(&base),
+    ]);
+    assert_one_line_error(&sweep, &["dcp.t = 7", "not used by ddpg", "only by dcp"]);
+    // TD3's smoothing σ is DCP's too; its policy delay is TD3's alone.
+    config.dcp.t = TrainConfig::default().dcp.t;
+    config.td3.policy_delay = 3;
+    std::fs::write(&file, config.to_toml()).expect("config");
+    let train = host_trainer(&[
+        "train",
+        "--config",
+        s(&file),
+        "--algo",
+        "dcp",
+        "--out",
+        s(&base),
+    ]);
+    assert_one_line_error(&train, &["td3.policy_delay = 3", "only by td3"]);
+    // The sweep's folder lock is all that was added.
+    assert_eq!(
+        entries(&base),
+        [".host-trainer.lock", "ddpg-with-dcp.toml"],
+        "nothing written"
+    );
+
+    // One sweep of DDPG and TD3: the delay is TD3's, the DDPG runs record the default.
+    let out = base.join("out");
+    std::fs::create_dir_all(&out).expect("dir");
+    let sweep = host_trainer(&[
+        "sweep",
+        "--config",
+        s(&file),
+        "--algo",
+        "ddpg,td3",
+        "--seeds",
+        "0",
+        "--out",
+        s(&out),
+        "--quiet",
+    ]);
+    assert_ok(&sweep);
+    let recorded = |algo: &str| {
+        TrainConfig::from_file(&out.join(format!("nav-walls__{algo}__0/config.toml")))
+            .expect("recorded config")
+    };
+    assert_eq!(recorded("td3").td3.policy_delay, 3);
+    assert_eq!(
+        recorded("ddpg").td3.policy_delay,
+        TrainConfig::default().td3.policy_delay
+    );
+    // Run again, the same sweep finds both runs finished (the recorded DDPG config is its own).
+    let again = host_trainer(&[
+        "sweep",
+        "--config",
+        s(&file),
+        "--algo",
+        "ddpg,td3",
+        "--seeds",
+        "0",
+        "--out",
+        s(&out),
+        "--quiet",
+    ]);
+    assert_ok(&again);
+    assert_eq!(
+        String::from_utf8_lossy(&again.stdout)
+            .matches("skipped")
+            .count(),
+        2
+    );
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
 

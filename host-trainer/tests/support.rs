@@ -76,9 +76,14 @@ pub fn temporaries(dir: &Path) -> Vec<String> {
 /// Writes the smoke config (tiny network, tiny batch) with `episodes` episodes to `dir` and
 /// returns its path.
 pub fn smoke_config_file(dir: &Path, episodes: usize) -> PathBuf {
-    let mut config = TrainConfig::smoke(Algo::Dcp, 3);
+    smoke_config_file_of(dir, Algo::Dcp, episodes)
+}
+
+/// [`smoke_config_file`] for `algo` (a config holds only the settings its algorithm reads).
+pub fn smoke_config_file_of(dir: &Path, algo: Algo, episodes: usize) -> PathBuf {
+    let mut config = TrainConfig::smoke(algo, 3);
     config.episodes = episodes;
-    let path = dir.join(format!("smoke-{episodes}.toml"));
+    let path = dir.join(format!("smoke-{algo}-{episodes}.toml"));
     std::fs::write(&path, config.to_toml()).expect("config file");
     path
 }

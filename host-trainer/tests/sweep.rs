@@ -418,3 +418,85 @@ fn a_run_folder_of_other_settings_is_refused_before_anything_starts() {
     );
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+/// The process id written in a folder's lock file, once its holder has written it.
+fn lock_holder(dir: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(dir.join(host_trainer::run::lock::LOCK)).ok()?;
+    let pid = text.trim();
+    (!pid.is_empty()).then(|| pid.to_string())
+}
+
+/// Two sweeps of one `--out` started together: the second is refused with one line naming the
+/// first's process, touches nothing, and the first finishes every run.
+#[test]
+fn a_second_sweep_of_the_same_folder_is_refused_and_the_first_finishes() {
+    let base = scratch("sweep-twice");
+    let config = smoke_config_file(&base, 12);
+    let out = base.join("out");
+    std::fs::create_dir_all(&out).expect("dir");
+    let args = ["--seeds", "0-1", "--jobs", "1"];
+    let mut first = Group::spawn({
+        let mut c = command(&["sweep", "--config", s(&config), "--out", s(&out), "--quiet"]);
+        c.args(args);
+        c
+    });
+    wait_for("the first sweep's lock", || lock_holder(&out).is_some());
+    let holder = lock_holder(&out).expect("holder");
+    assert_eq!(holder, first.pid());
+    let second = run_sweep(&config, &out, &args, &[]);
+    assert_one_line_error(
+        &second,
+        &[s(&out), &format!("host-trainer process {holder}")],
+    );
+    let first = first.wait();
+    assert_ok(&first);
+    assert_eq!(
+        statuses(&out),
+        status_pairs(&[(0, "finished"), (1, "finished")])
+    );
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// A sweep killed with SIGKILL alone (not its process group) takes its running child with it:
+/// the child sees its standard input close, writes a checkpoint and exits, releasing its run
+/// folder, and the same sweep command then continues the run.
+#[test]
+fn the_runs_of_a_killed_sweep_stop_with_it() {
+    let base = scratch("sweep-orphans");
+    let config = smoke_config_file(&base, 60);
+    let out = base.join("out");
+    std::fs::create_dir_all(&out).expect("dir");
+    let args = ["--seeds", "0", "--jobs", "1"];
+    let mut sweep = Group::spawn({
+        let mut c = command(&["sweep", "--config", s(&config), "--out", s(&out), "--quiet"]);
+        c.args(args);
+        c
+    });
+    let run = out.join("nav-walls__dcp__0");
+    wait_for("the run's first checkpoint", || {
+        run.join(folder::CHECKPOINT).exists() && lock_holder(&run).is_some()
+    });
+    let sent = std::process::Command::new("kill")
+        .args(["-KILL", &sweep.pid()])
+        .status()
+        .expect("kill");
+    assert!(sent.success());
+    let _ = sweep.wait();
+    // The child released its run folder: it exited (the lock goes with its last descriptor).
+    wait_for("the orphaned run to stop", || {
+        host_trainer::run::lock::acquire(&run).is_ok()
+    });
+    let log = std::fs::read_to_string(out.join(supervise::LOGS).join("nav-walls__dcp__0.log"))
+        .expect("log");
+    assert!(
+        log.contains("the sweep that started this run has gone"),
+        "{log}"
+    );
+    assert!(
+        !run.join(folder::EVAL).exists(),
+        "the run stopped before its end"
+    );
+    assert_ok(&run_sweep(&config, &out, &args, &[]));
+    assert_eq!(statuses(&out), status_pairs(&[(0, "finished")]));
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}

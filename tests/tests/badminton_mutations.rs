@@ -9,6 +9,8 @@ use firmware_sim::badminton::Config;
 use proptest::prelude::*;
 use tests::badminton_checks;
 
+use crate::line_edits::{self, Edit};
+
 /// Values of every TOML type, at the edges of the scenario's rules.
 const VALUES: &[&str] = &[
     "0",
@@ -40,69 +42,13 @@ const VALUES: &[&str] = &[
     "{}",
 ];
 
-/// What happens to one line.
-#[derive(Clone, Debug)]
-enum Edit {
-    Keep,
-    Drop,
-    Duplicate,
-    /// A value from [`VALUES`].
-    Value(usize),
-    /// A random number in place of the value.
-    Number(f64),
-    /// The valid value times a factor, keeping its type (integers stay integers).
-    Scale(f64),
-}
-
 fn edit() -> impl Strategy<Value = Edit> {
-    prop_oneof![
-        12 => Just(Edit::Keep),
-        1 => Just(Edit::Drop),
-        1 => Just(Edit::Duplicate),
-        1 => (0..VALUES.len()).prop_map(Edit::Value),
-        1 => prop_oneof![-10.0f64..100.0, any::<f64>()].prop_map(Edit::Number),
-        1 => (0.0f64..3.0).prop_map(Edit::Scale),
-    ]
-}
-
-/// A TOML float that parses back to `x`.
-fn float(x: f64) -> String {
-    match x {
-        x if x.is_nan() => "nan".into(),
-        x if x.is_infinite() => if x > 0.0 { "inf" } else { "-inf" }.into(),
-        x => format!("{x:?}"),
-    }
+    line_edits::edit(12, VALUES.len(), -10.0..100.0)
 }
 
 /// The shipped text with `edits` applied to its `key = value` lines (other lines kept).
 fn render(edits: &[Edit], extra: Option<&str>) -> String {
-    let mut text = String::new();
-    let mut edits = edits.iter();
-    for line in Config::BUILTIN.lines() {
-        let Some((key, value)) = line.split_once(" = ").filter(|_| !line.starts_with('#')) else {
-            text.push_str(line);
-            text.push('\n');
-            continue;
-        };
-        let value = value.split(" #").next().unwrap_or(value).trim();
-        let e = edits.next().unwrap_or(&Edit::Keep);
-        text.push_str(&match e {
-            Edit::Keep => format!("{key} = {value}\n"),
-            Edit::Drop => String::new(),
-            Edit::Duplicate => format!("{key} = {value}\n{key} = {value}\n"),
-            Edit::Value(i) => format!("{key} = {}\n", VALUES[*i]),
-            Edit::Number(x) => format!("{key} = {}\n", float(*x)),
-            Edit::Scale(f) => match (value.parse::<u32>(), value.parse::<f64>()) {
-                (Ok(n), _) => format!("{key} = {}\n", (f64::from(n) * f).round() as u32),
-                (_, Ok(x)) => format!("{key} = {}\n", float(x * f)),
-                _ => format!("{key} = {value}\n"),
-            },
-        });
-        if let (Some(extra), true) = (extra, key == "name") {
-            text.push_str(&format!("{extra} = 1\n"));
-        }
-    }
-    text
+    line_edits::apply(Config::BUILTIN, edits, VALUES, extra.map(|e| ("name", e)))
 }
 
 #[test]

@@ -4,13 +4,13 @@
 
 use std::path::{Path, PathBuf};
 
-use tests::{badminton_checks, blob_checks, fault_checks, scenario_checks};
+use tests::{badminton_checks, blob_checks, config_checks, fault_checks, scenario_checks};
 
 /// Every reproducer, as (target, path).
 fn reproducers() -> Vec<(String, PathBuf)> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/regressions");
     let mut out = Vec::new();
-    for target in ["blob", "scenario", "faults", "badminton"] {
+    for target in ["blob", "scenario", "faults", "badminton", "train_config"] {
         let Ok(dir) = std::fs::read_dir(root.join(target)) else {
             continue;
         };
@@ -29,6 +29,7 @@ fn replay(target: &str, path: &Path) {
         ("scenario", Ok(text)) => scenario_checks::check(text),
         ("faults", Ok(text)) => fault_checks::check(text),
         ("badminton", Ok(text)) => badminton_checks::check(text),
+        ("train_config", Ok(text)) => config_checks::check(text),
         _ => {}
     }
 }

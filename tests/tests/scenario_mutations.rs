@@ -10,6 +10,8 @@ use firmware_sim::nav::scenario::Scenario;
 use proptest::prelude::*;
 use tests::scenario_checks;
 
+use crate::line_edits::{self, float, line, Edit};
+
 /// A valid scenario as (section, key, value) lines; section "" is the top level.
 const FRAGMENTS: &[(&str, &str, &str)] = &[
     ("", "name", "\"fuzz\""),
@@ -68,29 +70,8 @@ const VALUES: &[&str] = &[
     "'x'",
 ];
 
-/// What happens to one fragment line.
-#[derive(Clone, Debug)]
-enum Edit {
-    Keep,
-    Drop,
-    Duplicate,
-    /// A value from [`VALUES`].
-    Value(usize),
-    /// A random number in place of the value.
-    Number(f64),
-    /// The valid value times a factor, keeping its type (integers stay integers).
-    Scale(f64),
-}
-
 fn edit() -> impl Strategy<Value = Edit> {
-    prop_oneof![
-        8 => Just(Edit::Keep),
-        1 => Just(Edit::Drop),
-        1 => Just(Edit::Duplicate),
-        1 => (0..VALUES.len()).prop_map(Edit::Value),
-        1 => prop_oneof![-10.0f64..10.0, any::<f64>()].prop_map(Edit::Number),
-        1 => (0.0f64..3.0).prop_map(Edit::Scale),
-    ]
+    line_edits::edit(8, VALUES.len(), -10.0..10.0)
 }
 
 /// A coordinate: mostly inside the arena, sometimes out of it or not finite.
@@ -105,15 +86,6 @@ fn coordinate() -> impl Strategy<Value = f64> {
 /// `[[walls]]` entries, or `points` of a start rule.
 fn points(max: usize) -> impl Strategy<Value = Vec<[f64; 2]>> {
     prop::collection::vec([coordinate(), coordinate()], 0..max)
-}
-
-/// A TOML float that parses back to `x` (TOML spells the non-finite ones `nan`, `inf`).
-fn float(x: f64) -> String {
-    match x {
-        x if x.is_nan() => "nan".into(),
-        x if x.is_infinite() => if x > 0.0 { "inf" } else { "-inf" }.into(),
-        x => format!("{x:?}"),
-    }
 }
 
 /// Renders the edited fragments, the start points, the walls and the extra keys.
@@ -136,7 +108,7 @@ fn render(
             if section == "start" && start_points.is_some() {
                 continue;
             }
-            text.push_str(&line(key, value, e));
+            text.push_str(&line(key, value, e, VALUES));
         }
         if let (true, Some(p)) = (section == "start", start_points) {
             let p: Vec<String> = p
@@ -165,21 +137,6 @@ fn render(
         ));
     }
     text
-}
-
-fn line(key: &str, value: &str, e: &Edit) -> String {
-    match e {
-        Edit::Keep => format!("{key} = {value}\n"),
-        Edit::Drop => String::new(),
-        Edit::Duplicate => format!("{key} = {value}\n{key} = {value}\n"),
-        Edit::Value(i) => format!("{key} = {}\n", VALUES[*i]),
-        Edit::Number(x) => format!("{key} = {}\n", float(*x)),
-        Edit::Scale(f) => match (value.parse::<u32>(), value.parse::<f64>()) {
-            (Ok(n), _) => format!("{key} = {}\n", (f64::from(n) * f).round() as u32),
-            (_, Ok(x)) => format!("{key} = {}\n", float(x * f)),
-            _ => format!("{key} = {value}\n"),
-        },
-    }
 }
 
 /// Extra keys per section: none mostly, a misspelt one sometimes.

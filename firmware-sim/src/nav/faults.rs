@@ -77,7 +77,7 @@ impl Faults {
             if !(0.0..=1.0).contains(&d.probability) {
                 return Err(bad(format!(
                     "dropout probability must be in [0, 1], found {}",
-                    d.probability
+                    crate::error::number(d.probability)
                 )));
             }
         }
@@ -169,7 +169,7 @@ fn parse_dropout(kind: &str, arg: &str, item: &str) -> Result<Dropout, Error> {
         DropoutMode::Stale
     };
     Ok(Dropout {
-        probability: number(arg, item)?,
+        probability: number(arg, item, "a probability P in [0, 1]")?,
         mode,
     })
 }
@@ -177,24 +177,27 @@ fn parse_dropout(kind: &str, arg: &str, item: &str) -> Result<Dropout, Error> {
 fn parse_stuck(arg: &str, item: &str) -> Result<ActuatorStuck, Error> {
     let (dim, tick) = arg.split_once('@').ok_or_else(|| unknown(item))?;
     Ok(ActuatorStuck {
-        dim: number(dim, item)?,
-        from_tick: number(tick, item)?,
+        dim: number(dim, item, "an action dimension D such as 0")?,
+        from_tick: number(tick, item, "a tick T such as 40")?,
     })
 }
 
 fn parse_wall(arg: &str, item: &str) -> Result<WallChange, Error> {
     let mut parts = arg.split('@');
-    let at_tick = number(parts.next().unwrap_or(""), item)?;
+    let at_tick = number(parts.next().unwrap_or(""), item, "a tick T such as 40")?;
     let coords: Vec<f64> = parts
         .next()
         .unwrap_or("")
         .split('/')
-        .map(|c| number(c, item))
+        .map(|c| number(c, item, "a coordinate such as -1.5"))
         .collect::<Result<_, _>>()?;
     let [x0, y0, x1, y1] = coords[..] else {
         return Err(unknown(item));
     };
-    let replaces = parts.next().map(|i| number(i, item)).transpose()?;
+    let replaces = parts
+        .next()
+        .map(|i| number(i, item, "a wall index I such as 3"))
+        .transpose()?;
     if parts.next().is_some() {
         return Err(unknown(item));
     }
@@ -208,10 +211,13 @@ fn parse_wall(arg: &str, item: &str) -> Result<WallChange, Error> {
     })
 }
 
-fn number<T: FromStr>(text: &str, item: &str) -> Result<T, Error> {
-    text.trim()
-        .parse()
-        .map_err(|_| bad(format!("cannot read {text:?} in fault {item:?}")))
+/// One number of a fault; the error says what was expected there.
+fn number<T: FromStr>(text: &str, item: &str, expected: &str) -> Result<T, Error> {
+    text.trim().parse().map_err(|_| {
+        bad(format!(
+            "cannot read {text:?} in fault {item:?}: expected {expected}"
+        ))
+    })
 }
 
 fn unknown(item: &str) -> Error {

@@ -67,6 +67,43 @@ impl fmt::Display for Algo {
     }
 }
 
+/// The algorithms that read a setting of the run's configuration, named as in `config.toml`
+/// (`section`, `key`; the run's own top-level settings have the section `""`). A setting that
+/// its run's algorithm does not read is refused when it is set away from its default, so this
+/// list must follow the algorithms' files: each says which shared settings it reads.
+pub fn readers(section: &str, key: &str) -> &'static [Algo] {
+    use Algo::{Dcp, Ddpg, Dqn, Ppo, Td3};
+    const ALL: &[Algo] = &[Dcp, Ddpg, Td3, Ppo, Dqn];
+    const ACTOR_CRITIC: &[Algo] = &[Dcp, Ddpg, Td3];
+    // The algorithms with a replay buffer, a target network and Adam's L2 on every net.
+    const REPLAY: &[Algo] = &[Dcp, Ddpg, Td3, Dqn];
+    match (section, key) {
+        ("agent", "lr_actor") => &[Dcp, Ddpg, Td3, Ppo],
+        ("agent", "dropout" | "sigma" | "noise" | "ou_theta") => ACTOR_CRITIC,
+        (
+            "agent",
+            "batch" | "tau" | "l2" | "replay_capacity" | "warmup_steps" | "updates_per_step",
+        ) => REPLAY,
+        ("dcp", _) => &[Dcp],
+        ("ddpg", _) => &[Ddpg, Td3],
+        ("td3", "policy_delay") => &[Td3],
+        // DCP's target smoothing takes TD3's σ and clip.
+        ("td3", _) => &[Td3, Dcp],
+        ("ppo", _) => &[Ppo],
+        ("dqn", _) => &[Dqn],
+        _ => ALL,
+    }
+}
+
+/// Algorithm names for a message: `dcp, ddpg`.
+pub fn names(algos: &[Algo]) -> String {
+    algos
+        .iter()
+        .map(Algo::to_string)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// The config sections the algorithms read, borrowed from the run's configuration.
 #[derive(Clone, Copy, Debug)]
 pub struct Sections<'a> {

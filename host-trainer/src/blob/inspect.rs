@@ -8,7 +8,9 @@ use std::fmt::Write as _;
 
 use policy_core::blob::CRC_LEN;
 use policy_core::model::Model;
-use policy_core::ModelKind;
+use policy_core::{Encoding, ModelKind};
+
+use crate::Error;
 
 /// A readable description of a blob: kind, shape, activation, encoding, format version, label,
 /// parameter count, byte size, CRC, the normaliser, and the action bounds (actor, discrete) or
@@ -86,7 +88,8 @@ pub fn describe(bytes: &[u8]) -> Result<String, policy_core::Error> {
 
 /// Per layer of a quantised blob, how far its weights (decoded: an f16 weight exactly, an int8
 /// weight as `scale · q`) lie from those of the f32 blob it was made from: `(inputs, outputs,
-/// largest |error|, largest |f32 weight|)`. Both blobs must hold the same kind and shape.
+/// largest |error|, largest |f32 weight|)`. The reference must be an f32 blob of the same kind
+/// and shape ([`Error::NotTheReference`] otherwise).
 ///
 /// ```
 /// use host_trainer::blob::{export::encode, inspect::weight_errors};
@@ -96,24 +99,31 @@ pub fn describe(bytes: &[u8]) -> Result<String, policy_core::Error> {
 /// for (_, _, error, largest) in weight_errors(&int8, F32).unwrap() {
 ///     assert!(error <= largest / 127.0 / 2.0 * 1.001); // half a quantisation step at most
 /// }
+/// // The quantised blob is no reference.
+/// assert!(weight_errors(F32, &int8).is_err());
 /// ```
 pub fn weight_errors(
     quantised: &[u8],
     reference: &[u8],
-) -> Result<Vec<(usize, usize, f32, f32)>, policy_core::Error> {
+) -> Result<Vec<(usize, usize, f32, f32)>, Error> {
     let (q, r) = (Model::from_blob(quantised)?, Model::from_blob(reference)?);
     let (hq, hr) = (q.header(), r.header());
+    let differs = |difference: String| Err(Error::NotTheReference { difference });
+    if hr.encoding != Encoding::F32 {
+        return differs(format!("the reference is {}-encoded", hr.encoding));
+    }
     if hq.kind != hr.kind {
-        return Err(policy_core::Error::WrongKind {
-            expected: hr.kind,
-            found: hq.kind,
-        });
+        return differs(format!(
+            "the reference holds {} and the blob {}",
+            with_article(hr.kind),
+            with_article(hq.kind)
+        ));
     }
     if hq.shape != hr.shape {
-        return Err(policy_core::Error::ShapeMismatch {
-            expected: hr.shape,
-            found: hq.shape,
-        });
+        return differs(format!(
+            "the reference's network is {} and the blob's {}",
+            hr.shape, hq.shape
+        ));
     }
     let (vq, vr): (Vec<f32>, Vec<f32>) = (q.values().collect(), r.values().collect());
     let mut first = hq.shape.prefix_count(hq.kind);
@@ -135,7 +145,7 @@ pub fn weight_errors(
 }
 
 /// [`weight_errors`] as the lines `inspect --against` prints.
-pub fn describe_errors(quantised: &[u8], reference: &[u8]) -> Result<String, policy_core::Error> {
+pub fn describe_errors(quantised: &[u8], reference: &[u8]) -> Result<String, Error> {
     let mut out = String::new();
     for (l, (inputs, outputs, error, largest)) in
         weight_errors(quantised, reference)?.into_iter().enumerate()
@@ -146,6 +156,17 @@ pub fn describe_errors(quantised: &[u8], reference: &[u8]) -> Result<String, pol
         );
     }
     Ok(out)
+}
+
+/// "an actor", "a critic", "a discrete policy".
+fn with_article(kind: ModelKind) -> String {
+    let name = kind.to_string();
+    let article = if name.starts_with(['a', 'e', 'i', 'o', 'u']) {
+        "an"
+    } else {
+        "a"
+    };
+    format!("{article} {name}")
 }
 
 #[cfg(test)]

@@ -72,7 +72,8 @@ impl TrainConfig {
         c.ppo.rollout = 32;
         c.ppo.minibatch = 8;
         c.ppo.epochs = 2;
-        c
+        // Only what `algo` reads: a config file holding another algorithm's settings is refused.
+        c.for_algo(algo)
     }
 }
 
@@ -100,11 +101,15 @@ impl TrainConfig {
     /// Parses a config file: TOML, or JSON when the name ends in `.json`. Unknown keys are
     /// errors; missing keys take their defaults.
     pub fn from_file(path: &Path) -> Result<TrainConfig, Error> {
-        let text = read_text(path)?;
+        TrainConfig::parse(&read_text(path)?, path)
+    }
+
+    /// Parses the text of the config file `path` (named in errors; `.json` selects JSON).
+    pub fn parse(text: &str, path: &Path) -> Result<TrainConfig, Error> {
         let parsed = if path.extension().is_some_and(|e| e == "json") {
-            serde_json::from_str(&text).map_err(|e| e.to_string())
+            serde_json::from_str(text).map_err(|e| e.to_string())
         } else {
-            toml::from_str(&text).map_err(|e| e.to_string())
+            toml::from_str(text).map_err(|e| e.to_string())
         };
         parsed.map_err(|message| Error::ConfigFile {
             path: path.to_path_buf(),
@@ -117,6 +122,70 @@ impl TrainConfig {
         // Serialising plain data with string keys cannot fail; fall back to Debug rather than panic.
         toml::to_string(self)
             .unwrap_or_else(|e| format!("# could not serialise config: {e}\n# {self:?}\n"))
+    }
+
+    /// The settings set away from their defaults that none of `algos` reads, as (`section`,
+    /// `key`, value), in `config.toml`'s order.
+    pub fn unread_settings(&self, algos: &[Algo]) -> Vec<(String, String, toml::Value)> {
+        let (mine, defaults) = (self.table(), TrainConfig::default().table());
+        let mut unread = Vec::new();
+        for (section, value) in &mine {
+            let (Some(keys), Some(default_keys)) = (
+                value.as_table(),
+                defaults.get(section).and_then(toml::Value::as_table),
+            ) else {
+                continue; // the run's own settings: every algorithm reads them
+            };
+            for (key, v) in keys {
+                let readers = crate::algorithms::readers(section, key);
+                if default_keys.get(key) != Some(v) && !algos.iter().any(|a| readers.contains(a)) {
+                    unread.push((section.clone(), key.clone(), v.clone()));
+                }
+            }
+        }
+        unread
+    }
+
+    /// Refuses a setting away from its default that none of `algos` reads (a fresh `train`
+    /// checks its one algorithm, a sweep all of its own), naming the algorithms that read it.
+    pub fn check_read(&self, algos: &[Algo]) -> Result<(), Error> {
+        match self.unread_settings(algos).into_iter().next() {
+            None => Ok(()),
+            Some((section, key, value)) => Err(Error::UnreadSetting {
+                readers: crate::algorithms::names(crate::algorithms::readers(&section, &key)),
+                key: format!("{section}.{key}"),
+                value: value.to_string(),
+                algos: crate::algorithms::names(algos),
+            }),
+        }
+    }
+
+    /// This config for `algo`, every setting that `algo` does not read at its default: what a
+    /// sweep's run of `algo` records and is compared with.
+    pub fn for_algo(&self, algo: Algo) -> TrainConfig {
+        let mut table = self.table();
+        let defaults = TrainConfig::default().table();
+        for (section, key, _) in self.unread_settings(&[algo]) {
+            let default = defaults.get(&section).and_then(|s| s.get(&key)).cloned();
+            if let Some(keys) = table.get_mut(&section).and_then(toml::Value::as_table_mut) {
+                match default {
+                    Some(d) => keys.insert(key, d),
+                    None => keys.remove(&key), // unset by default (an `Option`)
+                };
+            }
+        }
+        let mut config: TrainConfig = toml::Value::Table(table)
+            .try_into()
+            .unwrap_or_else(|_| self.clone());
+        config.algo = algo;
+        config
+    }
+
+    /// The config as a TOML table (what `config.toml` holds).
+    fn table(&self) -> toml::Table {
+        // Plain data with string keys always serialises; an empty table would only make
+        // `unread_settings` find nothing.
+        toml::Table::try_from(self).unwrap_or_default()
     }
 
     /// Checks ranges that the types do not.

@@ -43,7 +43,8 @@ impl FromStr for Seeds {
                 .parse::<u64>()
                 .map_err(|_| format!("expected seeds like 0-4, 3 or 0,2,5, found {text:?}"))
         };
-        let mut seeds = Vec::new();
+        // Distinct seeds are what is counted: `0-9,0-9` is ten runs.
+        let mut seeds = std::collections::BTreeSet::new();
         for part in text.split(',') {
             let (first, last) = match part.split_once('-') {
                 Some((a, b)) => (number(a)?, number(b)?),
@@ -52,13 +53,15 @@ impl FromStr for Seeds {
             if first > last {
                 return Err(format!("the range {part} is empty ({first} > {last})"));
             }
-            if last - first >= MAX_RUNS as u64 || seeds.len() > MAX_RUNS {
+            if last - first >= MAX_RUNS as u64 {
                 return Err(format!("more than {MAX_RUNS} seeds in {text:?}"));
             }
             seeds.extend(first..=last);
+            if seeds.len() > MAX_RUNS {
+                return Err(format!("more than {MAX_RUNS} distinct seeds in {text:?}"));
+            }
         }
-        seeds.sort_unstable();
-        seeds.dedup();
+        let seeds: Vec<u64> = seeds.into_iter().collect();
         Ok(Seeds(seeds))
     }
 }
@@ -102,12 +105,20 @@ pub fn runs(
     out: &Path,
 ) -> Result<Vec<PlannedRun>, Error> {
     if !out.is_dir() {
-        return Err(Error::Io {
-            path: out.to_path_buf(),
-            source: std::io::Error::new(
+        let (kind, why) = if out.exists() {
+            (
+                std::io::ErrorKind::NotADirectory,
+                "--out names a file, not a folder (give the folder the runs go in)",
+            )
+        } else {
+            (
                 std::io::ErrorKind::NotFound,
                 "output folder does not exist (create it first)",
-            ),
+            )
+        };
+        return Err(Error::Io {
+            path: out.to_path_buf(),
+            source: std::io::Error::new(kind, why),
         });
     }
     files::check_output(&out.join(SUMMARY_MD)).map_err(|source| Error::Io {
@@ -121,12 +132,14 @@ pub fn runs(
             found: (algos.len() * seeds.len()).to_string(),
         });
     }
+    // A setting some of the sweep's algorithms read is theirs; the others' runs get it at its
+    // default, which is what they run anyway (and what they record).
+    base.check_read(algos)?;
     let mut runs = Vec::new();
     for &algo in algos {
         // Building the trainer runs every check `train` makes (ranges, shape, task, evaluation
         // count); the seed changes none of them, so one trainer per algorithm is enough.
-        let mut config = base.clone();
-        config.algo = algo;
+        let mut config = base.for_algo(algo);
         drop(Trainer::new(config.clone())?);
         for &seed in seeds {
             config.seed = seed;
@@ -154,7 +167,10 @@ fn start_of(dir: &Path, config: &TrainConfig) -> Result<Start, Error> {
             difference: format!("it holds run files but no {}", folder::CONFIG),
         });
     }
+    // Settings the run's algorithm does not read play no part (a run recorded before they were
+    // refused may hold some).
     let recorded = TrainConfig::from_file(&recorded_path)?;
+    let recorded = recorded.for_algo(recorded.algo);
     if recorded != *config {
         return Err(Error::RunDiffers {
             path: dir.to_path_buf(),
@@ -231,6 +247,15 @@ mod tests {
         for bad in ["4-2", "x", "", "1-", "-3", "1,,2", "0-18446744073709551615"] {
             assert!(parse(bad).is_err(), "{bad:?} must be refused");
         }
+    }
+
+    /// `0-9998` three times is 9,999 distinct seeds, within the limit; it was counted as 29,997.
+    #[test]
+    fn only_distinct_seeds_count_against_the_limit() {
+        let parse = |s: &str| s.parse::<Seeds>().map(|s| s.0.len());
+        assert_eq!(parse("0-9998,0-9998,0-9998"), Ok(9_999));
+        let over = parse("0-9998,20000-20001").expect_err("10,001 distinct seeds");
+        assert!(over.contains("distinct"), "{over}");
     }
 
     #[test]

@@ -16,6 +16,7 @@ use indicatif::ProgressBar;
 use super::plan::{PlannedRun, Start};
 use super::record::{exit_text, read_eval, RunRecord, Status};
 use crate::Error;
+use firmware_sim::files;
 
 /// The folder of the children's logs, `{run}.log` each.
 pub const LOGS: &str = "sweep-logs";
@@ -24,8 +25,6 @@ pub const LOGS: &str = "sweep-logs";
 pub struct Runner<'a> {
     /// The `host-trainer` binary (the running one).
     pub exe: PathBuf,
-    /// The `--config` file the fresh runs get, if any.
-    pub config_file: Option<PathBuf>,
     /// The output folder.
     pub out: PathBuf,
     /// Most runs at once.
@@ -180,8 +179,20 @@ fn spawn(
     index: usize,
     logs: &Path,
 ) -> Result<Running, Error> {
-    let args = child_args(runner, run);
     let log = logs.join(format!("{}.log", run.name()));
+    // A fresh run starts from its own config file beside its log: the sweep's config with the
+    // run's algorithm and seed, and the settings that algorithm does not read at their defaults
+    // (`train` refuses those, and the sweep's config may hold them for its other algorithms).
+    let config = logs.join(format!("{}.toml", run.name()));
+    if run.start == Start::Fresh {
+        files::write_atomic(&config, run.config.to_toml().as_bytes()).map_err(|source| {
+            Error::Io {
+                path: config.clone(),
+                source,
+            }
+        })?;
+    }
+    let args = child_args(run, &config);
     let io = |source| Error::Io {
         path: log.clone(),
         source,
@@ -197,7 +208,10 @@ fn spawn(
     let log_from = file.metadata().map_err(io)?.len();
     let child = Command::new(&runner.exe)
         .args(&args)
-        .stdin(Stdio::null())
+        // A pipe nobody writes to: the child's end sees end-of-file when this process dies,
+        // however it dies, and the child (`--stop-when-stdin-closes`) then stops at a
+        // checkpoint. The crate forbids `unsafe`, so no `prctl(PR_SET_PDEATHSIG)`.
+        .stdin(Stdio::piped())
         .stdout(file.try_clone().map_err(io)?)
         .stderr(file)
         .spawn()
@@ -214,26 +228,18 @@ fn spawn(
     })
 }
 
-/// `train --config F --algo A --seed S --out OUT --quiet`, or `train --resume DIR --quiet`.
-fn child_args(runner: &Runner<'_>, run: &PlannedRun) -> Vec<String> {
+/// `train --config CONFIG --out OUT --quiet --stop-when-stdin-closes`, or `train --resume DIR
+/// --quiet --stop-when-stdin-closes`.
+fn child_args(run: &PlannedRun, config: &Path) -> Vec<String> {
     let path = |p: &Path| p.to_string_lossy().into_owned();
     let mut args = vec!["train".to_string()];
     if run.start == Start::Resume {
         args.extend(["--resume".into(), path(&run.dir)]);
     } else {
-        if let Some(config) = &runner.config_file {
-            args.extend(["--config".into(), path(config)]);
-        }
-        args.extend([
-            "--algo".into(),
-            run.config.algo.to_string(),
-            "--seed".into(),
-            run.config.seed.to_string(),
-            "--out".into(),
-            path(&runner.out),
-        ]);
+        let out = run.dir.parent().unwrap_or(Path::new("."));
+        args.extend(["--config".into(), path(config), "--out".into(), path(out)]);
     }
-    args.push("--quiet".into());
+    args.extend(["--quiet".into(), "--stop-when-stdin-closes".into()]);
     args
 }
 
