@@ -608,7 +608,8 @@ fn quantised_exports_inspect_and_evaluate() {
     assert!(!mismatch.status.success());
     let stderr = String::from_utf8_lossy(&mismatch.stderr);
     assert!(
-        stderr.contains("cannot compare") && stderr.contains("wrong model kind"),
+        stderr.contains("cannot compare")
+            && stderr.contains("the reference holds a critic and the blob an actor"),
         "{stderr}"
     );
     assert!(!stderr.contains("panicked"), "{stderr}");
