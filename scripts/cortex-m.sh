@@ -15,7 +15,11 @@
 # (`host-check encode`). Every variant is built with the release profile (opt-level 3) except
 # m4f-4x48-relu-int8-size, the same firmware optimised for size (profile release-size in
 # firmware/Cargo.toml, opt-level "z"; SIZE_OPT_LEVEL=s builds it at "s"), so that the report has
-# the int8 4x48 at both: the fewest instructions (3) and the least flash (z).
+# the int8 4x48 at both: the fewest instructions (3) and the least flash (z). Every firmware runs
+# all three weight encodings (it reads the encoding from the blob) except the
+# m4f-4x48-relu-int8-only* variants: the int8-only firmware (`--no-default-features --features
+# int8`, which links neither the f32 nor the f16 kernels), at opt-levels 3, "s" (profile
+# release-s) and "z" (release-size), the one that must fit 32 KiB with its blob.
 #
 # Usage: bash scripts/cortex-m.sh [--blob FILE] [--out FILE] [--install-only]
 #   --blob FILE     a trained policy blob (e.g. from host-trainer; 2 observations, 2 actions, any
@@ -56,11 +60,13 @@ INSTALL_ONLY=0
 SLOT_CASES=1
 REFINE_RUN=
 QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
-# name:target:qemu machine:qemu cpu:blob[:profile[:refine T]]. blob: trained (= --blob) or
-# DEPTHxWIDTH-ACTIVATION (host-check gen), either with an optional -f16 or -int8 (re-encoded;
-# default f32), or refine-actor (--refine-run's policy). profile: a cargo profile of
+# name:target:qemu machine:qemu cpu:blob[:profile[:refine T[:encodings]]]. blob: trained
+# (= --blob) or DEPTHxWIDTH-ACTIVATION (host-check gen), either with an optional -f16 or -int8
+# (re-encoded; default f32), or refine-actor (--refine-run's policy). profile: a cargo profile of
 # firmware/Cargo.toml, default release. refine T: the firmware's feature `refine` with
-# REFINE_T=T, --refine-run's critic in its CRITIC region.
+# REFINE_T=T, --refine-run's critic in its CRITIC region. encodings: the weight encodings the
+# firmware is built to run, comma-separated (`--no-default-features --features LIST`); default
+# all three.
 M4F=thumbv7em-none-eabihf:mps2-an386:cortex-m4
 M3=thumbv7m-none-eabi:mps2-an385:cortex-m3
 ALL_VARIANTS=(
@@ -89,6 +95,9 @@ ALL_VARIANTS=(
   m3-6x64-relu-f16:$M3:6x64-relu-f16
   m3-6x64-relu-int8:$M3:6x64-relu-int8
   m4f-4x48-relu-int8-size:$M4F:4x48-relu-int8:release-size
+  m4f-4x48-relu-int8-only:$M4F:4x48-relu-int8:release::int8
+  m4f-4x48-relu-int8-only-s:$M4F:4x48-relu-int8:release-s::int8
+  m4f-4x48-relu-int8-only-size:$M4F:4x48-relu-int8:release-size::int8
   m4f-refine-actor:$M4F:refine-actor
   m4f-refine4:$M4F:refine-actor:release:4
   m4f-refine16:$M4F:refine-actor:release:16
@@ -98,7 +107,7 @@ ALL_VARIANTS=(
 SIZE_OPT_LEVEL_SET=${SIZE_OPT_LEVEL:-}
 SIZE_OPT_LEVEL=${SIZE_OPT_LEVEL:-z}
 case $SIZE_OPT_LEVEL in 0|1|2|3|s|z) ;; *) echo "cortex-m.sh: error: SIZE_OPT_LEVEL=$SIZE_OPT_LEVEL: expected 0-3, s or z" >&2; exit 1 ;; esac
-declare -A OPT_LEVEL=([release]=3 [release-size]=$SIZE_OPT_LEVEL)
+declare -A OPT_LEVEL=([release]=3 [release-s]=s [release-size]=$SIZE_OPT_LEVEL)
 
 T_START=$SECONDS; T_LAST=$SECONDS; TIMINGS=()
 step() {
@@ -278,19 +287,21 @@ run_qemu() {
 SELECTED=(${VARIANTS:-$(printf '%s\n' "${ALL_VARIANTS[@]}" | cut -d: -f1)})
 FAILED=(); JSONS=()
 for spec in "${ALL_VARIANTS[@]}"; do
-  IFS=: read -r name target machine cpu which profile refine <<<"$spec"
+  IFS=: read -r name target machine cpu which profile refine encodings <<<"$spec"
   profile=${profile:-release}
   printf '%s\n' "${SELECTED[@]}" | grep -qx "$name" || continue
   case $which in trained|trained-*) [ -n "$BLOB" ] || { echo "=== $name: skipped (no --blob)"; continue; } ;; esac
   case $which in refine-actor) [ -n "$REFINE_RUN" ] || { echo "=== $name: skipped (no --refine-run)"; continue; } ;; esac
   features=${EXTRA_FEATURES:-}; refine_env=()
   if [ -n "$refine" ]; then features=${features:+$features,}refine; refine_env=(REFINE_T="$refine"); fi
+  encoding_args=()
+  if [ -n "$encodings" ]; then features=${features:+$features,}$encodings; encoding_args=(--no-default-features); fi
   dir=$WORK/variants/$name; mkdir -p "$dir"; rm -f "$dir"/*.log "$dir/resources.json"
   blob=$(blob_for "$which")
 
-  step "$name: build ($target, profile $profile; no blob inside)"
+  step "$name: build ($target, profile $profile${encodings:+, encodings $encodings only}; no blob inside)"
   if ! (cd "$ROOT/firmware" && "${FW_ENV[@]}" "${refine_env[@]}" cargo build --profile "$profile" --locked -Zbuild-std=core \
-        --target "$target" ${features:+--features "$features"} 2>&1 \
+        --target "$target" "${encoding_args[@]}" ${features:+--features "$features"} 2>&1 \
         | { grep -vE '^ +(Compiling|Downloaded|Downloading|Locking|Adding|Updating|Finished)' || true; } ); then
     FAILED+=("$name: build"); continue
   fi
@@ -318,7 +329,7 @@ for spec in "${ALL_VARIANTS[@]}"; do
   step "$name: compare with policy-core on the host (bit-exact) and measure"
   if ! "$HC" check "$blob" "$dir/firmware.log" "${critic_args[@]}"; then FAILED+=("$name: actions differ from the host"); continue; fi
   if ! "$HC" measure --variant "$name" --target "$target" --machine "$machine" --cpu "$cpu" --blob "$blob" --image "$dir/slot-a.bin" \
-        --profile "$profile" --opt-level "${OPT_LEVEL[$profile]}" --sizes "$dir/sizes.txt" --fw-log "$dir/firmware.log" "${plugin_log[@]}" "${critic_args[@]}" --out "$dir/resources.json"; then
+        --profile "$profile" --opt-level "${OPT_LEVEL[$profile]}" --encodings "${encodings:-f32,f16,int8}" --sizes "$dir/sizes.txt" --fw-log "$dir/firmware.log" "${plugin_log[@]}" "${critic_args[@]}" --out "$dir/resources.json"; then
     FAILED+=("$name: measurement"); continue
   fi
   JSONS+=("$dir/resources.json")
@@ -408,7 +419,8 @@ mkdir -p "$(dirname "$OUT")"
 "$HC" report --out "$OUT" \
   --meta "rustc=$("$RUSTC_X" -V)" --meta "cargo=$(cargo -V)" \
   --meta "qemu=$(qemu-system-arm --version | head -1)" \
-  --meta "profile=release: opt-level 3, fat LTO, codegen-units 1, panic abort, -Zbuild-std=core; release-size: the same at opt-level $SIZE_OPT_LEVEL (per variant: the profile column)" \
+  --meta "profile=release: opt-level 3, fat LTO, codegen-units 1, panic abort, -Zbuild-std=core; release-s: the same at opt-level s; release-size: the same at opt-level $SIZE_OPT_LEVEL (per variant: the profile column)" \
+  --meta "encodings=every firmware runs f32, f16 and int8 blobs except the *-int8-only* variants (int8 only; per variant: firmware_encodings)" \
   --meta "instructions=exact counts from a TCG plugin between fw_mark calls (mark cost subtracted)" \
   --meta "command=${VARIANTS:+VARIANTS=\"$VARIANTS\" }${SIZE_OPT_LEVEL_SET:+SIZE_OPT_LEVEL=$SIZE_OPT_LEVEL }${EXTRA_FEATURES:+EXTRA_FEATURES=$EXTRA_FEATURES }bash scripts/cortex-m.sh${BLOB:+ --blob $BLOB}${REFINE_RUN:+ --refine-run $REFINE_RUN}" \
   "${JSONS[@]}"

@@ -238,14 +238,14 @@ fn report(
 }
 
 /// `act` promises finite actions inside the blob's bounds for every observation; a firmware that
-/// sees otherwise must not report success. The bounds follow the normaliser in the payload
-/// (mean, inverse std, clip; then low and high: docs/blob-format.md).
+/// sees otherwise must not report success. ([`Model::action_bounds`] reads the bounds from the
+/// payload's prefix; `Model::values` would do too, but links a decoding iterator of about 1 KB.)
 fn check_bounds(model: &Model<'_>, actions: &[[f32; ACT]]) {
-    let mut values = model.values().skip(2 * OBS + 1);
-    let low: [f32; ACT] = core::array::from_fn(|_| values.next().unwrap_or(f32::NAN));
-    let high: [f32; ACT] = core::array::from_fn(|_| values.next().unwrap_or(f32::NAN));
+    let mut bounds = model.action_bounds();
+    let bounds: [(f32, f32); ACT] =
+        core::array::from_fn(|_| bounds.next().unwrap_or((f32::NAN, f32::NAN)));
     for action in actions {
-        for ((&a, &lo), &hi) in action.iter().zip(&low).zip(&high) {
+        for (&a, &(lo, hi)) in action.iter().zip(&bounds) {
             if !a.is_finite() || !(lo..=hi).contains(&a) {
                 fail("an action is non-finite or outside the bounds");
             }

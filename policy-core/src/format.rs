@@ -84,6 +84,29 @@ impl Encoding {
         }
     }
 
+    /// The cargo feature of policy-core that reads and runs this encoding: `f32`, `f16` or
+    /// `int8`, the encoding's name.
+    pub const fn feature(self) -> &'static str {
+        match self {
+            Encoding::F32 => "f32",
+            Encoding::F16 => "f16",
+            Encoding::Int8 => "int8",
+        }
+    }
+
+    /// Whether this build reads and runs this encoding (its [`feature`](Encoding::feature) is
+    /// on; all three are by default). A blob of an encoding not compiled in is refused by
+    /// [`verify`](crate::blob::verify) with
+    /// [`Error::EncodingNotCompiled`](crate::Error::EncodingNotCompiled), so the runtime never
+    /// meets one and the optimiser drops that encoding's checks and kernel from the binary.
+    pub const fn is_compiled(self) -> bool {
+        match self {
+            Encoding::F32 => cfg!(feature = "f32"),
+            Encoding::F16 => cfg!(feature = "f16"),
+            Encoding::Int8 => cfg!(feature = "int8"),
+        }
+    }
+
     /// Bytes one weight takes.
     pub fn weight_bytes(self) -> usize {
         match self {

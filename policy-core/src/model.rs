@@ -201,6 +201,28 @@ impl<'a> Model<'a> {
         blob::values(&self.header, self.payload)
     }
 
+    /// The action bounds of an actor or discrete policy, `(low, high)` per action dimension as
+    /// the blob stores them (nothing for a critic). The same numbers as in [`Model::values`],
+    /// read straight from the prefix: a firmware that checks its actions against them links a
+    /// few instructions instead of the whole decoding iterator.
+    ///
+    /// ```
+    /// use policy_core::model::Model;
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+    /// let model = Model::from_blob(BLOB).unwrap();
+    /// let bounds: Vec<(f32, f32)> = model.action_bounds().collect();
+    /// assert_eq!(bounds, [(-0.25, 0.25), (-0.25, 0.25)]);
+    /// ```
+    pub fn action_bounds(&self) -> impl Iterator<Item = (f32, f32)> + 'a {
+        let a = match self.header.kind {
+            ModelKind::Critic => 0,
+            ModelKind::Actor | ModelKind::Discrete => self.layout.actions,
+        };
+        let low = self.slice(self.layout.bounds, a);
+        let high = self.slice(self.layout.bounds + a, a);
+        low.iter().zip(high.iter())
+    }
+
     /// The action for an observation (actor and discrete policy): finite and inside the bounds
     /// for every input, NaN and infinities included. A discrete policy returns the action-table
     /// row of the largest Q value (ties: the lowest index).
@@ -393,10 +415,16 @@ impl<'a> Model<'a> {
             x.get(..inputs).unwrap_or_default(),
             y.get_mut(..outputs).unwrap_or_default(),
         );
+        // Only the kernels of the encodings this build reads are linked: `from_blob` refused a
+        // blob of any other (Error::EncodingNotCompiled), so the `cfg!`-false arms are dead code
+        // the optimiser drops, and the fallback arm is never taken.
         match encoding {
-            Encoding::F32 => accumulate_bytes(weights, bias, x, y),
-            Encoding::F16 => accumulate_f16(weights, bias, x, y),
-            Encoding::Int8 => accumulate_int8(part(l.scales, l.weights), weights, bias, x, y),
+            Encoding::F32 if cfg!(feature = "f32") => accumulate_bytes(weights, bias, x, y),
+            Encoding::F16 if cfg!(feature = "f16") => accumulate_f16(weights, bias, x, y),
+            Encoding::Int8 if cfg!(feature = "int8") => {
+                accumulate_int8(part(l.scales, l.weights), weights, bias, x, y)
+            }
+            Encoding::F32 | Encoding::F16 | Encoding::Int8 => y.iter_mut().for_each(|v| *v = 0.0),
         }
         l.end
     }

@@ -11,7 +11,7 @@
 //!                                          step if it ran one); bit-exact or exit 1
 //! host-check measure --variant NAME --target T --machine M --cpu C --blob BLOB --image SLOT_BIN
 //!                    --profile PROFILE --opt-level LEVEL --sizes SIZE_A_TXT --fw-log LOG
-//!                    [--plugin-log LOG] --out JSON
+//!                    [--encodings f32,f16,int8] [--plugin-log LOG] --out JSON
 //! host-check image BLOB OUT.bin|OUT.hex --sequence N [--address ADDR]
 //!                                          a slot record (header + blob) for a flash slot
 //! host-check damage IN OUT (--flip OFFSET | --cut LEN)
@@ -197,6 +197,10 @@ fn measure(flags: &BTreeMap<String, String>) -> Result<()> {
         profile: flag(flags, "profile")?.into(),
         opt_level: flag(flags, "opt-level")?.into(),
         blob_path: blob_path.into(),
+        encodings: flags
+            .get("encodings")
+            .map_or("f32,f16,int8", String::as_str)
+            .into(),
     };
     let record_len = read(flag(flags, "image")?)?.len() as u64;
     let value = measure::measure(

@@ -26,6 +26,9 @@ pub struct Variant {
     pub opt_level: String,
     /// Path of the blob the variant ran (from slot A).
     pub blob_path: String,
+    /// The weight encodings the firmware was built to run (its features: `f32,f16,int8` by
+    /// default, `int8` for an int8-only firmware).
+    pub encodings: String,
 }
 
 /// Section sizes from `size -A` output (`name size addr` lines).
@@ -117,6 +120,7 @@ pub fn measure(
     Ok(json!({
         "variant": v.name, "target": v.target, "qemu_machine": v.machine, "qemu_cpu": v.cpu,
         "profile": v.profile, "opt_level": v.opt_level,
+        "firmware_encodings": v.encodings.split(',').collect::<Vec<_>>(),
         "shape": info.name(), "encoding": info.encoding.to_string(),
         "macs_per_act": info.macs(), "tanhf_per_act": info.tanh_calls(),
         "blob": { "path": v.blob_path, "bytes": blob_len, "kind": info.kind.to_string(),

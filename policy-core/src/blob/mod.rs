@@ -13,7 +13,8 @@
 //!
 //! Version 1 blobs (no encoding field, no `choices` in the shape, no padding) still load.
 //!
-//! Loading checks, in order: magic, version, header, limits, length, padding, checksum
+//! Loading checks, in order: magic, version, header, an encoding this build reads (cargo features
+//! `f32`, `f16`, `int8`, all on by default), limits, length, padding, checksum
 //! ([`verify`]); then the parameter rules ([`check_parameters`]: finite values, normaliser,
 //! bounds, action table), which [`Model::from_blob`](crate::model::Model::from_blob) and
 //! [`load_into`] both run; [`load_into`] also checks kind and shape against its type. Nothing

@@ -20,6 +20,12 @@ use crate::{bounds, normalizer};
 /// assert_eq!(blob::check_parameters(&v.header, v.payload), Ok(()));
 /// ```
 pub fn check_parameters(header: &Header, payload: &[u8]) -> Result<(), Error> {
+    // `verify` refused such a blob already; a caller that built the header itself is refused too.
+    if !header.encoding.is_compiled() {
+        return Err(Error::EncodingNotCompiled {
+            found: header.encoding,
+        });
+    }
     if header.encoding == Encoding::F32 {
         let mut values = payload_values(payload);
         if let Some(index) = values.position(|v| !v.is_finite()) {
@@ -150,8 +156,10 @@ fn check_quantised(h: &Header, payload: &[u8]) -> Result<(), Error> {
         let weights = payload
             .get(layer.weights..layer.padding)
             .unwrap_or_default();
+        // The `cfg!` guards let the optimiser drop the checks of encodings this build does not
+        // read (`check_parameters` refused those blobs before calling this).
         match h.encoding {
-            Encoding::Int8 => {
+            Encoding::Int8 if cfg!(feature = "int8") => {
                 for o in 0..outputs {
                     let scale = f32_at(payload, layer.scales + 4 * o);
                     // Every decoded weight `scale · q` (|q| ≤ 128) must be finite too.
@@ -163,7 +171,7 @@ fn check_quantised(h: &Header, payload: &[u8]) -> Result<(), Error> {
                     }
                 }
             }
-            Encoding::F16 => {
+            Encoding::F16 if cfg!(feature = "f16") => {
                 let mut halves = weights.chunks_exact(2);
                 let bad =
                     halves.position(|p| !f16_to_f32(u16::from_le_bytes([p[0], p[1]])).is_finite());
@@ -171,7 +179,7 @@ fn check_quantised(h: &Header, payload: &[u8]) -> Result<(), Error> {
                     return Err(non_finite(first + i));
                 }
             }
-            Encoding::F32 => {}
+            Encoding::Int8 | Encoding::F16 | Encoding::F32 => {}
         }
         let mut bias = payload_values(payload.get(layer.bias..layer.end).unwrap_or_default());
         if let Some(o) = bias.position(|v| !v.is_finite()) {
@@ -226,12 +234,17 @@ fn layer_values(
         move |at: usize| f32::from_le_bytes([byte(at), byte(at + 1), byte(at + 2), byte(at + 3)]);
     let (w0, s0, bias, end) = l.map_or((0, 0, 0, 0), |l| (l.weights, l.scales, l.bias, l.end));
     (0..weights)
+        // An encoding this build does not read never gets here (refused at `verify`); its
+        // `cfg!`-guarded arm is dropped from the binary, and the fallback arm is never taken.
         .map(move |i| match encoding {
-            Encoding::F32 => word(w0 + 4 * i),
-            Encoding::F16 => {
+            Encoding::F32 if cfg!(feature = "f32") => word(w0 + 4 * i),
+            Encoding::F16 if cfg!(feature = "f16") => {
                 f16_to_f32(u16::from_le_bytes([byte(w0 + 2 * i), byte(w0 + 2 * i + 1)]))
             }
-            Encoding::Int8 => word(s0 + 4 * (i % outputs)) * f32::from(byte(w0 + i) as i8),
+            Encoding::Int8 if cfg!(feature = "int8") => {
+                word(s0 + 4 * (i % outputs)) * f32::from(byte(w0 + i) as i8)
+            }
+            Encoding::F32 | Encoding::F16 | Encoding::Int8 => 0.0,
         })
         .chain(payload_values(payload.get(bias..end).unwrap_or_default()))
 }

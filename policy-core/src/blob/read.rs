@@ -1,5 +1,6 @@
-//! Reading a blob: [`verify`] checks magic, version (version 1 included), header, limits,
-//! length, padding and checksum, without knowing the shape in advance; the parameter rules
+//! Reading a blob: [`verify`] checks magic, version (version 1 included), header, that this
+//! build reads the blob's weight encoding (its cargo feature), limits, length, padding and
+//! checksum, without knowing the shape in advance; the parameter rules
 //! come after it, in `params.rs`.
 
 use heapless::String;
@@ -68,6 +69,13 @@ pub fn verify(bytes: &[u8]) -> Result<Verified<'_>, Error> {
     if header.version != 1 && header.encoding.version() != header.version {
         return Err(Error::Malformed {
             what: "encoding does not match the format version (f32: 2, f16 and int8: 3)",
+        });
+    }
+    // Before any check that depends on the encoding: the rest of the crate may assume every
+    // blob it meets has an encoding compiled in.
+    if !header.encoding.is_compiled() {
+        return Err(Error::EncodingNotCompiled {
+            found: header.encoding,
         });
     }
     header.shape.check(header.kind)?;
