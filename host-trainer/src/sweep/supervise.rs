@@ -30,6 +30,8 @@ pub struct Runner<'a> {
     pub out: PathBuf,
     /// Most runs at once.
     pub jobs: usize,
+    /// Each run's `--threads` (the cores shared out between the runs at once).
+    pub threads: usize,
     /// No progress bar.
     pub quiet: bool,
     /// Ctrl-C presses so far (the caller's handler counts them).
@@ -214,7 +216,8 @@ fn spawn(
     })
 }
 
-/// `train --config F --algo A --seed S --out OUT --quiet`, or `train --resume DIR --quiet`.
+/// `train --config F --algo A --seed S --out OUT --threads T --quiet`, or
+/// `train --resume DIR --threads T --quiet`.
 fn child_args(runner: &Runner<'_>, run: &PlannedRun) -> Vec<String> {
     let path = |p: &Path| p.to_string_lossy().into_owned();
     let mut args = vec!["train".to_string()];
@@ -233,6 +236,7 @@ fn child_args(runner: &Runner<'_>, run: &PlannedRun) -> Vec<String> {
             path(&runner.out),
         ]);
     }
+    args.extend(["--threads".into(), runner.threads.to_string()]);
     args.push("--quiet".into());
     args
 }
