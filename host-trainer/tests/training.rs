@@ -618,7 +618,11 @@ fn check_pin(threads: usize) {
             .critic_blob("pin")
             .expect("DCP and DDPG have a critic")
             .expect("critic");
-        assert_eq!(sha256(&blob), critic, "{run} critic blob, {threads} threads");
+        assert_eq!(
+            sha256(&blob),
+            critic,
+            "{run} critic blob, {threads} threads"
+        );
     }
 }
 

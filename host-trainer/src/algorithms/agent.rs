@@ -350,10 +350,8 @@ impl Agent {
         // Without dropout neither step draws from the stream, so the two are independent and
         // run at once; with dropout Q2's masks are the draws after Q1's, so Q1 goes first.
         if q1.net.config.dropout == 0.0 && q2.net.config.dropout == 0.0 {
-            let (loss, _) = (self.workers).join(
-                || q1.step(&input, &y, None),
-                || q2.step(&input, &y, None),
-            );
+            let (loss, _) =
+                (self.workers).join(|| q1.step(&input, &y, None), || q2.step(&input, &y, None));
             loss
         } else {
             let loss = q1.step(&input, &y, Some(dropout_rng));
@@ -387,7 +385,13 @@ impl Agent {
 
     /// Q for each row of a critic input built by [`critic_input`] (inference: no dropout).
     pub fn q_values(&mut self, input: &Matrix) -> Vec<f32> {
-        min_values(&self.critic, None, input, &mut self.scratch.split, &self.workers)
+        min_values(
+            &self.critic,
+            None,
+            input,
+            &mut self.scratch.split,
+            &self.workers,
+        )
     }
 
     /// Q' (the target critic) for each row of a critic input (DCP's target scoring).
@@ -399,7 +403,13 @@ impl Agent {
     /// min(Q1, Q2) for each row of a critic input (DCP's twin scoring; Q1 alone without a twin).
     pub fn q_min_values(&mut self, input: &Matrix) -> Vec<f32> {
         let twin = self.twin.as_deref().map(|t| &t.critic);
-        min_values(&self.critic, twin, input, &mut self.scratch.split, &self.workers)
+        min_values(
+            &self.critic,
+            twin,
+            input,
+            &mut self.scratch.split,
+            &self.workers,
+        )
     }
 
     /// The target actor's unit actions on a batch (DCP's trust region).

@@ -783,7 +783,10 @@ pub fn evaluate(
     for (net, out) in nets.iter().zip(outs.iter_mut()) {
         out.reshape(x.rows, net.config.outputs);
         let outputs = net.config.outputs;
-        let parts = x.data.chunks(chunk * x.cols).zip(out.data.chunks_mut(chunk * outputs));
+        let parts = x
+            .data
+            .chunks(chunk * x.cols)
+            .zip(out.data.chunks_mut(chunk * outputs));
         for ((x, out), tape) in parts.zip(&mut tapes) {
             tasks.push(Task { net, x, out, tape });
         }
