@@ -747,7 +747,8 @@ const TILE_ROWS: usize = 6;
 /// let x = Matrix::from_vec(100, 3, (0..300).map(|i| (i as f32 * 0.1).sin()).collect());
 /// let mut outs = vec![Matrix::default(); 2];
 /// evaluate(&[&q1, &q2], &x, &mut outs, &mut Vec::new(), &Workers::new(3).expect("threads"));
-/// let whole = q2.forward(&x, &mut Tape::default(), None);
+/// let mut tape = Tape::default();
+/// let whole = q2.forward(&x, &mut tape, None);
 /// assert_eq!(&outs[1], whole);
 /// ```
 pub fn evaluate(

@@ -63,8 +63,10 @@ impl Workers {
     ///
     /// ```
     /// use host_trainer::nn::workers::Workers;
-    /// let workers = Workers::new(2).expect("threads").with_fault_at(2);
-    /// let caught = std::panic::catch_unwind(|| workers.join(|| 1, || 2));
+    /// use std::panic::{catch_unwind, AssertUnwindSafe};
+    /// let workers = Workers::new(2).expect("threads").with_fault_at(3);
+    /// assert_eq!(workers.join(|| 1, || 2), (1, 2)); // tasks 1 and 2
+    /// let caught = catch_unwind(AssertUnwindSafe(|| workers.join(|| 1, || 2)));
     /// assert!(caught.is_err());
     /// ```
     pub fn with_fault_at(mut self, at: usize) -> Workers {
