@@ -6,6 +6,11 @@
 //! `cargo bench -p host-trainer --bench update`; criterion reports time per update and, as its
 //! throughput, multiply-adds per second of the update's network passes (counted in
 //! [`multiply_adds`]).
+//!
+//! `update_threads/{algorithm}/threads=N` runs DDPG, the paper's DCP (T = 16) and DCP as
+//! adopted (twin critics, target smoothing, 3-step returns) with the updates on N worker
+//! threads (`train --threads N`), one after the other in the same run, so their ratios compare:
+//! `cargo bench -p host-trainer --bench update -- update_threads`.
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -16,10 +21,11 @@ use host_trainer::algorithms::agent::Agent;
 use host_trainer::algorithms::agent_config::AgentConfig;
 use host_trainer::algorithms::algorithm::{Algorithm, Step};
 use host_trainer::algorithms::dcp::{self, Dcp};
-use host_trainer::algorithms::ddpg::{self, Ddpg};
+use host_trainer::algorithms::ddpg::{self, Ddpg, Td3Config};
 use host_trainer::algorithms::dqn::{self, Dqn};
 use host_trainer::algorithms::ppo::{self, Ppo};
 use host_trainer::buffers::replay::Transition;
+use host_trainer::nn::workers::Workers;
 
 /// An agent with 10,000 random navigation transitions in its buffer.
 fn agent() -> Agent {
@@ -171,5 +177,64 @@ fn baselines(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, updates, baselines);
+/// One actor-critic update of DDPG or DCP with the updates on `threads` worker threads.
+fn threads(c: &mut Criterion) {
+    let mut group = c.benchmark_group("update_threads");
+    group
+        .measurement_time(Duration::from_secs(5))
+        .sample_size(30);
+    let paper = dcp::Config {
+        t: 16,
+        ..dcp::Config::paper()
+    };
+    let runs = [
+        ("ddpg", None),
+        ("dcp-paper-T16", Some(paper)),
+        ("dcp-adopted", Some(dcp::Config::default())),
+    ];
+    for (name, dcp_config) in runs {
+        for threads in [1usize, 2] {
+            let mut a = agent();
+            if let Some(config) = &dcp_config {
+                let critics = config.critics(&Td3Config::default());
+                a.set_critics(critics, &mut seed::training_stream(0, "init"));
+            }
+            a.set_workers(Workers::new(threads).expect("worker threads"));
+            let t = dcp_config.as_ref().map(|c| c.t as u64);
+            let twin = u64::from(a.twin.is_some());
+            // A twin critic adds, per row, its target's pass and its own step (4C) and, scoring
+            // the proposals, (T + 1) C.
+            let extra = a.config.batch as u64
+                * twin
+                * a.critic.multiply_adds()
+                * (4 + t.map_or(0, |t| t + 1));
+            group.throughput(Throughput::Elements(multiply_adds(&a, t) + extra));
+            let ddpg = Ddpg::new(ddpg::Config::default());
+            let dcp = dcp_config.clone().map(|c| Dcp::new(c, 0.2));
+            let mut rngs = [
+                seed::training_stream(1, "replay"),
+                seed::training_stream(1, "dropout"),
+                seed::training_stream(1, "proposals"),
+                seed::training_stream(1, "smoothing"),
+            ];
+            let id = BenchmarkId::new(name, format!("threads={threads}"));
+            group.bench_function(id, |b| {
+                b.iter(|| {
+                    let [replay, dropout, proposals, smoothing] = &mut rngs;
+                    let s = a.sample(replay);
+                    let critic = a.critic_update_with(&s, dropout, Some(smoothing));
+                    let actor = match &dcp {
+                        Some(dcp) => dcp.actor_update(&mut a, &s, proposals, dropout).loss,
+                        None => ddpg.actor_update(&mut a, &s, dropout).loss,
+                    };
+                    a.soft_update();
+                    black_box((critic, actor))
+                })
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, updates, baselines, threads);
 criterion_main!(benches);

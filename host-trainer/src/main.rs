@@ -3,6 +3,7 @@
 //! ```text
 //! host-trainer train [--task nav-walls] [--algo dcp|ddpg|td3|ppo|dqn] [--hidden 4x48] [--reward gr] [--episodes 3000]
 //!                    [--t 16] [--sigma 0.2] [--noise gaussian|ou] [--seed 0] [--out runs] [--config FILE] [--resume RUN_DIR]
+//!                    [--threads N]
 //! host-trainer eval --blob FILE [--task nav-walls] [--episodes 100] [--seed 0] [--json FILE]
 //! host-trainer export --run RUN_DIR [--encoding f32|f16|int8]
 //!                     [--image bin|hex --slot a|b --sequence N [--address ADDR] [--slot-size BYTES]]
@@ -30,6 +31,7 @@ use host_trainer::algorithms::{self, Algo};
 use host_trainer::blob::export::{self, ImageFormat, SlotTarget};
 use host_trainer::blob::inspect;
 use host_trainer::nn::hidden::Hidden;
+use host_trainer::nn::workers::Workers;
 use host_trainer::run::checkpoint::Checkpoint;
 use host_trainer::run::config::{RewardKind, TrainConfig};
 use host_trainer::run::folder::{self, RunDir};
@@ -117,6 +119,10 @@ struct TrainArgs {
     /// Continue the run in this folder from its checkpoint (--episodes may raise the budget).
     #[arg(long, conflicts_with_all = ["task", "algo", "hidden", "reward", "t", "sigma", "noise", "dropout", "reward_scale", "seed", "out", "config"])]
     resume: Option<PathBuf>,
+    /// Worker threads of the updates; any count trains to the same bytes [default: the cores
+    /// available].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    threads: Option<u32>,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
@@ -346,10 +352,12 @@ fn set_ctrl_c_handler(handler: fn()) {
 fn train_command(args: TrainArgs) -> Result<ExitCode> {
     let quiet = args.quiet;
     let stop_when_stdin_closes = args.stop_when_stdin_closes;
+    let workers = workers(args.threads)?;
     let (mut trainer, run, _lock) = match &args.resume {
         Some(dir) => resume(dir, args.episodes)?,
         None => fresh(args)?,
     };
+    trainer.set_workers(workers);
     install_ctrl_c_handler();
     if stop_when_stdin_closes {
         stop_when_parent_goes();
@@ -395,6 +403,22 @@ fn train_command(args: TrainArgs) -> Result<ExitCode> {
     run.write(folder::EVAL, report_json(&report)?.as_bytes())?;
     println!("wrote {}", run.path().display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// The cores this process may use (1 if the system cannot say).
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// `--threads`: the worker threads of the updates, all cores by default. A count above the
+/// cores is allowed (it trains to the same bytes, only slower) and said once.
+fn workers(threads: Option<u32>) -> Result<Workers> {
+    let cores = cores();
+    let threads = threads.map_or(cores, |n| n as usize);
+    if threads > cores {
+        eprintln!("host-trainer: note: --threads {threads} is more than the {cores} cores available; the run trains to the same bytes, probably slower");
+    }
+    Workers::new(threads).with_context(|| format!("cannot start {threads} worker threads"))
 }
 
 /// A new run: defaults, then the config file, then flags; nothing is written until the
@@ -577,13 +601,18 @@ fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
     let plan = plan::runs(&base, &algos, &args.seeds.0, &args.out)?;
     let jobs = match args.jobs {
         Some(n) => n as usize,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        None => cores(),
     };
+    // The cores are shared out between the runs that go at once: `jobs`, or fewer if fewer
+    // runs are left to run.
+    let to_run = plan.iter().filter(|r| r.start != plan::Start::Skip).count();
+    let threads = (cores() / jobs.min(to_run).max(1)).max(1);
     install_sweep_ctrl_c_handler();
     let runner = supervise::Runner {
         exe: std::env::current_exe().context("cannot find the host-trainer binary")?,
         out: args.out.clone(),
         jobs,
+        threads,
         quiet: args.quiet,
         interrupts: &INTERRUPTS,
     };

@@ -49,6 +49,8 @@ fn malformed_values_are_rejected_before_any_file_is_written() {
         ("--reward-scale", "0", "agent.reward_scale"),
         // Limits checked before anything is allocated.
         ("--episodes", "18446744073709551615", "episodes"),
+        ("--threads", "0", "--threads"),
+        ("--threads", "many", "many"),
     ] {
         let out = host_trainer(&["train", flag, value, "--out", dir, "--episodes", "1"]);
         assert_one_line_error(&out, &[needle]);
@@ -1090,5 +1092,25 @@ fn a_second_writer_of_a_locked_sweep_or_run_folder_is_refused() {
     assert!(!base.join("sweep.md").exists());
     // Released (as when its holder dies), the lock is taken over.
     assert_ok(&host_trainer(&["export", "--run", s(&run)]));
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// More worker threads than cores is allowed (the same bytes, only slower) and said once; the
+/// thread count is not part of the run: its `config.toml` does not record it.
+#[test]
+fn more_threads_than_cores_is_said_once_and_not_recorded() {
+    let base = scratch("threads-note");
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let threads = (cores + 1).to_string();
+    let out = train_smoke(&base, 1, &["--threads", &threads]);
+    assert_ok(&out);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let notes = stderr
+        .matches(&format!("--threads {threads} is more than the"))
+        .count();
+    assert_eq!(notes, 1, "{stderr}");
+    let config = base.join("nav-walls__dcp__3").join("config.toml");
+    let config = std::fs::read_to_string(config).expect("config.toml");
+    assert!(!config.contains("threads"), "{config}");
     std::fs::remove_dir_all(&base).expect("cleanup");
 }

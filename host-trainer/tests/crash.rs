@@ -117,3 +117,56 @@ fn killed_runs_resume_to_the_same_blob_and_leave_no_temporary_files() {
     assert_eq!(temporaries(&run), Vec::<String>::new());
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+/// A worker thread of the updates that panics (a bug in parallel code; `worker-panic:N` makes
+/// the N-th task panic) ends the process with the panic's exit code, never a hang. Checkpoints
+/// are written by the loop's own thread between episodes, while the workers are idle, so the
+/// panic leaves the last complete checkpoint and no temporary file, and the run continues from
+/// it, on another thread count, to the bytes of an uninterrupted one-thread run.
+#[test]
+fn a_panicking_worker_thread_leaves_the_last_checkpoint_whole() {
+    let base = scratch("worker-panic");
+    let config = smoke_config_file(&base, EPISODES);
+    let (whole, parts) = (base.join("whole"), base.join("parts"));
+    std::fs::create_dir_all(&whole).expect("dir");
+    std::fs::create_dir_all(&parts).expect("dir");
+    let threads = |n: &str| ["--threads".to_string(), n.to_string()];
+    let train = |out: &Path, n: &str, crash_at: Option<&str>| {
+        let mut c = command(&["train", "--config", s(&config), "--out", s(out), "--quiet"]);
+        c.args(threads(n));
+        if let Some(point) = crash_at {
+            c.env(CRASH_AT, point);
+        }
+        c.output().expect("runs")
+    };
+    assert!(train(&whole, "1", None).status.success());
+    // About six tasks per update on 2 threads: task 300 falls after the checkpoint of episode 2.
+    let out = train(&parts, "2", Some("worker-panic:300"));
+    assert_eq!(out.status.code(), Some(101), "a panic's exit: {out:?}");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("injected worker panic"), "{stderr}");
+    let name = "nav-walls__dcp__3";
+    let run = parts.join(name);
+    assert_eq!(temporaries(&run), Vec::<String>::new());
+    let checkpoint = Checkpoint::load(&run.join(folder::CHECKPOINT)).expect("a whole checkpoint");
+    assert!(
+        (2..EPISODES).contains(&checkpoint.episode),
+        "the panic came mid-run: checkpoint of episode {}",
+        checkpoint.episode
+    );
+    assert!(!run.join(folder::POLICY).exists(), "the run did not finish");
+
+    let mut c = command(&["train", "--resume", s(&run), "--quiet"]);
+    assert!(c
+        .args(threads("3"))
+        .output()
+        .expect("runs")
+        .status
+        .success());
+    for file in [folder::POLICY, folder::CRITIC] {
+        let a = std::fs::read(whole.join(name).join(file)).expect("uninterrupted blob");
+        let b = std::fs::read(run.join(file)).expect("resumed blob");
+        assert_eq!(a, b, "{file} differs after the worker panic");
+    }
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}

@@ -100,6 +100,12 @@ fn two_seeds_in_parallel_finish_summarise_and_match_train_alone() {
         statuses(&out),
         status_pairs(&[(0, "finished"), (1, "finished")])
     );
+    // Two runs at once share the cores: each child got half of them (at least one thread).
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let log = out.join("sweep-logs").join("nav-walls__dcp__0.log");
+    let log = std::fs::read_to_string(log).expect("log");
+    let threads = format!("--threads {} ", (cores / 2).max(1));
+    assert!(log.contains(&threads), "{threads}in {log}");
     // Determinism across process parallelism: each blob is the one `train` makes alone.
     for seed in [0, 1] {
         let alone = train_alone(&config, &base.join("alone"), seed);

@@ -2,7 +2,8 @@
 
 /// The `host-trainer` binary on bad input: one clear line, a non-zero exit, nothing lost.
 mod cli;
-/// Kill -9 at seeded points, inside checkpoint writes included: resume gives the same blob.
+/// Kill -9 at seeded points, inside checkpoint writes included, and a panicking worker thread:
+/// resume gives the same blob.
 mod crash;
 /// Ctrl-C during training: a checkpoint, a clean exit, a hint how to resume.
 mod interrupt;

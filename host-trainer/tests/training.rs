@@ -5,6 +5,7 @@ use host_trainer::algorithms::dcp::{Scoring, StateWeights, Variant};
 use host_trainer::algorithms::ddpg::ActorGradient;
 use host_trainer::algorithms::{Algo, Learner};
 use host_trainer::nn::hidden::Hidden;
+use host_trainer::nn::workers::Workers;
 use host_trainer::run::checkpoint::Checkpoint;
 use host_trainer::run::config::TrainConfig;
 use host_trainer::run::folder::{self, RunDir};
@@ -543,6 +544,21 @@ fn sha256(bytes: &[u8]) -> String {
 /// so there are two pins; every build of one kind gives the same bytes.
 #[test]
 fn training_blobs_are_bit_identical_to_the_pinned_run() {
+    check_pin(1);
+}
+
+/// The same pin with the updates on 2 and 3 worker threads: the smoke config's 16 × 5 proposal
+/// rows are split in two uneven parts per critic (4 tasks on 3 threads with twin critics), the
+/// twin critics step side by side. Parallel work must not change a bit.
+#[test]
+fn training_blobs_are_the_pinned_bytes_for_any_thread_count() {
+    check_pin(2);
+    check_pin(3);
+}
+
+/// Trains the pinned runs with the updates on `threads` worker threads and compares their blobs
+/// with the pin.
+fn check_pin(threads: usize) {
     // (run, actor, critic) with FMA, then without.
     let fused = [
         (
@@ -591,17 +607,22 @@ fn training_blobs_are_bit_identical_to_the_pinned_run() {
         };
         config.episodes = 20;
         let mut trainer = Trainer::new(config).expect("trainer");
+        trainer.set_workers(Workers::new(threads).expect("worker threads"));
         while !trainer.done() {
             trainer.run_episode().expect("episode");
         }
         let blob = trainer.policy_blob("pin").expect("actor");
-        assert_eq!(sha256(&blob), actor, "{run} actor blob");
+        assert_eq!(sha256(&blob), actor, "{run} actor blob, {threads} threads");
         let blob = trainer
             .algorithm()
             .critic_blob("pin")
             .expect("DCP and DDPG have a critic")
             .expect("critic");
-        assert_eq!(sha256(&blob), critic, "{run} critic blob");
+        assert_eq!(
+            sha256(&blob),
+            critic,
+            "{run} critic blob, {threads} threads"
+        );
     }
 }
 

@@ -27,8 +27,9 @@ use crate::blob::export;
 use crate::buffers::replay::{Replay, Transition};
 use crate::nn::adam::Adam;
 use crate::nn::forward::{self, ActorParts};
-use crate::nn::net::{soft_update, Grads, Matrix, Net, Output, Tape};
+use crate::nn::net::{evaluate, soft_update, Grads, Matrix, Net, Output, Tape};
 use crate::nn::normalize::RunningNorm;
+use crate::nn::workers::Workers;
 use crate::Error;
 
 /// A minibatch with observations already normalised by the current statistics.
@@ -123,6 +124,10 @@ pub struct Agent {
     /// How the critic learns; like `config`, set from the run's config, not saved.
     #[serde(skip)]
     pub critics: Critics,
+    /// The run's worker threads (one unless [`Agent::set_workers`]); not saved: the thread count
+    /// is the machine's business, not the run's, and changes no bit.
+    #[serde(skip)]
+    workers: Workers,
     #[serde(skip)]
     scratch: Scratch,
 }
@@ -132,12 +137,24 @@ pub struct Agent {
 struct Scratch {
     actor_tape: Tape,
     critic_tape: Tape,
+    twin_tape: Tape,
     target_tape: Tape,
+    /// The split inference passes' ([`evaluate`]) tapes and outputs.
+    split: Split,
     actor_grads: Option<Grads>,
     critic_grads: Option<Grads>,
     twin_grads: Option<Grads>,
     /// dQ/d(critic input) of DDPG's actor step.
     d_input: Matrix,
+}
+
+/// Scratch space of [`min_values`].
+#[derive(Debug, Default)]
+struct Split {
+    /// One tape per task.
+    tapes: Vec<Tape>,
+    /// One output per network.
+    outs: Vec<Matrix>,
 }
 
 impl Clone for Scratch {
@@ -187,8 +204,14 @@ impl Agent {
             config,
             twin: None,
             critics: Critics::default(),
+            workers: Workers::default(),
             scratch: Scratch::default(),
         })
+    }
+
+    /// The worker threads the updates use from now on. Any count gives the same bits.
+    pub fn set_workers(&mut self, workers: Workers) {
+        self.workers = workers;
     }
 
     /// Sets how the critic learns. A twin critic, when asked for and not yet there, is drawn
@@ -308,35 +331,33 @@ impl Agent {
     ) -> f32 {
         let y = self.bellman_targets(s, smoothing_rng);
         let input = critic_input(&s.z, &s.action, 1);
-        let loss = self.critic_step(&input, &y, dropout_rng);
-        if let Some(twin) = self.twin.as_deref_mut() {
-            let tape = &mut self.scratch.critic_tape;
-            let q = twin.critic.forward(&input, tape, Some(dropout_rng)).clone();
-            let (_, grad) = squared_error(&q, &y);
-            let grads = (self.scratch.twin_grads).get_or_insert_with(|| twin.critic.zero_grads());
-            grads.zero();
-            twin.critic.backward(tape, &grad, grads);
-            twin.critic_opt.step(&mut twin.critic, grads);
+        let scratch = &mut self.scratch;
+        let mut q1 = Fit {
+            net: &mut self.critic,
+            opt: &mut self.critic_opt,
+            tape: &mut scratch.critic_tape,
+            grads: &mut scratch.critic_grads,
+        };
+        let Some(twin) = self.twin.as_deref_mut() else {
+            return q1.step(&input, &y, Some(dropout_rng));
+        };
+        let mut q2 = Fit {
+            net: &mut twin.critic,
+            opt: &mut twin.critic_opt,
+            tape: &mut scratch.twin_tape,
+            grads: &mut scratch.twin_grads,
+        };
+        // Without dropout neither step draws from the stream, so the two are independent and
+        // run at once; with dropout Q2's masks are the draws after Q1's, so Q1 goes first.
+        if q1.net.config.dropout == 0.0 && q2.net.config.dropout == 0.0 {
+            let (loss, _) =
+                (self.workers).join(|| q1.step(&input, &y, None), || q2.step(&input, &y, None));
+            loss
+        } else {
+            let loss = q1.step(&input, &y, Some(dropout_rng));
+            q2.step(&input, &y, Some(dropout_rng));
+            loss
         }
-        loss
-    }
-
-    /// One Adam step of Q1 toward `y`; the mean squared error before it.
-    fn critic_step(&mut self, input: &Matrix, y: &[f32], dropout_rng: &mut SimRng) -> f32 {
-        let q = self
-            .critic
-            .forward(input, &mut self.scratch.critic_tape, Some(dropout_rng))
-            .clone();
-        let (loss, grad) = squared_error(&q, y);
-        let grads = self
-            .scratch
-            .critic_grads
-            .get_or_insert_with(|| self.critic.zero_grads());
-        grads.zero();
-        self.critic
-            .backward(&self.scratch.critic_tape, &grad, grads);
-        self.critic_opt.step(&mut self.critic, grads);
-        loss
     }
 
     fn bellman_targets(&mut self, s: &Sample, smoothing_rng: Option<&mut SimRng>) -> Vec<f32> {
@@ -352,15 +373,11 @@ impl Agent {
             }
         }
         let input = critic_input(&s.z_next, &next_action, 1);
-        let tape = &mut self.scratch.target_tape;
-        let mut q_next = self.critic_target.forward(&input, tape, None).data.clone();
-        if let Some(twin) = self.twin.as_deref() {
-            let q2 = twin.critic_target.forward(&input, tape, None);
-            // Clipped double Q: the smaller estimate curbs the critic's overestimation.
-            for (q, &q2) in q_next.iter_mut().zip(&q2.data) {
-                *q = q.min(q2);
-            }
-        }
+
+        // Clipped double Q: the smaller estimate curbs the critic's overestimation.
+        let target_twin = self.twin.as_deref().map(|t| &t.critic_target);
+        let (split, workers) = (&mut self.scratch.split, &self.workers);
+        let q_next = min_values(&self.critic_target, target_twin, &input, split, workers);
         (0..s.reward.len())
             .map(|i| s.reward[i] + s.discount[i] * (1.0 - s.terminal[i]) * q_next[i])
             .collect()
@@ -368,32 +385,31 @@ impl Agent {
 
     /// Q for each row of a critic input built by [`critic_input`] (inference: no dropout).
     pub fn q_values(&mut self, input: &Matrix) -> Vec<f32> {
-        self.critic
-            .forward(input, &mut self.scratch.critic_tape, None)
-            .data
-            .clone()
+        min_values(
+            &self.critic,
+            None,
+            input,
+            &mut self.scratch.split,
+            &self.workers,
+        )
     }
 
     /// Q' (the target critic) for each row of a critic input (DCP's target scoring).
     pub fn q_target_values(&mut self, input: &Matrix) -> Vec<f32> {
-        self.critic_target
-            .forward(input, &mut self.scratch.target_tape, None)
-            .data
-            .clone()
+        let split = &mut self.scratch.split;
+        min_values(&self.critic_target, None, input, split, &self.workers)
     }
 
     /// min(Q1, Q2) for each row of a critic input (DCP's twin scoring; Q1 alone without a twin).
     pub fn q_min_values(&mut self, input: &Matrix) -> Vec<f32> {
-        let mut q = self.q_values(input);
-        if let Some(twin) = self.twin.as_deref() {
-            let q2 = twin
-                .critic
-                .forward(input, &mut self.scratch.critic_tape, None);
-            for (q, &q2) in q.iter_mut().zip(&q2.data) {
-                *q = q.min(q2);
-            }
-        }
-        q
+        let twin = self.twin.as_deref().map(|t| &t.critic);
+        min_values(
+            &self.critic,
+            twin,
+            input,
+            &mut self.scratch.split,
+            &self.workers,
+        )
     }
 
     /// The target actor's unit actions on a batch (DCP's trust region).
@@ -502,6 +518,51 @@ impl Agent {
     /// The critic blob (for the on-device compare step).
     pub fn critic_blob(&self, label: &str) -> Result<Vec<u8>, Error> {
         export::critic_blob(&self.critic, &self.norm, self.act_dim(), label)
+    }
+}
+
+/// `first`'s values of the rows of `input`, or the smaller of `first`'s and `second`'s: one
+/// inference pass of both, its rows split over `workers`.
+fn min_values(
+    first: &Net,
+    second: Option<&Net>,
+    input: &Matrix,
+    split: &mut Split,
+    workers: &Workers,
+) -> Vec<f32> {
+    let nets: &[&Net] = match second {
+        Some(second) => &[first, second],
+        None => &[first],
+    };
+    split.outs.resize_with(nets.len(), Matrix::default);
+    evaluate(nets, input, &mut split.outs, &mut split.tapes, workers);
+    let mut q = std::mem::take(&mut split.outs[0].data);
+    if second.is_some() {
+        for (q, &q2) in q.iter_mut().zip(&split.outs[1].data) {
+            *q = q.min(q2);
+        }
+    }
+    q
+}
+
+/// One critic's Adam step toward Bellman targets, with the buffers it works in.
+struct Fit<'a> {
+    net: &'a mut Net,
+    opt: &'a mut Adam,
+    tape: &'a mut Tape,
+    grads: &'a mut Option<Grads>,
+}
+
+impl Fit<'_> {
+    /// One Adam step toward `y`; the mean squared error before it.
+    fn step(&mut self, input: &Matrix, y: &[f32], dropout_rng: Option<&mut SimRng>) -> f32 {
+        let q = self.net.forward(input, self.tape, dropout_rng).clone();
+        let (loss, grad) = squared_error(&q, y);
+        let grads = self.grads.get_or_insert_with(|| self.net.zero_grads());
+        grads.zero();
+        self.net.backward(self.tape, &grad, grads);
+        self.opt.step(self.net, grads);
+        loss
     }
 }
 

@@ -20,6 +20,7 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
+use crate::nn::workers::Workers;
 use crate::Error;
 
 pub mod actor_critic;
@@ -196,6 +197,15 @@ impl Learner {
             (_, _, algo) => return Err(format!("its state is not the state of a {algo} run")),
         }
         Ok(())
+    }
+
+    /// The worker threads of the updates. DCP, DDPG and TD3 use them (the critics over DCP's
+    /// proposals, twin critics side by side); PPO and DQN train on one thread whatever the
+    /// count. Any count gives the same bits.
+    pub fn set_workers(&mut self, workers: Workers) {
+        if let Learner::ActorCritic(l) = self {
+            l.agent.set_workers(workers);
+        }
     }
 
     /// The algorithm, to run.

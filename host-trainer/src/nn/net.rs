@@ -16,6 +16,8 @@ use serde::{Deserialize, Serialize};
 
 use firmware_sim::seed;
 
+use super::workers::Workers;
+
 /// A row-major batch: rows are samples, columns are features; `data.len() == rows * cols`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Matrix {
@@ -429,11 +431,22 @@ impl Net {
         dropout_rng: Option<&mut seed::SimRng>,
     ) -> &'t Matrix {
         assert_eq!(x.cols, self.config.inputs, "Net::forward: input columns");
+        self.forward_rows(&x.data, x.rows, tape, dropout_rng)
+    }
+
+    /// [`Net::forward`] on `rows` row-major rows of input data (a slice of a larger batch).
+    fn forward_rows<'t>(
+        &self,
+        x: &[f32],
+        rows: usize,
+        tape: &'t mut Tape,
+        dropout_rng: Option<&mut seed::SimRng>,
+    ) -> &'t Matrix {
         let rec = &mut tape.record;
         let rng = dropout_rng.filter(|_| self.config.dropout > 0.0);
         rec.dropout = rng.is_some();
-        rec.x.reshape(x.rows, x.cols);
-        rec.x.data.copy_from_slice(&x.data);
+        rec.x.reshape(rows, self.config.inputs);
+        rec.x.data.copy_from_slice(x);
         self.hidden_layers(rec, rng);
         let depth = self.config.depth;
         let mut out = std::mem::take(&mut rec.out);
@@ -701,6 +714,89 @@ impl Net {
                     && layer.b.len() == outputs
             })
     }
+}
+
+/// Rows per parallel task of [`evaluate`] at least: below this a task costs more to hand to a
+/// thread than it saves.
+const MIN_TASK_ROWS: usize = 32;
+
+/// The row height of the kernels' register tiles: [`evaluate`] splits batches at multiples of
+/// it, so every task but the last runs whole tiles, as the whole batch would.
+const TILE_ROWS: usize = 6;
+
+/// Inference passes (no dropout) of several networks over the same batch `x`, their outputs in
+/// `outs` (`outs[i]` for `nets[i]`, reshaped to `x.rows × outputs`). The rows are split over
+/// `workers` at multiples of the kernels' tile height, each network's part its own task.
+///
+/// Every output row is computed by the instructions a single pass over the whole batch uses
+/// for that row (each row's sums run over its own inputs only, in the same order, whatever tile
+/// holds it: `kernels.rs`), so the outputs are the same bits for any split and thread count.
+/// `tapes` is scratch space, one tape per task, kept for the next call.
+///
+/// # Panics
+/// If `outs` is shorter than `nets`, or `x.cols` is not every network's input size.
+///
+/// ```
+/// use host_trainer::nn::net::{evaluate, Matrix, Net, NetConfig, Output, Tape};
+/// use host_trainer::nn::workers::Workers;
+/// use policy_core::Activation;
+/// let config = NetConfig { inputs: 3, width: 16, depth: 2, outputs: 1,
+///     activation: Activation::Relu, output: Output::Linear, dropout: 0.0 };
+/// let q1 = Net::new(config.clone(), &mut firmware_sim::seed::training_stream(1, "critic"));
+/// let q2 = Net::new(config, &mut firmware_sim::seed::training_stream(2, "critic"));
+/// let x = Matrix::from_vec(100, 3, (0..300).map(|i| (i as f32 * 0.1).sin()).collect());
+/// let mut outs = vec![Matrix::default(); 2];
+/// evaluate(&[&q1, &q2], &x, &mut outs, &mut Vec::new(), &Workers::new(3).expect("threads"));
+/// let mut tape = Tape::default();
+/// let whole = q2.forward(&x, &mut tape, None);
+/// assert_eq!(&outs[1], whole);
+/// ```
+pub fn evaluate(
+    nets: &[&Net],
+    x: &Matrix,
+    outs: &mut [Matrix],
+    tapes: &mut Vec<Tape>,
+    workers: &Workers,
+) {
+    assert!(outs.len() >= nets.len(), "evaluate: one output per network");
+    for net in nets {
+        assert_eq!(x.cols, net.config.inputs, "evaluate: input columns");
+    }
+    // Enough tasks to give every thread work, none smaller than MIN_TASK_ROWS.
+    let per_net = workers
+        .threads()
+        .div_ceil(nets.len().max(1))
+        .min(x.rows / MIN_TASK_ROWS)
+        .max(1);
+    let chunk = x.rows.div_ceil(per_net).next_multiple_of(TILE_ROWS).max(1);
+    struct Task<'a> {
+        net: &'a Net,
+        x: &'a [f32],
+        out: &'a mut [f32],
+        tape: &'a mut Tape,
+    }
+    let tasks_needed = nets.len() * x.rows.div_ceil(chunk);
+    if tapes.len() < tasks_needed {
+        tapes.resize_with(tasks_needed, Tape::default);
+    }
+    let mut tapes = tapes.iter_mut();
+    let mut tasks = Vec::with_capacity(tasks_needed);
+    for (net, out) in nets.iter().zip(outs.iter_mut()) {
+        out.reshape(x.rows, net.config.outputs);
+        let outputs = net.config.outputs;
+        let parts = x
+            .data
+            .chunks(chunk * x.cols)
+            .zip(out.data.chunks_mut(chunk * outputs));
+        for ((x, out), tape) in parts.zip(&mut tapes) {
+            tasks.push(Task { net, x, out, tape });
+        }
+    }
+    workers.for_each(&mut tasks, |t| {
+        let rows = t.out.len() / t.net.config.outputs;
+        let y = t.net.forward_rows(t.x, rows, t.tape, None);
+        t.out.copy_from_slice(&y.data);
+    });
 }
 
 /// Polyak averaging of target networks: `target <- tau * source + (1 - tau) * target`.

@@ -7,7 +7,9 @@
 //!
 //! - `episode:N`: right after episode N completes, before anything about it is written;
 //! - `checkpoint:N`: halfway through writing this process's N-th checkpoint file, after the
-//!   first half has reached the temporary file.
+//!   first half has reached the temporary file;
+//! - `worker-panic:N`: the N-th task handed to the update's worker threads panics (a bug in
+//!   parallel code): the process must die without a half-written checkpoint.
 //!
 //! Unset (always, outside that test), every function here does nothing. The module is private to
 //! the crate: the test arms it through the environment of the `host-trainer` binary it runs,
@@ -24,6 +26,7 @@ pub const ENV: &str = "HOST_TRAINER_CRASH_AT";
 enum KillPoint {
     Episode(usize),
     Checkpoint(usize),
+    WorkerPanic(usize),
 }
 
 fn armed() -> Option<KillPoint> {
@@ -37,6 +40,7 @@ fn parse(text: &str) -> Option<KillPoint> {
     match kind {
         "episode" => Some(KillPoint::Episode(n)),
         "checkpoint" => Some(KillPoint::Checkpoint(n)),
+        "worker-panic" => Some(KillPoint::WorkerPanic(n)),
         _ => None,
     }
 }
@@ -45,6 +49,14 @@ fn parse(text: &str) -> Option<KillPoint> {
 pub fn episode_done(episode: usize) {
     if armed() == Some(KillPoint::Episode(episode)) {
         die();
+    }
+}
+
+/// The worker task that must panic, when `worker-panic:N` is armed.
+pub fn worker_fault() -> Option<usize> {
+    match armed() {
+        Some(KillPoint::WorkerPanic(task)) => Some(task),
+        _ => None,
     }
 }
 
@@ -79,6 +91,7 @@ mod tests {
     fn kill_points_parse() {
         assert_eq!(parse("episode:3"), Some(KillPoint::Episode(3)));
         assert_eq!(parse("checkpoint:1"), Some(KillPoint::Checkpoint(1)));
+        assert_eq!(parse("worker-panic:7"), Some(KillPoint::WorkerPanic(7)));
         assert_eq!(parse("episode"), None);
         assert_eq!(parse("lunch:1"), None);
     }

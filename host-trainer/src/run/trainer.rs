@@ -10,8 +10,10 @@
 //!
 //! One seed drives everything: every random stream (initial weights, exploration, replay
 //! sampling, dropout masks, DCP proposals, minibatch order, episode starts) is
-//! `seed::training_stream(seed, name)` with its own name, and the loop is single-threaded, so the
-//! same seed and configuration give the same blob bytes. Wall-clock times appear only in
+//! `seed::training_stream(seed, name)` with its own name, and every draw is made by the loop's
+//! one thread in a fixed order; the worker threads of the updates ([`Trainer::set_workers`]) only
+//! split work whose every number is computed as one thread would, so the same seed and
+//! configuration give the same blob bytes for any thread count. Wall-clock times appear only in
 //! `metrics.csv`'s `steps_per_s` column.
 
 use std::collections::VecDeque;
@@ -28,6 +30,7 @@ use rand_core::Rng as _;
 use crate::algorithms::algorithm::{Algorithm, Step};
 use crate::algorithms::Learner;
 use crate::blob::export;
+use crate::nn::workers::Workers;
 use crate::rng_state::RngState;
 use crate::run::checkpoint::Checkpoint;
 use crate::run::config::{one_line, TrainConfig};
@@ -151,6 +154,16 @@ impl Trainer {
             metrics: checkpoint.metrics,
             config,
         })
+    }
+
+    /// The worker threads of the updates (`train --threads`). Not part of the run: any count
+    /// gives the same bytes, and a run may continue with another.
+    pub fn set_workers(&mut self, workers: Workers) {
+        let workers = match crash_test::worker_fault() {
+            Some(task) => workers.with_fault_at(task),
+            None => workers,
+        };
+        self.learner.set_workers(workers);
     }
 
     /// The state to save.

@@ -29,6 +29,8 @@ pub struct Runner<'a> {
     pub out: PathBuf,
     /// Most runs at once.
     pub jobs: usize,
+    /// Each run's `--threads` (the cores shared out between the runs at once).
+    pub threads: usize,
     /// No progress bar.
     pub quiet: bool,
     /// Ctrl-C presses so far (the caller's handler counts them).
@@ -192,7 +194,7 @@ fn spawn(
             }
         })?;
     }
-    let args = child_args(run, &config);
+    let args = child_args(runner, run, &config);
     let io = |source| Error::Io {
         path: log.clone(),
         source,
@@ -228,9 +230,9 @@ fn spawn(
     })
 }
 
-/// `train --config CONFIG --out OUT --quiet --stop-when-stdin-closes`, or `train --resume DIR
-/// --quiet --stop-when-stdin-closes`.
-fn child_args(run: &PlannedRun, config: &Path) -> Vec<String> {
+/// `train --config CONFIG --out OUT --threads T --quiet --stop-when-stdin-closes`, or `train
+/// --resume DIR --threads T --quiet --stop-when-stdin-closes`.
+fn child_args(runner: &Runner<'_>, run: &PlannedRun, config: &Path) -> Vec<String> {
     let path = |p: &Path| p.to_string_lossy().into_owned();
     let mut args = vec!["train".to_string()];
     if run.start == Start::Resume {
@@ -239,6 +241,7 @@ fn child_args(run: &PlannedRun, config: &Path) -> Vec<String> {
         let out = run.dir.parent().unwrap_or(Path::new("."));
         args.extend(["--config".into(), path(config), "--out".into(), path(out)]);
     }
+    args.extend(["--threads".into(), runner.threads.to_string()]);
     args.extend(["--quiet".into(), "--stop-when-stdin-closes".into()]);
     args
 }

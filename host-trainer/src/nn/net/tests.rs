@@ -320,3 +320,41 @@ fn ddpg_init_bounds() {
         );
     }
 }
+
+/// The split inference pass gives every row the bits of one pass over the whole batch, for any
+/// thread count and any number of rows (whole tiles of 6, remainders of 4 and 1, splits that
+/// fall inside a tile's worth of rows), with the critic's one-output layer and a tanh actor.
+#[test]
+fn split_inference_is_bit_identical_to_one_pass_for_any_thread_count() {
+    let shapes = [
+        (Activation::Relu, Output::Linear, 1),
+        (Activation::Tanh, Output::Tanh, 2),
+    ];
+    for (activation, output, outputs) in shapes {
+        let c = NetConfig {
+            inputs: 4,
+            width: 48,
+            depth: 4,
+            outputs,
+            activation,
+            output,
+            dropout: 0.0,
+        };
+        let (a, b) = (spread_net(c.clone(), 1), spread_net(c, 2));
+        for rows in [1, 5, 7, 33, 64, 65, 97, 200, 1088] {
+            let x = random_matrix(rows, 4, 2.0, rows as u64);
+            let one_pass = |net: &Net| net.forward(&x, &mut Tape::default(), None).clone();
+            let whole = [one_pass(&a), one_pass(&b)];
+            for threads in 1..=4 {
+                let workers = Workers::new(threads).expect("threads");
+                let mut outs = vec![Matrix::default(); 2];
+                evaluate(&[&a, &b], &x, &mut outs, &mut Vec::new(), &workers);
+                let bits = |m: &Matrix| m.data.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                for (got, want) in outs.iter().zip(&whole) {
+                    assert_eq!((got.rows, got.cols), (want.rows, want.cols));
+                    assert_eq!(bits(got), bits(want), "{rows} rows, {threads} threads");
+                }
+            }
+        }
+    }
+}
