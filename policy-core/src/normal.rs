@@ -20,9 +20,10 @@
 
 use rand_core::Rng;
 
-/// How many draws [`standard_normals`] computes together: 8 `f32` fill a 256-bit register
-/// (two 128-bit ones), and the cosine's `f64` lanes fill two (four).
-const LANES: usize = 8;
+/// How many draws [`standard_normals`] takes from the stream before computing them: enough for
+/// the lane loops to run at full vector width (a variable trip count, so the compiler
+/// vectorises them rather than unrolling them into scalar code), few enough for the stack.
+const CHUNK: usize = 64;
 
 // libm's constants, by their bits (its decimal literals parse to exactly these).
 // logf:
@@ -98,16 +99,14 @@ pub fn standard_normals<R: Rng + ?Sized>(rng: &mut R, out: &mut [f32]) {
         target_feature = "neon",
         target_feature = "simd128"
     ))]
-    for chunk in out.chunks_mut(LANES) {
-        // Lanes past the end of `out` compute Box–Muller of 1/2 and throw it away.
-        let mut u1 = [0.5; LANES];
-        let mut u2 = [0.5; LANES];
-        for (a, b) in u1.iter_mut().zip(&mut u2).take(chunk.len()) {
-            *a = unit(rng.next_u32());
-            *b = unit(rng.next_u32());
+    for chunk in out.chunks_mut(CHUNK) {
+        // The first uniform of each pair goes straight into `out`, the second beside it.
+        let mut u2 = [0.0; CHUNK];
+        for (u1, u2) in chunk.iter_mut().zip(&mut u2) {
+            *u1 = unit(rng.next_u32());
+            *u2 = unit(rng.next_u32());
         }
-        let z = box_muller(&u1, &u2);
-        chunk.copy_from_slice(&z[..chunk.len()]);
+        box_muller(chunk, &u2[..chunk.len()]);
     }
     #[cfg(not(any(
         target_feature = "sse2",
@@ -124,26 +123,24 @@ fn unit(x: u32) -> f32 {
     ((x >> 8) as f32 + 0.5) * (1.0 / 16_777_216.0)
 }
 
-/// Box–Muller of eight uniform pairs, lane by lane; each loop is branch-free, so it vectorises.
-#[inline(always)]
-fn box_muller(u1: &[f32; LANES], u2: &[f32; LANES]) -> [f32; LANES] {
-    let mut radius = [0.0; LANES];
-    for (r, &u) in radius.iter_mut().zip(u1) {
-        *r = -2.0 * logf(u);
+/// Box–Muller of the pairs `(u1[i], u2[i])`, in place of `u1`. Each pass is a loop over the
+/// lanes with no branch in its body, so each vectorises.
+fn box_muller(u1: &mut [f32], u2: &[f32]) {
+    for r in u1.iter_mut() {
+        *r = -2.0 * logf(*r);
     }
-    sqrt_lanes(&mut radius);
-    let mut z = [0.0; LANES];
-    for ((z, &r), &u) in z.iter_mut().zip(&radius).zip(u2) {
-        *z = r * cosf(core::f32::consts::TAU * u);
+    sqrt_in_place(u1);
+    // `sqrtf(..) * cosf(..)` as in `standard_normal` (a product is the same either way round).
+    for (z, &u) in u1.iter_mut().zip(u2) {
+        *z *= cosf(core::f32::consts::TAU * u);
     }
-    z
 }
 
 /// Square roots in place; correctly rounded either way, so the same bits as `libm::sqrtf`.
 /// `libm`'s is an inline `sqrtss` on x86-64, which the compiler cannot widen; `std`'s is the
 /// compiler's own square root, which it can.
 #[inline(always)]
-fn sqrt_lanes(x: &mut [f32; LANES]) {
+fn sqrt_in_place(x: &mut [f32]) {
     #[cfg(any(test, feature = "std"))]
     x.iter_mut().for_each(|v| *v = v.sqrt());
     #[cfg(not(any(test, feature = "std")))]
