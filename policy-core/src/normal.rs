@@ -23,6 +23,11 @@ use rand_core::Rng;
 /// How many draws [`standard_normals`] takes from the stream before computing them: enough for
 /// the lane loops to run at full vector width (a variable trip count, so the compiler
 /// vectorises them rather than unrolling them into scalar code), few enough for the stack.
+#[cfg(any(
+    target_feature = "sse2",
+    target_feature = "neon",
+    target_feature = "simd128"
+))]
 const CHUNK: usize = 64;
 
 // libm's constants, by their bits (its decimal literals parse to exactly these).
@@ -125,6 +130,11 @@ fn unit(x: u32) -> f32 {
 
 /// Box–Muller of the pairs `(u1[i], u2[i])`, in place of `u1`. Each pass is a loop over the
 /// lanes with no branch in its body, so each vectorises.
+#[cfg(any(
+    target_feature = "sse2",
+    target_feature = "neon",
+    target_feature = "simd128"
+))]
 fn box_muller(u1: &mut [f32], u2: &[f32]) {
     for r in u1.iter_mut() {
         *r = -2.0 * logf(*r);
@@ -138,7 +148,13 @@ fn box_muller(u1: &mut [f32], u2: &[f32]) {
 
 /// Square roots in place; correctly rounded either way, so the same bits as `libm::sqrtf`.
 /// `libm`'s is an inline `sqrtss` on x86-64, which the compiler cannot widen; `std`'s is the
-/// compiler's own square root, which it can.
+/// compiler's own square root, which it can. (Like `CHUNK` and `box_muller`, only the SIMD
+/// batch uses it.)
+#[cfg(any(
+    target_feature = "sse2",
+    target_feature = "neon",
+    target_feature = "simd128"
+))]
 #[inline(always)]
 fn sqrt_in_place(x: &mut [f32]) {
     #[cfg(any(test, feature = "std"))]
