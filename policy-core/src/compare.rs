@@ -25,29 +25,8 @@ pub struct Refined<const A: usize> {
     pub winner: usize,
 }
 
-/// A standard normal sample by the Box–Muller transform (one of the pair; `libm` only).
-///
-/// ```
-/// use policy_core::compare::standard_normal;
-/// use rand_core::{Infallible, TryRng};
-/// struct Counter(u32);
-/// impl TryRng for Counter {
-///     type Error = Infallible;
-///     fn try_next_u32(&mut self) -> Result<u32, Infallible> { self.0 = self.0.wrapping_mul(747796405).wrapping_add(2891336453); Ok(self.0) }
-///     fn try_next_u64(&mut self) -> Result<u64, Infallible> { Ok(self.try_next_u32()? as u64) }
-///     fn try_fill_bytes(&mut self, d: &mut [u8]) -> Result<(), Infallible> { d.fill(0); Ok(()) }
-/// }
-/// let mut rng = Counter(1);
-/// let n = 10_000;
-/// let mean = (0..n).map(|_| standard_normal(&mut rng)).sum::<f32>() / n as f32;
-/// assert!(mean.abs() < 0.05);
-/// ```
-pub fn standard_normal<R: Rng + ?Sized>(rng: &mut R) -> f32 {
-    // Uniforms strictly inside (0, 1): the log never sees 0.
-    let u1 = ((rng.next_u32() >> 8) as f32 + 0.5) * (1.0 / 16_777_216.0);
-    let u2 = ((rng.next_u32() >> 8) as f32 + 0.5) * (1.0 / 16_777_216.0);
-    libm::sqrtf(-2.0 * libm::logf(u1)) * libm::cosf(core::f32::consts::TAU * u2)
-}
+/// The sampler the proposals use (it lives with its batch version in [`crate::normal`]).
+pub use crate::normal::standard_normal;
 
 /// Proposes `t` actions `clip(P(s) + N(0, sigma²), -1, 1)` around the actor's unit action and
 /// returns the one with the highest Q, or the actor's own action if none beats it.

@@ -17,9 +17,9 @@
 //! - [`blob`]: the one definition of the weight-blob format (postcard header, aligned `f32`
 //!   payload, CRC-32), read on the chip and written on the host. See `docs/blob-format.md`.
 //!
-//! Imports flow one way, shared types at the bottom: `crc32`, `half`, `tanh`, `clamp` and
-//! `mlp::activation`; the format's types (`blob::format`) and [`error`]; the normaliser, bounds
-//! and [`mlp`] kernels and layers; reading, checking and writing blobs (the rest of [`blob`]);
+//! Imports flow one way, shared types at the bottom: `crc32`, `half`, `tanh`, [`normal`],
+//! `clamp` and `mlp::activation`; the format's types (`blob::format`) and [`error`]; the
+//! normaliser, bounds and [`mlp`] kernels and layers; reading, checking and writing blobs (the rest of [`blob`]);
 //! the runtime [`model`] and the compiled [`Policy`] and [`Critic`]; [`compare`] and [`slot`]
 //! on top.
 //!
@@ -59,6 +59,7 @@ mod format;
 pub mod half;
 pub mod mlp;
 pub mod model;
+pub mod normal;
 pub mod normalizer;
 pub mod policy;
 pub mod slot;

@@ -21,6 +21,8 @@ mod act_bounds;
 mod quantised;
 // The vectorisable tanhf is bit-identical to libm::tanhf.
 mod tanh;
+// Batch normal draws are the single draws, bit for bit (libm's logf and cosf, ported).
+mod normal;
 // The device-side compare step never returns a worse action under Q.
 mod compare;
 // The A/B flash slots: fallback and safe state on every bad slot, never a panic.

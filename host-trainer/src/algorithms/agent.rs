@@ -18,7 +18,7 @@
 //! paper's "dynamic input normalisation").
 
 use firmware_sim::seed::SimRng;
-use policy_core::compare::standard_normal;
+use policy_core::normal::standard_normals;
 use serde::{Deserialize, Serialize};
 
 use super::agent_config::AgentConfig;
@@ -367,8 +367,10 @@ impl Agent {
             .clone();
         if let Some(sm) = self.critics.smoothing {
             let rng = smoothing_rng.expect("target smoothing needs its random stream");
-            for a in &mut next_action.data {
-                let noise = (sm.sigma * standard_normal(rng)).clamp(-sm.clip, sm.clip);
+            let mut noise = vec![0.0; next_action.data.len()];
+            standard_normals(rng, &mut noise);
+            for (a, n) in next_action.data.iter_mut().zip(noise) {
+                let noise = (sm.sigma * n).clamp(-sm.clip, sm.clip);
                 *a = (*a + noise).clamp(-1.0, 1.0);
             }
         }

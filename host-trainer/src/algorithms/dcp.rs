@@ -38,7 +38,7 @@
 use serde::{Deserialize, Serialize};
 
 use firmware_sim::seed::SimRng;
-use policy_core::compare::standard_normal;
+use policy_core::normal::standard_normals;
 
 use super::agent::{critic_input, Agent, Critics, Sample};
 use super::ddpg::Td3Config;
@@ -334,9 +334,8 @@ impl Dcp {
         let sigma = vec![self.sigma_c; a0.cols];
         for i in 0..a0.rows {
             actions.row_mut(i * per).copy_from_slice(a0.row(i));
-            for t in 1..per {
-                sample(a0.row(i), &sigma, actions.row_mut(i * per + t), rng);
-            }
+            let proposals = rows_mut(&mut actions, i * per + 1..(i + 1) * per);
+            sample(a0.row(i), &sigma, proposals, rng);
         }
         let mut q = score(&actions, per);
         let rounds = if self.config.cem {
@@ -368,9 +367,12 @@ impl Dcp {
             // Best first; equal scores keep their order, so the fit is deterministic.
             rows.sort_by(|&a, &b| q[b].total_cmp(&q[a]));
             let (mean, spread) = fit(actions, &rows[..elite]);
-            for r in i * per + 1..(i + 1) * per {
-                sample(&mean, &spread, actions.row_mut(r), rng);
-            }
+            sample(
+                &mean,
+                &spread,
+                rows_mut(actions, i * per + 1..(i + 1) * per),
+                rng,
+            );
         }
     }
 
@@ -383,8 +385,9 @@ impl Dcp {
         let mut proposal = Matrix::zeros(a0.rows, a0.cols);
         let sigma = vec![self.sigma_c; a0.cols];
         for _ in 0..self.config.t {
+            standard_normals(rng, &mut proposal.data);
             for i in 0..a0.rows {
-                sample(best.row(i), &sigma, proposal.row_mut(i), rng);
+                perturb(best.row(i), &sigma, proposal.row_mut(i));
             }
             let q = score(&proposal, 1);
             for i in 0..a0.rows {
@@ -542,11 +545,26 @@ fn score(
     }
 }
 
-/// `out = clip(mean + spread ⊙ N(0, 1), -1, 1)`, one draw per dimension in order.
+/// Each row of `out` (whole rows of `mean.len()`) becomes `clip(mean + spread ⊙ N(0, 1), -1, 1)`,
+/// one draw per element in order: the draws of `standard_normal` called element by element,
+/// computed as one batch.
 fn sample(mean: &[f32], spread: &[f32], out: &mut [f32], rng: &mut SimRng) {
-    for ((o, &m), &s) in out.iter_mut().zip(mean).zip(spread) {
-        *o = (m + s * standard_normal(rng)).clamp(-1.0, 1.0);
+    standard_normals(rng, out);
+    for row in out.chunks_mut(mean.len().max(1)) {
+        perturb(mean, spread, row);
     }
+}
+
+/// `out = clip(mean + spread ⊙ out, -1, 1)`: standard normals in `out` become proposals.
+fn perturb(mean: &[f32], spread: &[f32], out: &mut [f32]) {
+    for ((o, &m), &s) in out.iter_mut().zip(mean).zip(spread) {
+        *o = (m + s * *o).clamp(-1.0, 1.0);
+    }
+}
+
+/// Rows `rows` of `m`, which are contiguous, as one slice.
+fn rows_mut(m: &mut Matrix, rows: std::ops::Range<usize>) -> &mut [f32] {
+    &mut m.data[rows.start * m.cols..rows.end * m.cols]
 }
 
 /// Mean and standard deviation (population) per dimension of the rows `rows` of `actions`.

@@ -20,7 +20,7 @@
 use serde::{Deserialize, Serialize};
 
 use firmware_sim::seed;
-use policy_core::compare::standard_normal;
+use policy_core::normal::standard_normals;
 
 /// Which random process explores.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -57,12 +57,18 @@ impl NoiseProcess {
 
     /// The next noise vector, one normal draw per dimension in order.
     pub fn sample(&mut self, rng: &mut seed::SimRng) -> &[f32] {
-        for x in &mut self.x {
-            let n = self.sigma * standard_normal(rng);
-            *x = match self.kind {
-                Noise::Gaussian => n,
-                Noise::Ou => *x - self.theta * *x + n,
-            };
+        // A few dimensions at a time, drawn as one batch (the same draws as one by one).
+        for xs in self.x.chunks_mut(8) {
+            let mut draws = [0.0; 8];
+            let draws = &mut draws[..xs.len()];
+            standard_normals(rng, draws);
+            for (x, &z) in xs.iter_mut().zip(&*draws) {
+                let n = self.sigma * z;
+                *x = match self.kind {
+                    Noise::Gaussian => n,
+                    Noise::Ou => *x - self.theta * *x + n,
+                };
+            }
         }
         &self.x
     }

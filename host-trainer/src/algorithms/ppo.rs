@@ -25,7 +25,7 @@
 use serde::{Deserialize, Serialize};
 
 use firmware_sim::seed::{self, SimRng};
-use policy_core::compare::standard_normal;
+use policy_core::normal::standard_normals;
 
 use super::agent_config::AgentConfig;
 use super::algorithm::{Algorithm, Step};
@@ -497,11 +497,11 @@ impl Algorithm for Ppo {
         self.norm.normalize(obs, &mut z);
         let mut mean = vec![0.0; self.actor.config.outputs];
         self.actor.forward_one(&z, &mut mean);
-        let action: Vec<f32> = mean
-            .iter()
-            .zip(&self.log_std)
-            .map(|(&m, &ls)| m + ls.exp() * standard_normal(&mut self.streams.explore))
-            .collect();
+        let mut action = vec![0.0; mean.len()];
+        standard_normals(&mut self.streams.explore, &mut action);
+        for ((a, &m), &ls) in action.iter_mut().zip(&mean).zip(&self.log_std) {
+            *a = m + ls.exp() * *a;
+        }
         let mut v = [0.0];
         self.value.forward_one(&z, &mut v);
         let plant = action
