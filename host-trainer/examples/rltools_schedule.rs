@@ -10,25 +10,30 @@
 //! τ 0.005, exploration σ 0.1, a replay buffer of 10,000. Its timer covers the whole loop:
 //! environment steps, acting, replay inserts and sampling, and all updates.
 //!
-//! This program runs the same loop at the same shapes with [`Agent`] and [`Ddpg`]: each step
-//! after the first 100 makes two `critic_update`s on one minibatch (our agent has one critic,
-//! so the second update trains it again; each recomputes its Bellman targets, as each of
-//! RLtools' critic updates does), and every second step one `actor_update` and one
-//! `soft_update` of both targets. The work differs from TD3's in two ways, both counted in the
-//! multiply-adds printed: our Bellman target uses one target critic (TD3 takes the minimum of
-//! two), and our critic's backward pass also computes the first layer's input gradient.
+//! This program runs the same loop at the same shapes with [`Agent`] and [`Ddpg`], the agent's
+//! critics set as TD3's (twin critics, the Bellman target the minimum of the two target critics,
+//! target-policy smoothing): each step after the first 100 makes one `critic_update`, which steps
+//! both critics on one minibatch (RLtools' two critic updates), and every second step one
+//! `actor_update` and one `soft_update` of all targets. One difference remains, counted in the
+//! multiply-adds printed: our critic's backward pass also computes the first layer's input
+//! gradient.
 //!
-//! Output: one line, `schedule: SECONDS s, ... multiply-adds, ... G/s, kernels ISA`. The timer covers the
-//! same loop as RLtools'; building the agent is outside it.
+//! `--threads N` (default: the cores available) runs the updates on N worker threads, as
+//! `host-trainer train --threads N` does: the two critics' steps and their target passes side by
+//! side. RLtools' benchmark runs on one thread.
+//!
+//! Output: one line, `schedule: SECONDS s, ... multiply-adds, ... G/s, kernels ISA, N threads`.
+//! The timer covers the same loop as RLtools'; building the agent is outside it.
 
 use std::time::Instant;
 
 use firmware_sim::seed;
 use host_trainer::algorithms::agent::Agent;
 use host_trainer::algorithms::agent_config::AgentConfig;
-use host_trainer::algorithms::ddpg::{self, Ddpg};
+use host_trainer::algorithms::ddpg::{self, Ddpg, Td3Config};
 use host_trainer::buffers::replay::Transition;
 use host_trainer::nn::hidden::Hidden;
+use host_trainer::nn::workers::Workers;
 
 /// Environment steps (RLtools: `STEP_LIMIT` 10,000, steps 0 through 10,000).
 const STEPS: usize = 10_001;
@@ -72,12 +77,18 @@ impl Pendulum {
     }
 }
 
-fn main() {
-    let seed = std::env::args()
-        .skip_while(|a| a != "--seed")
+/// The value after `--name` on the command line, if it parses.
+fn flag<T: std::str::FromStr>(name: &str) -> Option<T> {
+    std::env::args()
+        .skip_while(|a| a != name)
         .nth(1)
         .and_then(|s| s.parse().ok())
-        .unwrap_or(0u64);
+}
+
+fn main() {
+    let seed = flag("--seed").unwrap_or(0u64);
+    let threads = flag("--threads")
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let config = AgentConfig {
         hidden: Hidden {
             depth: 2,
@@ -91,9 +102,9 @@ fn main() {
         replay_capacity: 10_000,
         ..AgentConfig::default()
     };
-    let mut rngs =
-        ["init", "env", "explore", "replay", "dropout"].map(|n| seed::training_stream(seed, n));
-    let [init, env_rng, explore, replay, dropout] = &mut rngs;
+    let mut rngs = ["init", "env", "explore", "replay", "dropout", "smoothing"]
+        .map(|n| seed::training_stream(seed, n));
+    let [init, env_rng, explore, replay, dropout, smoothing] = &mut rngs;
     let mut agent = match Agent::new(config, 3, &[-2.0], &[2.0], init) {
         Ok(agent) => agent,
         Err(e) => {
@@ -101,6 +112,14 @@ fn main() {
             std::process::exit(1);
         }
     };
+    agent.set_critics(Td3Config::default().critics(), init);
+    match Workers::new(threads) {
+        Ok(workers) => agent.set_workers(workers),
+        Err(e) => {
+            eprintln!("rltools_schedule: {e}");
+            std::process::exit(1);
+        }
+    }
     let ddpg = Ddpg::new(ddpg::Config::default());
     let mut noise = agent.noise_process();
     let (mut critic_updates, mut actor_updates, mut target_updates) = (0u64, 0u64, 0u64);
@@ -129,10 +148,9 @@ fn main() {
         });
         if step >= WARMUP {
             let sample = agent.sample(replay);
-            for _ in 0..2 {
-                agent.critic_update(&sample, dropout);
-                critic_updates += 1;
-            }
+            // Both critics: RLtools' two critic updates.
+            agent.critic_update_with(&sample, dropout, Some(&mut *smoothing));
+            critic_updates += 2;
             if step % 2 == 0 {
                 ddpg.actor_update(&mut agent, &sample, dropout);
                 agent.soft_update();
@@ -143,20 +161,20 @@ fn main() {
     }
     let seconds = start.elapsed().as_secs_f64();
 
-    // Per row: a critic update runs the target actor and target critic, the critic forward and
-    // its backward (weight and input gradients: twice the forward); an actor update runs the
-    // actor forward, the critic forward, dQ/d(input) through the critic, and the actor's
-    // backward (twice its forward).
+    // Per row, a step of both critics runs the target actor once and both target critics, and
+    // each critic's forward and backward pass (weight and input gradients: twice the forward):
+    // A + 2C + 2 × 3C; an actor update runs the actor forward, the critic forward, dQ/d(input)
+    // through the critic, and the actor's backward (twice its forward): 3A + 2C.
     let (a, c) = (agent.actor.multiply_adds(), agent.critic.multiply_adds());
     let rows = BATCH as u64;
-    let macs = critic_updates * rows * (a + 4 * c) + actor_updates * rows * (3 * a + 2 * c);
+    let macs = critic_updates / 2 * rows * (a + 8 * c) + actor_updates * rows * (3 * a + 2 * c);
     if !agent.is_finite() {
         eprintln!("rltools_schedule: training diverged");
         std::process::exit(1);
     }
     println!(
         "schedule: {seconds:.3} s, {STEPS} env steps, {critic_updates} critic + {actor_updates} actor + \
-         {target_updates} target updates, {:.2} G multiply-adds, {:.1} G/s, kernels {}",
+         {target_updates} target updates, {:.2} G multiply-adds, {:.1} G/s, kernels {}, {threads} threads",
         macs as f64 / 1e9,
         macs as f64 / seconds / 1e9,
         instruction_set()
