@@ -25,7 +25,7 @@ pub fn check(text: &str) {
     check_accepted(config);
 }
 
-/// A config that passed the parser trains [`EPISODES`] episodes (its budget capped so the check
+/// A config that passed the parser trains two episodes (its budget capped so the check
 /// stays fast) or is refused in one line when the trainer is built; a trained one exports a
 /// blob that policy-core loads.
 pub fn check_accepted(mut config: TrainConfig) {
