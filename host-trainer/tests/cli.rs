@@ -1004,19 +1004,21 @@ fn config_settings_the_algorithm_does_not_read_are_refused() {
     // One sweep of DDPG and TD3: the delay is TD3's, the DDPG runs record the default.
     let out = base.join("out");
     std::fs::create_dir_all(&out).expect("dir");
-    let sweep = host_trainer(&[
-        "sweep",
-        "--config",
-        s(&file),
-        "--algo",
-        "ddpg,td3",
-        "--seeds",
-        "0",
-        "--out",
-        s(&out),
-        "--quiet",
-    ]);
-    assert_ok(&sweep);
+    let sweep = || {
+        host_trainer(&[
+            "sweep",
+            "--config",
+            s(&file),
+            "--algo",
+            "ddpg,td3",
+            "--seeds",
+            "0",
+            "--out",
+            s(&out),
+            "--quiet",
+        ])
+    };
+    assert_ok(&sweep());
     let recorded = |algo: &str| {
         TrainConfig::from_file(&out.join(format!("nav-walls__{algo}__0/config.toml")))
             .expect("recorded config")
@@ -1027,18 +1029,7 @@ fn config_settings_the_algorithm_does_not_read_are_refused() {
         TrainConfig::default().td3.policy_delay
     );
     // Run again, the same sweep finds both runs finished (the recorded DDPG config is its own).
-    let again = host_trainer(&[
-        "sweep",
-        "--config",
-        s(&file),
-        "--algo",
-        "ddpg,td3",
-        "--seeds",
-        "0",
-        "--out",
-        s(&out),
-        "--quiet",
-    ]);
+    let again = sweep();
     assert_ok(&again);
     assert_eq!(
         String::from_utf8_lossy(&again.stdout)
