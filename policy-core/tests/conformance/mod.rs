@@ -158,7 +158,14 @@ fn every_vector_holds_for_policy_core() {
                 let q = model
                     .q(&obs, &parse_bits(line.field("action")), scratch)
                     .expect(&at);
-                assert_eq!(hex_bits(&[q]), line.field("q"), "{at}");
+                // A NaN matches any NaN: the bits of a NaN that arithmetic makes differ between
+                // CPUs (x86 gives ffc00000, Arm 7fc00000), and Q is returned as computed.
+                let expected = parse_bits(line.field("q"))[0];
+                if expected.is_nan() {
+                    assert!(q.is_nan(), "{at}: {q}");
+                } else {
+                    assert_eq!(hex_bits(&[q]), line.field("q"), "{at}");
+                }
             }
             ("choose", _) => {
                 let model = Model::from_blob(&bytes).expect(&at);
