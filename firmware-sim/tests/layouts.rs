@@ -64,7 +64,9 @@ fn generated_rings_have_their_level_in_rings_and_are_margins_for_straight() {
 #[test]
 fn a_level_outside_1_to_4_is_refused() {
     for level in [0, 5] {
-        let err = generate(Kind::Maze, level, 0).expect_err("refused").to_string();
+        let err = generate(Kind::Maze, level, 0)
+            .expect_err("refused")
+            .to_string();
         assert!(
             err.contains("level") && err.contains("1, 2, 3 or 4"),
             "{err}"

@@ -20,10 +20,15 @@
 //!   success rate, mean settled error, stuck rate;
 //! - **stuck ends**: at the end position of each episode that ended stuck, the critic's best
 //!   action over a 21 × 21 grid of the unit box (a*) against the actor's (a0): how often a* is
-//!   itself blocked by the wall (the critic rates the push best), and the mean Q(s, a*) − Q(s, a0);
-//! - **ring**: the same on 32 points around the ring at 0.15 outside it: the share of points whose
-//!   a* is free (the critic knows a move that is not a push) and Q(s, a0) just outside the
-//!   north gap minus its mean over the ring (> 0: the critic values the gap's approach more).
+//!   itself blocked by the wall (the critic rates the push best), the mean Q(s, a*) − Q(s, a0),
+//!   the mean distance |a* − a0| in the unit box, and the share of stuck ends from which *walking
+//!   the critic's argmax* (an 11 × 11 grid each step, up to the time limit) comes within 0.25 of
+//!   the centre: whether what the critic prefers is a real way round, not an artefact of its
+//!   extrapolation;
+//! - **ring**: the same on 32 points around the ring, 0.02 outside it (against the wall, where a
+//!   parked policy sits): the share of points whose a* is free (the critic knows a move that is
+//!   not a push: along the wall or away from it) and Q(s, a0) at the north gap minus its mean
+//!   over the ring (> 0: the critic values the gap more than the closed sides).
 //!
 //! `--ring-out FILE` also writes every ring point's values, one row per checkpoint and point.
 
@@ -44,10 +49,15 @@ use policy_core::model::{Model, Scratch};
 const GRID: usize = 21;
 /// A step counts as blocked when the plant moves less than this fraction of it.
 const BLOCKED: f32 = 0.2;
+/// Grid points per action dimension when walking the critic's argmax.
+const WALK_GRID: usize = 11;
+/// How close to the centre a critic walk must come.
+const WALK_REACH: f32 = 0.25;
 /// Points on the ring scan.
 const RING_POINTS: usize = 32;
-/// How far outside the ring the scan and the band lie.
-const RING_OFFSET: f32 = 0.15;
+/// How far outside the ring the scan lies: against the wall, closer than a blocked push moves.
+const RING_OFFSET: f32 = 0.02;
+/// The band outside the ring whose share of the replay is counted.
 const BAND: f32 = 0.5;
 
 type Wide = Scratch<256>;
@@ -92,7 +102,8 @@ fn run() -> Result<()> {
     };
     println!(
         "episode,replay,inside_share,band_share,inward_crossings,success,settled_error,stuck,\
-         stuck_ends,stuck_best_blocked,stuck_q_gap,ring_best_free,ring_gap_value"
+         stuck_ends,stuck_best_blocked,stuck_q_gap,stuck_apart,critic_walk_reach,ring_best_free,\
+         ring_gap_value"
     );
     for file in &files {
         let row = diagnose(file, ring, ring_file.as_mut())?;
@@ -140,12 +151,16 @@ fn diagnose(path: &str, ring: f32, ring_file: Option<&mut std::fs::File>) -> Res
     };
 
     // Stuck ends.
-    let (mut stuck, mut best_blocked, mut gap) = (0usize, 0usize, 0.0f64);
+    let (mut stuck, mut best_blocked, mut gap, mut apart, mut walked) =
+        (0usize, 0usize, 0.0f64, 0.0f64, 0usize);
     for episode in report.episodes.iter().filter(|e| e.stuck) {
-        let p = probe.at([episode.end[0] as f32, episode.end[1] as f32])?;
+        let end = [episode.end[0] as f32, episode.end[1] as f32];
+        let p = probe.at(end)?;
         stuck += 1;
         best_blocked += usize::from(p.best_blocked);
         gap += f64::from(p.q_best - p.q_actor);
+        apart += f64::from((p.a0[0] - p.best[0]).hypot(p.a0[1] - p.best[1]));
+        walked += usize::from(probe.critic_walk_reaches(end, scenario.time_limit)?);
     }
 
     // The ring scan: RING_POINTS evenly spaced along the square at ring + RING_OFFSET, starting
@@ -178,8 +193,9 @@ fn diagnose(path: &str, ring: f32, ring_file: Option<&mut std::fs::File>) -> Res
         }
     }
     let mean_value = values.iter().sum::<f64>() / values.len() as f64;
+    let per_stuck = |x: f64| if stuck > 0 { x / stuck as f64 } else { 0.0 };
     Ok(format!(
-        "{},{n},{:.4},{:.4},{inward},{:.2},{:.3},{:.2},{stuck},{},{:.3},{:.3},{:.3}",
+        "{},{n},{:.4},{:.4},{inward},{:.2},{:.3},{:.2},{stuck},{},{:.3},{:.3},{:.2},{:.3},{:.3}",
         checkpoint.episode,
         share(ends_inside),
         share(band),
@@ -191,7 +207,9 @@ fn diagnose(path: &str, ring: f32, ring_file: Option<&mut std::fs::File>) -> Res
         } else {
             "-".into()
         },
-        if stuck > 0 { gap / stuck as f64 } else { 0.0 },
+        per_stuck(gap),
+        per_stuck(apart),
+        per_stuck(walked as f64),
         free as f64 / RING_POINTS as f64,
         values[0] - mean_value,
     ))
@@ -255,6 +273,40 @@ impl Probe<'_> {
             q_best,
             best_blocked,
         })
+    }
+
+    /// Whether walking the critic's argmax over a coarse grid from `start` comes within
+    /// `WALK_REACH` of the centre within `steps` steps.
+    fn critic_walk_reaches(&mut self, start: [f32; 2], steps: u32) -> Result<bool> {
+        let e = |e: policy_core::Error| anyhow::anyhow!("{e}");
+        self.plant.reset(0);
+        self.plant
+            .set_position(Vec2::new(f64::from(start[0]), f64::from(start[1])));
+        let mut s = start;
+        let unit = |k: usize| -1.0 + 2.0 * k as f32 / (WALK_GRID - 1) as f32;
+        for _ in 0..steps {
+            if s[0].hypot(s[1]) < WALK_REACH {
+                return Ok(true);
+            }
+            let (mut q_best, mut best) = (f32::NEG_INFINITY, [0.0f32; 2]);
+            for i in 0..WALK_GRID {
+                for j in 0..WALK_GRID {
+                    let a = [unit(i), unit(j)];
+                    let q = self.critic.q(&s, &a, &mut self.scratch).map_err(e)?;
+                    if q > q_best {
+                        (q_best, best) = (q, a);
+                    }
+                }
+            }
+            let step = self
+                .plant
+                .step(&[best[0] * self.max_step, best[1] * self.max_step]);
+            s = [step.observation[0], step.observation[1]];
+            if step.terminated || step.truncated {
+                break;
+            }
+        }
+        Ok(s[0].hypot(s[1]) < WALK_REACH)
     }
 
     /// Whether the plant moves less than BLOCKED of the commanded step from `s`.
