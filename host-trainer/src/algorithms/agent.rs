@@ -266,11 +266,12 @@ impl Agent {
         unit
     }
 
-    /// A noise process at rest with this agent's settings.
-    pub fn noise_process(&self) -> NoiseProcess {
+    /// A noise process at rest with this agent's settings, for episode `episode` (its σ
+    /// follows [`AgentConfig::sigma_at`]).
+    pub fn noise_process(&self, episode: usize) -> NoiseProcess {
         NoiseProcess::new(
             self.config.noise,
-            self.config.sigma,
+            self.config.sigma_at(episode),
             self.config.ou_theta,
             self.low.len(),
         )
