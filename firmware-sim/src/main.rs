@@ -35,6 +35,24 @@ use firmware_sim::refine::RefiningPolicy;
 use firmware_sim::sensor::SensorModel;
 use firmware_sim::slots::boot_slots;
 
+/// `println!` and `print!` that end the process quietly when standard output's reader has gone
+/// (`| head`) instead of panicking: [`firmware_sim::files::write_stdout`].
+macro_rules! outln {
+    () => {
+        firmware_sim::files::write_stdout(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        firmware_sim::files::write_stdout(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// See [`outln`].
+macro_rules! out {
+    ($($arg:tt)*) => {
+        firmware_sim::files::write_stdout(format_args!($($arg)*))
+    };
+}
+
 #[derive(Parser, Debug)]
 #[command(
     name = "firmware-sim",
@@ -271,7 +289,7 @@ fn run(args: &RunArgs) -> Result<bool> {
             args.scratch_width
                 .unwrap_or(firmware_sim::slots::FIRMWARE_SCRATCH_WIDTH),
         )?;
-        print!("{}", boot.describe());
+        out!("{}", boot.describe());
         (boot.controller, boot.error)
     } else if let (Some(bytes), Some(critic), Some((t, sigma))) =
         (bytes.as_deref(), critic.as_deref(), args.refine)
@@ -297,10 +315,10 @@ fn run(args: &RunArgs) -> Result<bool> {
     if let Some(e) = &boot_error {
         report.mark_boot_failure(e);
     }
-    print!("{}", report.summary());
+    out!("{}", report.summary());
     if let Some((ticks, replaced)) = counts.map(|c| c.get()) {
         let share = replaced as f64 / ticks.max(1) as f64;
-        println!("  compare step                      a proposal replaced the actor's action on {replaced} of {ticks} ticks ({share:.3})");
+        outln!("  compare step                      a proposal replaced the actor's action on {replaced} of {ticks} ticks ({share:.3})");
     }
     outputs.finish(&report)?;
     report_failures(&report, args.blob.as_deref());
@@ -336,7 +354,7 @@ fn play(args: &MatchArgs) -> Result<bool> {
     let length = Length::Games(args.games);
     let record = args.svg.is_some();
     let report = play_match(&config, &kinds, length, args.seed, record, keep_rally)?;
-    print!("{}", report.summary());
+    out!("{}", report.summary());
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&report)?;
         written(files::write_atomic(path, text.as_bytes()), path)?;
@@ -402,7 +420,7 @@ fn generate_layout(args: &GenerateArgs) -> Result<bool> {
         let svg = firmware_sim::nav::svg::render(scenario, &report);
         written(files::write_atomic(path, svg.as_bytes()), path)?;
     }
-    println!(
+    outln!(
         "{}: {} ({} walls; the oracle reaches the goal from all {} check starts)",
         args.out.display(),
         scenario.name,

@@ -742,3 +742,18 @@ fn scenario_generate_writes_the_same_solvable_file_for_a_seed_and_refuses_bad_in
     assert_bad_input(&spiral, &["spiral"]);
     assert_eq!(names(&dir), before, "a refused command wrote nothing");
 }
+
+#[test]
+fn a_reader_that_goes_away_ends_the_run_quietly() {
+    // `firmware-sim run ... | head -1`: the pipe closes before the summary is written.
+    let mut child = Command::new(BIN)
+        .args(["run", "--controller", "oracle", "--episodes", "20"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    drop(child.stdout.take()); // the reader goes away
+    let o = child.wait_with_output().expect("wait");
+    assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}

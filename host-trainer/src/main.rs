@@ -44,6 +44,24 @@ use host_trainer::sweep::{report, supervise};
 use policy_core::slot::SlotId;
 use policy_core::Encoding;
 
+/// `println!` and `print!` that end the process quietly when standard output's reader has gone
+/// (`| head`) instead of panicking: [`firmware_sim::files::write_stdout`].
+macro_rules! outln {
+    () => {
+        firmware_sim::files::write_stdout(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        firmware_sim::files::write_stdout(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// See [`outln`].
+macro_rules! out {
+    ($($arg:tt)*) => {
+        firmware_sim::files::write_stdout(format_args!($($arg)*))
+    };
+}
+
 #[derive(Debug, Parser)]
 #[command(
     name = "host-trainer",
@@ -390,7 +408,7 @@ fn train_command(args: TrainArgs) -> Result<ExitCode> {
     }
     let seconds = started.elapsed().as_secs_f64();
     let steps = trainer.total_steps - steps_before;
-    println!("trained {} ({} episodes, {steps} env steps in {seconds:.1} s, {:.0} steps/s incl. updates)", run.path().display(), trainer.episode, steps as f64 / seconds.max(1e-9));
+    outln!("trained {} ({} episodes, {steps} env steps in {seconds:.1} s, {:.0} steps/s incl. updates)", run.path().display(), trainer.episode, steps as f64 / seconds.max(1e-9));
     let blob = trainer.export(&run)?;
     let report = evaluate(
         &blob,
@@ -401,7 +419,7 @@ fn train_command(args: TrainArgs) -> Result<ExitCode> {
     )?;
     print_summary(&report);
     run.write(folder::EVAL, report_json(&report)?.as_bytes())?;
-    println!("wrote {}", run.path().display());
+    outln!("wrote {}", run.path().display());
     Ok(ExitCode::SUCCESS)
 }
 
@@ -622,7 +640,7 @@ fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
         return Ok(ExitCode::from(INTERRUPTED));
     }
     report::write_summary(&args.out, &records)?;
-    print!("{}", report::markdown(&records));
+    out!("{}", report::markdown(&records));
     let failed = records
         .iter()
         .filter(|r| r.status == Status::Failed)
@@ -681,7 +699,7 @@ fn export_command(args: ExportArgs) -> Result<()> {
         .transpose()?;
     if args.encoding != Encoding::F32 {
         run.write(&name, &policy)?;
-        println!(
+        outln!(
             "wrote {} ({} bytes, {} weights; episode {})",
             run.file(&name).display(),
             policy.len(),
@@ -696,7 +714,7 @@ fn export_command(args: ExportArgs) -> Result<()> {
         } else {
             String::new()
         };
-        println!(
+        outln!(
             "wrote {}{critic} (episode {})",
             run.file(folder::POLICY).display(),
             trainer.episode
@@ -746,13 +764,13 @@ fn write_slot_image(
     run.write(&name, bytes)?;
     let file = run.file(&name);
     let (path, address, sequence) = (file.display(), target.address, target.sequence);
-    println!("wrote {path} (slot {id} at {address:#010x}, sequence {sequence})");
+    outln!("wrote {path} (slot {id} at {address:#010x}, sequence {sequence})");
     match format {
-        ImageFormat::Bin => println!(
+        ImageFormat::Bin => outln!(
             "flash it: probe-rs download --chip YOUR_CHIP --binary-format bin --base-address {address:#010x} {path}\n\
              under QEMU: -device loader,file={path},addr={address:#x}"
         ),
-        ImageFormat::Hex => println!(
+        ImageFormat::Hex => outln!(
             "flash it: probe-rs download --chip YOUR_CHIP --binary-format hex {path}\n\
              under QEMU: -device loader,file={path}"
         ),
@@ -764,14 +782,14 @@ fn inspect_command(args: &InspectArgs) -> Result<()> {
     let path = args.blob.display();
     let bytes = files::read_blob(&args.blob).with_context(|| format!("cannot read blob {path}"))?;
     let text = inspect::describe(&bytes).with_context(|| format!("{path} is not a valid blob"))?;
-    print!("{text}");
+    out!("{text}");
     if let Some(reference) = &args.against {
         let other = reference.display();
         let f32 =
             files::read_blob(reference).with_context(|| format!("cannot read blob {other}"))?;
         let errors = inspect::describe_errors(&bytes, &f32)
             .with_context(|| format!("cannot compare {path} with {other}"))?;
-        print!("{errors}");
+        out!("{errors}");
     }
     Ok(())
 }
@@ -806,7 +824,7 @@ fn print_summary(report: &Report) {
     let steps = report
         .mean_steps_to_goal
         .map_or_else(|| "-".to_string(), |s| format!("{s:.1}"));
-    println!(
+    outln!(
         "{} on {}, {} test starts: success {:.1}%  mean settled error {:.3}  strict reach {:.1}%  pass within 0.25 {:.1}%  steps to goal {steps}  stuck at margin {:.1}%  left arena {:.1}%",
         report.controller,
         report.scenario,

@@ -1105,3 +1105,20 @@ fn more_threads_than_cores_is_said_once_and_not_recorded() {
     assert!(!config.contains("threads"), "{config}");
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+#[test]
+fn a_reader_that_goes_away_ends_inspect_quietly() {
+    // `host-trainer inspect BLOB | head -1`: the pipe closes before the listing is written.
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_host-trainer"))
+        .args(["inspect", "models/nav-walls__dcp-paper__0.postcard"])
+        .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    drop(child.stdout.take());
+    let o = child.wait_with_output().expect("wait");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(o.status.code(), Some(0), "{err}");
+}
