@@ -162,6 +162,10 @@ struct SweepArgs {
     /// Algorithms, repeated or comma-separated [default: the config's].
     #[arg(long, value_enum, value_delimiter = ',')]
     algo: Vec<Algo>,
+    /// Built-in scenario (nav-walls, nav-open) or a scenario TOML file, for every run
+    /// [default: the config's].
+    #[arg(long)]
+    task: Option<String>,
     /// Most runs at once [default: the number of cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     jobs: Option<u32>,
@@ -595,10 +599,15 @@ fn note_changed_plant(trainer: &Trainer) {
 /// Everything is checked (config, algorithms, output folder, every run folder) before the
 /// first run starts; then the runs go, and the summary is printed and written at the end.
 fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
-    let base = match &args.config {
+    let mut base = match &args.config {
         Some(path) => TrainConfig::from_file(path)?,
         None => TrainConfig::default(),
     };
+    if let Some(task) = &args.task {
+        base.task = task.clone();
+    }
+    // Checked before the folder is locked: a refused sweep leaves nothing behind.
+    host_trainer::run::trainer::scenario(&base.task)?;
     let mut algos = Vec::new();
     for algo in if args.algo.is_empty() {
         vec![base.algo]
