@@ -5,11 +5,11 @@
 //! ```sh
 //! cargo run --release -p host-trainer --example margin_diagnosis -- [--ring 1.0] \
 //!     [--ring-out ring.csv] CHECKPOINT...
+//! cargo run --release -p host-trainer --example margin_diagnosis -- runs/nav-walls__dcp__0/checkpoints/*
 //! ```
 //!
-//! A run writes `checkpoint.postcard` every `checkpoint_every` episodes and replaces it; copies
-//! taken as it changes (`docs/results/margin-diagnosis.md` says how) give the run's state at
-//! those episodes. For each copy of a DCP, DDPG or TD3 run on a navigation plant whose centre is
+//! `train --keep-checkpoints` keeps a copy of every checkpoint the run writes (every
+//! `checkpoint_every` episodes) in `RUN/checkpoints/`: the run's state at those episodes. For each copy of a DCP, DDPG or TD3 run on a navigation plant whose centre is
 //! enclosed by an inner square ring of half-size `--ring` (1.0, the pinwheel's), it prints one
 //! CSV row:
 //!

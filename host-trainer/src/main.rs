@@ -141,6 +141,10 @@ struct TrainArgs {
     /// available].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     threads: Option<u32>,
+    /// Also keep a copy of every checkpoint in RUN/checkpoints/ (to study how the run
+    /// learned; each holds the whole replay buffer, tens of MB).
+    #[arg(long)]
+    keep_checkpoints: bool,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
@@ -374,12 +378,14 @@ fn set_ctrl_c_handler(handler: fn()) {
 fn train_command(args: TrainArgs) -> Result<ExitCode> {
     let quiet = args.quiet;
     let stop_when_stdin_closes = args.stop_when_stdin_closes;
+    let keep_checkpoints = args.keep_checkpoints;
     let workers = workers(args.threads)?;
     let (mut trainer, run, _lock) = match &args.resume {
         Some(dir) => resume(dir, args.episodes)?,
         None => fresh(args)?,
     };
     trainer.set_workers(workers);
+    trainer.keep_checkpoints = keep_checkpoints;
     install_ctrl_c_handler();
     if stop_when_stdin_closes {
         stop_when_parent_goes();
