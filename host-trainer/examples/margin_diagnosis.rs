@@ -9,9 +9,9 @@
 //! ```
 //!
 //! `train --keep-checkpoints` keeps a copy of every checkpoint the run writes (every
-//! `checkpoint_every` episodes) in `RUN/checkpoints/`: the run's state at those episodes. For each copy of a DCP, DDPG or TD3 run on a navigation plant whose centre is
-//! enclosed by an inner square ring of half-size `--ring` (1.0, the pinwheel's), it prints one
-//! CSV row:
+//! `checkpoint_every` episodes) in `RUN/checkpoints/`: the run's state at those episodes. For
+//! each copy of a DCP, DDPG or TD3 run on a navigation plant whose centre is enclosed by an
+//! inner square ring of half-size `--ring` (1.0, the pinwheel's), it prints one CSV row:
 //!
 //! - **replay**: the transitions stored, the share that end inside the inner ring, the share in
 //!   the band just outside it (up to 0.5 beyond the ring: where a parked policy sits) and the
