@@ -446,8 +446,13 @@ fn folder_of(path: &Path) -> &Path {
         .unwrap_or(Path::new("."))
 }
 
+/// The exit status after standard output's reader went away: a shell's status for a process
+/// killed by SIGPIPE.
+pub const BROKEN_PIPE_STATUS: i32 = 141;
+
 /// Writes to standard output. If its reader has gone away (`firmware-sim run ... | head -3`),
-/// the process ends quietly with status 0, as `cat` does, instead of panicking as `print!`
+/// the process ends quietly with status 141, as `cat` ends when SIGPIPE kills it (128 + 13:
+/// not 0, so a gate whose report nobody read never passes), instead of panicking as `print!`
 /// does on a closed pipe; any other write error is reported on stderr once, and the process
 /// goes on (its files are what it is for). The binaries' `outln!` and `out!` call this.
 pub fn write_stdout(args: std::fmt::Arguments<'_>) {
@@ -456,7 +461,7 @@ pub fn write_stdout(args: std::fmt::Arguments<'_>) {
     let result = stdout.write_fmt(args).and_then(|()| stdout.flush());
     match result {
         Ok(()) => {}
-        Err(e) if e.kind() == io::ErrorKind::BrokenPipe => std::process::exit(0),
+        Err(e) if e.kind() == io::ErrorKind::BrokenPipe => std::process::exit(BROKEN_PIPE_STATUS),
         Err(e) => {
             use std::sync::atomic::{AtomicBool, Ordering};
             static REPORTED: AtomicBool = AtomicBool::new(false);

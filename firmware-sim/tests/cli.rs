@@ -755,5 +755,5 @@ fn a_reader_that_goes_away_ends_the_run_quietly() {
     drop(child.stdout.take()); // the reader goes away
     let o = child.wait_with_output().expect("wait");
     assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(141), "{}", stderr(&o));
 }

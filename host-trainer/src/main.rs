@@ -418,7 +418,8 @@ fn train_command(args: TrainArgs) -> Result<ExitCode> {
     }
     let seconds = started.elapsed().as_secs_f64();
     let steps = trainer.total_steps - steps_before;
-    outln!("trained {} ({} episodes, {steps} env steps in {seconds:.1} s, {:.0} steps/s incl. updates)", run.path().display(), trainer.episode, steps as f64 / seconds.max(1e-9));
+    // Every file first, then the report: a reader of standard output that goes away (which
+    // ends the program) cannot cost the run its blobs or its evaluation.
     let blob = trainer.export(&run)?;
     let report = evaluate(
         &blob,
@@ -427,8 +428,9 @@ fn train_command(args: TrainArgs) -> Result<ExitCode> {
         trainer.config.eval_episodes,
         0,
     )?;
-    print_summary(&report);
     run.write(folder::EVAL, report_json(&report)?.as_bytes())?;
+    outln!("trained {} ({} episodes, {steps} env steps in {seconds:.1} s, {:.0} steps/s incl. updates)", run.path().display(), trainer.episode, steps as f64 / seconds.max(1e-9));
+    print_summary(&report);
     outln!("wrote {}", run.path().display());
     Ok(ExitCode::SUCCESS)
 }
