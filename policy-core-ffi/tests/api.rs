@@ -246,17 +246,8 @@ fn a_verify_failure_fills_the_error_struct() {
     // A NonFiniteParameter carries its index; a SizeMismatch its sizes and what.
     let ok = golden("actor_2x32.postcard");
     // SAFETY: valid buffers.
-    let code = unsafe {
-        dcp_model_for_policy(
-            ok.as_ptr(),
-            ok.len(),
-            3,
-            2,
-            64,
-            &mut new_model(),
-            &mut e,
-        )
-    };
+    let code =
+        unsafe { dcp_model_for_policy(ok.as_ptr(), ok.len(), 3, 2, 64, &mut new_model(), &mut e) };
     assert_eq!(code, DCP_ERR_SIZE_MISMATCH);
     assert_eq!((e.expected, e.found), (3, 2));
     assert_eq!(text(&e.what), "observation size");
