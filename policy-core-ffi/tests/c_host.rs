@@ -4,9 +4,8 @@
 //! installed (`CC`, else `cc`, else `gcc`).
 //!
 //! The static library is built by cargo for this test (`cargo build -p policy-core-ffi --lib`,
-//! in a target directory of its own under `CARGO_TARGET_TMPDIR`, so it never waits on the
-//! build that runs this test), and found through cargo's JSON messages rather than a guessed
-//! path.
+//! in the same target directory, whose dependencies are built already), and found through
+//! cargo's JSON messages rather than a guessed path.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -41,7 +40,12 @@ fn c_compiler() -> Option<String> {
 /// Builds the host static library with cargo and returns its path.
 fn static_library() -> PathBuf {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
-    let target_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("c-host");
+    // The target directory this test was built in (CARGO_TARGET_TMPDIR is its tmp/): cargo has
+    // released its lock by the time tests run, and the dependencies are already built there.
+    let target_dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .parent()
+        .expect("CARGO_TARGET_TMPDIR is <target dir>/tmp")
+        .to_path_buf();
     let out = Command::new(cargo)
         .args(["build", "--quiet", "--lib", "-p", "policy-core-ffi"])
         .args(["--message-format", "json-render-diagnostics"])
