@@ -446,6 +446,30 @@ fn folder_of(path: &Path) -> &Path {
         .unwrap_or(Path::new("."))
 }
 
+/// Writes to standard output. If its reader has gone away (`firmware-sim run ... | head -3`),
+/// the process ends quietly with status 0, as `cat` does, instead of panicking as `print!`
+/// does on a closed pipe; any other write error is reported on stderr once, and the process
+/// goes on (its files are what it is for). The binaries' `outln!` and `out!` call this.
+pub fn write_stdout(args: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    let mut stdout = io::stdout().lock();
+    let result = stdout.write_fmt(args).and_then(|()| stdout.flush());
+    match result {
+        Ok(()) => {}
+        Err(e) if e.kind() == io::ErrorKind::BrokenPipe => std::process::exit(0),
+        Err(e) => {
+            use std::sync::atomic::{AtomicBool, Ordering};
+            static REPORTED: AtomicBool = AtomicBool::new(false);
+            if !REPORTED.swap(true, Ordering::Relaxed) {
+                let _ = writeln!(
+                    io::stderr(),
+                    "warning: cannot write to standard output: {e}"
+                );
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

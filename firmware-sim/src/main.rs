@@ -21,15 +21,37 @@ use firmware_sim::badminton::{self, reference::PlayerKind};
 use firmware_sim::boot::{boot_or_safe_state, PlantSizes};
 use firmware_sim::controller::Controller;
 use firmware_sim::files::{self, AtomicFile};
+use firmware_sim::nav::generator;
 use firmware_sim::nav::json_report::JsonReportWriter;
 use firmware_sim::nav::metrics::EpisodeRecord;
+use firmware_sim::nav::oracle::Oracle;
 use firmware_sim::nav::reference::reference;
 use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::svg::SvgWriter;
-use firmware_sim::nav::test_protocol::{evaluate_streaming, EvalConfig, Report};
+use firmware_sim::nav::test_protocol::{
+    evaluate_controller, evaluate_streaming, EvalConfig, Report,
+};
 use firmware_sim::refine::RefiningPolicy;
 use firmware_sim::sensor::SensorModel;
 use firmware_sim::slots::boot_slots;
+
+/// `println!` and `print!` that end the process quietly when standard output's reader has gone
+/// (`| head`) instead of panicking: [`firmware_sim::files::write_stdout`].
+macro_rules! outln {
+    () => {
+        firmware_sim::files::write_stdout(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        firmware_sim::files::write_stdout(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// See [`outln`].
+macro_rules! out {
+    ($($arg:tt)*) => {
+        firmware_sim::files::write_stdout(format_args!($($arg)*))
+    };
+}
 
 #[derive(Parser, Debug)]
 #[command(
@@ -49,6 +71,40 @@ enum Command {
     Run(Box<RunArgs>),
     /// Play a badminton match between two players and judge it by the scenario's criteria.
     Match(MatchArgs),
+    /// Navigation layouts as scenario files.
+    #[command(subcommand)]
+    Scenario(ScenarioCommand),
+}
+
+#[derive(Subcommand, Debug)]
+enum ScenarioCommand {
+    /// Generate a navigation layout the oracle solves from every start, as a scenario file.
+    Generate(GenerateArgs),
+}
+
+#[derive(Args, Debug)]
+struct GenerateArgs {
+    /// The family: nested rings with gaps, or a maze of corridors.
+    #[arg(long, value_enum)]
+    kind: LayoutKind,
+    /// Difficulty, 1 to 4: rings around the goal, or the maze's size (2·level + 1 cells a side).
+    #[arg(long, default_value_t = 1)]
+    level: u8,
+    /// The layout's seed: the same seed, kind and level always give the same file.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// The scenario file to write (TOML; run it with `firmware-sim run --scenario FILE`).
+    #[arg(long)]
+    out: PathBuf,
+    /// Also draw the layout, with the oracle's paths from 20 starts, to this SVG file.
+    #[arg(long)]
+    svg: Option<PathBuf>,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum LayoutKind {
+    Rings,
+    Maze,
 }
 
 #[derive(Args, Debug)]
@@ -159,6 +215,7 @@ fn main() -> ExitCode {
     let outcome = match &cli.command {
         Command::Run(args) => run(args),
         Command::Match(args) => play(args),
+        Command::Scenario(ScenarioCommand::Generate(args)) => generate_layout(args),
     };
     match outcome {
         Ok(true) => ExitCode::SUCCESS,
@@ -232,7 +289,7 @@ fn run(args: &RunArgs) -> Result<bool> {
             args.scratch_width
                 .unwrap_or(firmware_sim::slots::FIRMWARE_SCRATCH_WIDTH),
         )?;
-        print!("{}", boot.describe());
+        out!("{}", boot.describe());
         (boot.controller, boot.error)
     } else if let (Some(bytes), Some(critic), Some((t, sigma))) =
         (bytes.as_deref(), critic.as_deref(), args.refine)
@@ -258,10 +315,10 @@ fn run(args: &RunArgs) -> Result<bool> {
     if let Some(e) = &boot_error {
         report.mark_boot_failure(e);
     }
-    print!("{}", report.summary());
+    out!("{}", report.summary());
     if let Some((ticks, replaced)) = counts.map(|c| c.get()) {
         let share = replaced as f64 / ticks.max(1) as f64;
-        println!("  compare step                      a proposal replaced the actor's action on {replaced} of {ticks} ticks ({share:.3})");
+        outln!("  compare step                      a proposal replaced the actor's action on {replaced} of {ticks} ticks ({share:.3})");
     }
     outputs.finish(&report)?;
     report_failures(&report, args.blob.as_deref());
@@ -297,7 +354,7 @@ fn play(args: &MatchArgs) -> Result<bool> {
     let length = Length::Games(args.games);
     let record = args.svg.is_some();
     let report = play_match(&config, &kinds, length, args.seed, record, keep_rally)?;
-    print!("{}", report.summary());
+    out!("{}", report.summary());
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&report)?;
         written(files::write_atomic(path, text.as_bytes()), path)?;
@@ -323,6 +380,54 @@ fn play(args: &MatchArgs) -> Result<bool> {
         eprintln!("FAIL: {}", report.pass.failures.join("; "));
     }
     Ok(report.pass.passed)
+}
+
+/// Generates a layout, checks it, writes it (and its picture); always `Ok(true)` once written.
+fn generate_layout(args: &GenerateArgs) -> Result<bool> {
+    outputs_ok(Some(&args.out), args.svg.as_deref())?;
+    let kind = match args.kind {
+        LayoutKind::Rings => generator::Kind::Rings,
+        LayoutKind::Maze => generator::Kind::Maze,
+    };
+    let generated = generator::generate(kind, args.level, args.seed)?;
+    let scenario = &generated.scenario;
+    let text = format!(
+        "# Generated by `firmware-sim scenario generate --kind {} --level {} --seed {}`: the\n\
+         # oracle reaches the goal from each of {} test starts (seed {}).\n{}",
+        kind.name(),
+        args.level,
+        args.seed,
+        generator::CHECK_STARTS,
+        args.seed,
+        toml::to_string(scenario).context("cannot write the scenario as TOML")?
+    );
+    // What is written must read back as the same layout.
+    let back = Scenario::from_toml_str(&text)?;
+    anyhow::ensure!(
+        back == *scenario,
+        "the scenario does not round-trip through TOML"
+    );
+    written(files::write_atomic(&args.out, text.as_bytes()), &args.out)?;
+    if let Some(path) = &args.svg {
+        let cfg = EvalConfig {
+            episodes: 20,
+            seed: args.seed,
+            record_trajectories: true,
+            ..EvalConfig::default()
+        };
+        let mut oracle = Oracle::new(scenario);
+        let report = evaluate_controller(&mut oracle, scenario, &cfg)?;
+        let svg = firmware_sim::nav::svg::render(scenario, &report);
+        written(files::write_atomic(path, svg.as_bytes()), path)?;
+    }
+    outln!(
+        "{}: {} ({} walls; the oracle reaches the goal from all {} check starts)",
+        args.out.display(),
+        scenario.name,
+        scenario.walls.len(),
+        generator::CHECK_STARTS
+    );
+    Ok(true)
 }
 
 /// The outputs of one command, checked together before any work (writable, two different

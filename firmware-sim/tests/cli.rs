@@ -687,3 +687,73 @@ fn the_compare_step_runs_in_the_loop() {
     );
     drop(dir);
 }
+
+#[test]
+fn scenario_generate_writes_the_same_solvable_file_for_a_seed_and_refuses_bad_input() {
+    let dir = scratch("generate");
+    let generate = |out: &Path, extra: &[&str]| {
+        Command::new(BIN)
+            .args(["scenario", "generate", "--kind", "maze", "--level", "2"])
+            .args(["--seed", "3", "--out"])
+            .arg(out)
+            .args(extra)
+            .output()
+            .expect("spawn firmware-sim")
+    };
+    let (a, b, picture) = (dir.join("a.toml"), dir.join("b.toml"), dir.join("a.svg"));
+    let o = generate(&a, &["--svg", picture.to_str().expect("utf-8")]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("maze-2-seed3"));
+    assert!(generate(&b, &[]).status.success());
+    let text = std::fs::read(&a).expect("written");
+    assert_eq!(
+        text,
+        std::fs::read(&b).expect("written"),
+        "same seed, same bytes"
+    );
+    assert!(std::fs::read_to_string(&picture)
+        .expect("drawn")
+        .starts_with("<svg"));
+    // The file is a scenario the oracle passes.
+    let o = run(&[
+        "--controller",
+        "oracle",
+        "--scenario",
+        a.to_str().expect("utf-8"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    let before = names(&dir);
+    let bad = Command::new(BIN)
+        .args([
+            "scenario", "generate", "--kind", "maze", "--level", "9", "--out",
+        ])
+        .arg(dir.join("c.toml"))
+        .output()
+        .expect("spawn");
+    assert_bad_input(&bad, &["level", "1, 2, 3 or 4"]);
+    let missing = dir.join("no-such-folder").join("d.toml");
+    assert_bad_input(&generate(&missing, &[]), &["folder does not exist"]);
+    let spiral = Command::new(BIN)
+        .args(["scenario", "generate", "--kind", "spiral", "--out"])
+        .arg(dir.join("e.toml"))
+        .output()
+        .expect("spawn");
+    assert_bad_input(&spiral, &["spiral"]);
+    assert_eq!(names(&dir), before, "a refused command wrote nothing");
+}
+
+#[test]
+fn a_reader_that_goes_away_ends_the_run_quietly() {
+    // `firmware-sim run ... | head -1`: the pipe closes before the summary is written.
+    let mut child = Command::new(BIN)
+        .args(["run", "--controller", "oracle", "--episodes", "20"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    drop(child.stdout.take()); // the reader goes away
+    let o = child.wait_with_output().expect("wait");
+    assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}

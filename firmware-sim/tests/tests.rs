@@ -23,6 +23,9 @@ mod determinism;
 mod faults;
 /// Wall geometry properties: never crosses or leaves through a wall, slides parallel.
 mod geometry;
+/// Generated layouts: reproducible from their seed, valid, solved by the oracle from every
+/// start, with margins that stop a straight-line controller.
+mod layouts;
 /// `firmware-sim match`: summary, JSON and SVG, exit codes, one-line errors.
 mod match_cli;
 /// Reference controllers: `straight` is caught stuck, `oracle` follows the gaps.

@@ -121,7 +121,7 @@ fn main() {
         }
     }
     let ddpg = Ddpg::new(ddpg::Config::default());
-    let mut noise = agent.noise_process();
+    let mut noise = agent.noise_process(0);
     let (mut critic_updates, mut actor_updates, mut target_updates) = (0u64, 0u64, 0u64);
 
     let start = Instant::now();
@@ -129,7 +129,7 @@ fn main() {
     for step in 0..STEPS {
         if step % EPISODE == 0 && step > 0 {
             env = Pendulum::reset(env_rng);
-            noise = agent.noise_process();
+            noise = agent.noise_process(0);
         }
         let obs = env.observe();
         let action = if step < WARMUP {

@@ -44,6 +44,24 @@ use host_trainer::sweep::{report, supervise};
 use policy_core::slot::SlotId;
 use policy_core::Encoding;
 
+/// `println!` and `print!` that end the process quietly when standard output's reader has gone
+/// (`| head`) instead of panicking: [`firmware_sim::files::write_stdout`].
+macro_rules! outln {
+    () => {
+        firmware_sim::files::write_stdout(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        firmware_sim::files::write_stdout(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// See [`outln`].
+macro_rules! out {
+    ($($arg:tt)*) => {
+        firmware_sim::files::write_stdout(format_args!($($arg)*))
+    };
+}
+
 #[derive(Debug, Parser)]
 #[command(
     name = "host-trainer",
@@ -123,6 +141,10 @@ struct TrainArgs {
     /// available].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     threads: Option<u32>,
+    /// Also keep a copy of every checkpoint in RUN/checkpoints/ (to study how the run
+    /// learned; each holds the whole replay buffer, tens of MB).
+    #[arg(long)]
+    keep_checkpoints: bool,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
@@ -144,6 +166,10 @@ struct SweepArgs {
     /// Algorithms, repeated or comma-separated [default: the config's].
     #[arg(long, value_enum, value_delimiter = ',')]
     algo: Vec<Algo>,
+    /// Built-in scenario (nav-walls, nav-open) or a scenario TOML file, for every run
+    /// [default: the config's].
+    #[arg(long)]
+    task: Option<String>,
     /// Most runs at once [default: the number of cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     jobs: Option<u32>,
@@ -352,12 +378,14 @@ fn set_ctrl_c_handler(handler: fn()) {
 fn train_command(args: TrainArgs) -> Result<ExitCode> {
     let quiet = args.quiet;
     let stop_when_stdin_closes = args.stop_when_stdin_closes;
+    let keep_checkpoints = args.keep_checkpoints;
     let workers = workers(args.threads)?;
     let (mut trainer, run, _lock) = match &args.resume {
         Some(dir) => resume(dir, args.episodes)?,
         None => fresh(args)?,
     };
     trainer.set_workers(workers);
+    trainer.keep_checkpoints = keep_checkpoints;
     install_ctrl_c_handler();
     if stop_when_stdin_closes {
         stop_when_parent_goes();
@@ -390,7 +418,7 @@ fn train_command(args: TrainArgs) -> Result<ExitCode> {
     }
     let seconds = started.elapsed().as_secs_f64();
     let steps = trainer.total_steps - steps_before;
-    println!("trained {} ({} episodes, {steps} env steps in {seconds:.1} s, {:.0} steps/s incl. updates)", run.path().display(), trainer.episode, steps as f64 / seconds.max(1e-9));
+    outln!("trained {} ({} episodes, {steps} env steps in {seconds:.1} s, {:.0} steps/s incl. updates)", run.path().display(), trainer.episode, steps as f64 / seconds.max(1e-9));
     let blob = trainer.export(&run)?;
     let report = evaluate(
         &blob,
@@ -401,7 +429,7 @@ fn train_command(args: TrainArgs) -> Result<ExitCode> {
     )?;
     print_summary(&report);
     run.write(folder::EVAL, report_json(&report)?.as_bytes())?;
-    println!("wrote {}", run.path().display());
+    outln!("wrote {}", run.path().display());
     Ok(ExitCode::SUCCESS)
 }
 
@@ -577,10 +605,15 @@ fn note_changed_plant(trainer: &Trainer) {
 /// Everything is checked (config, algorithms, output folder, every run folder) before the
 /// first run starts; then the runs go, and the summary is printed and written at the end.
 fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
-    let base = match &args.config {
+    let mut base = match &args.config {
         Some(path) => TrainConfig::from_file(path)?,
         None => TrainConfig::default(),
     };
+    if let Some(task) = &args.task {
+        base.task = task.clone();
+    }
+    // Checked before the folder is locked: a refused sweep leaves nothing behind.
+    host_trainer::run::trainer::scenario(&base.task)?;
     let mut algos = Vec::new();
     for algo in if args.algo.is_empty() {
         vec![base.algo]
@@ -622,7 +655,7 @@ fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
         return Ok(ExitCode::from(INTERRUPTED));
     }
     report::write_summary(&args.out, &records)?;
-    print!("{}", report::markdown(&records));
+    out!("{}", report::markdown(&records));
     let failed = records
         .iter()
         .filter(|r| r.status == Status::Failed)
@@ -681,7 +714,7 @@ fn export_command(args: ExportArgs) -> Result<()> {
         .transpose()?;
     if args.encoding != Encoding::F32 {
         run.write(&name, &policy)?;
-        println!(
+        outln!(
             "wrote {} ({} bytes, {} weights; episode {})",
             run.file(&name).display(),
             policy.len(),
@@ -696,7 +729,7 @@ fn export_command(args: ExportArgs) -> Result<()> {
         } else {
             String::new()
         };
-        println!(
+        outln!(
             "wrote {}{critic} (episode {})",
             run.file(folder::POLICY).display(),
             trainer.episode
@@ -746,13 +779,13 @@ fn write_slot_image(
     run.write(&name, bytes)?;
     let file = run.file(&name);
     let (path, address, sequence) = (file.display(), target.address, target.sequence);
-    println!("wrote {path} (slot {id} at {address:#010x}, sequence {sequence})");
+    outln!("wrote {path} (slot {id} at {address:#010x}, sequence {sequence})");
     match format {
-        ImageFormat::Bin => println!(
+        ImageFormat::Bin => outln!(
             "flash it: probe-rs download --chip YOUR_CHIP --binary-format bin --base-address {address:#010x} {path}\n\
              under QEMU: -device loader,file={path},addr={address:#x}"
         ),
-        ImageFormat::Hex => println!(
+        ImageFormat::Hex => outln!(
             "flash it: probe-rs download --chip YOUR_CHIP --binary-format hex {path}\n\
              under QEMU: -device loader,file={path}"
         ),
@@ -764,14 +797,14 @@ fn inspect_command(args: &InspectArgs) -> Result<()> {
     let path = args.blob.display();
     let bytes = files::read_blob(&args.blob).with_context(|| format!("cannot read blob {path}"))?;
     let text = inspect::describe(&bytes).with_context(|| format!("{path} is not a valid blob"))?;
-    print!("{text}");
+    out!("{text}");
     if let Some(reference) = &args.against {
         let other = reference.display();
         let f32 =
             files::read_blob(reference).with_context(|| format!("cannot read blob {other}"))?;
         let errors = inspect::describe_errors(&bytes, &f32)
             .with_context(|| format!("cannot compare {path} with {other}"))?;
-        print!("{errors}");
+        out!("{errors}");
     }
     Ok(())
 }
@@ -806,7 +839,7 @@ fn print_summary(report: &Report) {
     let steps = report
         .mean_steps_to_goal
         .map_or_else(|| "-".to_string(), |s| format!("{s:.1}"));
-    println!(
+    outln!(
         "{} on {}, {} test starts: success {:.1}%  mean settled error {:.3}  strict reach {:.1}%  pass within 0.25 {:.1}%  steps to goal {steps}  stuck at margin {:.1}%  left arena {:.1}%",
         report.controller,
         report.scenario,

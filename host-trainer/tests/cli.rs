@@ -4,7 +4,9 @@
 use std::path::{Path, PathBuf};
 
 use host_trainer::algorithms::Algo;
+use host_trainer::run::checkpoint::Checkpoint;
 use host_trainer::run::config::TrainConfig;
+use host_trainer::run::folder;
 use policy_core::{ActionBounds, Critic, Normalizer, Policy};
 
 use crate::support::{
@@ -1104,4 +1106,55 @@ fn more_threads_than_cores_is_said_once_and_not_recorded() {
     let config = std::fs::read_to_string(config).expect("config.toml");
     assert!(!config.contains("threads"), "{config}");
     std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+#[test]
+fn a_reader_that_goes_away_ends_inspect_quietly() {
+    // `host-trainer inspect BLOB | head -1`: the pipe closes before the listing is written.
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_host-trainer"))
+        .args(["inspect", "models/nav-walls__dcp-paper__0.postcard"])
+        .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    drop(child.stdout.take());
+    let o = child.wait_with_output().expect("wait");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(o.status.code(), Some(0), "{err}");
+}
+
+#[test]
+fn keep_checkpoints_keeps_a_copy_of_each_and_changes_no_bit() {
+    let (with, without) = (scratch("keep-ckpt-a"), scratch("keep-ckpt-b"));
+    assert_ok(&train_smoke(&with, 3, &["--keep-checkpoints"]));
+    assert_ok(&train_smoke(&without, 3, &[]));
+    let run = |base: &Path| base.join("nav-walls__dcp__3");
+    // (The checkpoints themselves hold each episode's wall-clock speed, so they differ.)
+    for file in [folder::POLICY, folder::CRITIC] {
+        let a = std::fs::read(run(&with).join(file)).expect("with");
+        assert!(
+            a == std::fs::read(run(&without).join(file)).expect("without"),
+            "{file}"
+        );
+    }
+    // The smoke config checkpoints every 2 episodes, and at the start and the end.
+    let kept = run(&with).join(folder::KEPT_CHECKPOINTS);
+    assert_eq!(
+        entries(&kept),
+        [
+            "episode-0000000.postcard",
+            "episode-0000002.postcard",
+            "episode-0000003.postcard"
+        ]
+    );
+    let last = std::fs::read(kept.join("episode-0000003.postcard")).expect("kept");
+    assert!(last == std::fs::read(run(&with).join(folder::CHECKPOINT)).expect("checkpoint"));
+    let second = Checkpoint::load(&kept.join("episode-0000002.postcard")).expect("loads");
+    assert_eq!(second.episode, 2);
+    assert!(!run(&without).join(folder::KEPT_CHECKPOINTS).exists());
+    for base in [with, without] {
+        std::fs::remove_dir_all(&base).expect("cleanup");
+    }
 }

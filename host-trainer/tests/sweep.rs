@@ -388,6 +388,13 @@ fn bad_arguments_are_one_line_and_create_nothing() {
             "sarsa",
             2,
         ),
+        (
+            vec![
+                "--config", c, "--seeds", "0", "--task", "nav-maze", "--out", o,
+            ],
+            "nav-maze",
+            1,
+        ),
     ] {
         let mut full = vec!["sweep"];
         full.extend(args);
@@ -504,5 +511,30 @@ fn the_runs_of_a_killed_sweep_stop_with_it() {
     );
     assert_ok(&run_sweep(&config, &out, &args, &[]));
     assert_eq!(statuses(&out), status_pairs(&[(0, "finished")]));
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+#[test]
+fn task_runs_every_run_of_the_sweep_on_that_scenario() {
+    let base = scratch("sweep-task");
+    let config = smoke_config_file(&base, 3);
+    let out = base.join("out");
+    std::fs::create_dir_all(&out).expect("dir");
+    let layout = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../experiments/margin/layouts/rings-2-seed11.toml"
+    );
+    assert_ok(&run_sweep(
+        &config,
+        &out,
+        &["--seeds", "0-1", "--task", layout],
+        &[],
+    ));
+    for seed in 0..2 {
+        let run = out.join(format!("rings-2-seed11__dcp__{seed}"));
+        let recorded = std::fs::read_to_string(run.join(folder::CONFIG)).expect("config");
+        assert!(recorded.contains("rings-2-seed11.toml"), "{recorded}");
+        assert!(run.join(folder::POLICY).exists());
+    }
     std::fs::remove_dir_all(&base).expect("cleanup");
 }

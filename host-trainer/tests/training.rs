@@ -137,7 +137,7 @@ fn paper_smoke(seed: u64) -> TrainConfig {
 /// paper's DCP.
 fn dcp_variant_options() -> Vec<(&'static str, TrainConfig)> {
     type Edit = fn(&mut TrainConfig);
-    let edits: [(&str, Edit); 10] = [
+    let edits: [(&str, Edit); 12] = [
         ("softmax", |c| c.dcp.state_weights = StateWeights::Softmax),
         ("exp", |c| c.dcp.state_weights = StateWeights::Exp),
         ("binary", |c| c.dcp.state_weights = StateWeights::Binary),
@@ -154,6 +154,8 @@ fn dcp_variant_options() -> Vec<(&'static str, TrainConfig)> {
             c.dcp.trust_region = true;
             c.dcp.trust_region_kl = 1e-6;
         }),
+        ("uniform-share", |c| c.dcp.uniform_share = 0.25),
+        ("sigma-schedule", |c| c.agent.sigma_start = Some(1.0)),
         ("td3", |c| c.algo = Algo::Td3),
     ];
     edits

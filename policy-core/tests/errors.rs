@@ -175,6 +175,47 @@ fn header_contradictions_are_malformed() {
     assert!(matches!(load_error(&huge), Error::ShapeBeyondLimits { .. }));
 }
 
+/// The good blob with the one-byte varint at header offset `at` written `extra` bytes longer
+/// (`v` as `v | 0x80, 0x80, ..., 0x00`: the same value to a lenient decoder), re-padded and
+/// resealed, so that only the encoding is wrong.
+fn widened(at: usize, extra: usize) -> Vec<u8> {
+    let bytes = good();
+    let (_, rest): (Header, &[u8]) = postcard::take_from_bytes(&bytes).expect("header");
+    let header_len = bytes.len() - rest.len();
+    let payload = &bytes[header_len.next_multiple_of(4)..];
+    let v = bytes[at];
+    assert!(v < 0x80, "offset {at} holds a one-byte varint");
+    let mut out = bytes[..at].to_vec();
+    out.push(v | 0x80);
+    out.extend(std::iter::repeat_n(0x80, extra - 1));
+    out.push(0);
+    out.extend_from_slice(&bytes[at + 1..header_len]);
+    out.resize(out.len().next_multiple_of(4), 0);
+    out.extend_from_slice(payload);
+    reseal(&mut out);
+    out
+}
+
+#[test]
+fn a_varint_longer_than_its_shortest_form_is_malformed() {
+    // Offsets in the good blob's header: 4 version, 5 kind, 6 encoding, 9 width, 12 activation,
+    // 13 label length (docs/blob-format.md, the header table).
+    for (at, extra) in [(4, 1), (5, 4), (6, 1), (9, 2), (12, 4), (13, 1)] {
+        let wide = widened(at, extra);
+        match load_error(&wide) {
+            Error::Malformed { what } => assert!(what.contains("canonical"), "{what}"),
+            other => panic!("offset {at} + {extra} bytes: {other}"),
+        }
+        assert!(policy_core::model::Model::from_blob(&wide).is_err());
+    }
+    // A version written long is refused for its form, not taken for an unknown version, and a
+    // varint too long for its type is refused as undecodable.
+    let mut too_long = good();
+    too_long.splice(4..5, [0x82, 0x80, 0x80, 0x00]);
+    reseal(&mut too_long);
+    assert!(matches!(load_error(&too_long), Error::Malformed { .. }));
+}
+
 #[test]
 fn truncated_and_trailing() {
     let b = good();

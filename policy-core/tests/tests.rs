@@ -27,3 +27,5 @@ mod normal;
 mod compare;
 // The A/B flash slots: fallback and safe state on every bad slot, never a panic.
 mod slots;
+// The conformance vectors (policy-core/conformance/): generated, committed, and run.
+mod conformance;

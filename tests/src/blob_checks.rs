@@ -146,6 +146,16 @@ fn check_verified(bytes: &[u8], v: &Verified<'_>) {
             "version-{} payload at offset {offset}",
             h.version
         );
+        // Canonical: the header bytes are postcard's encoding of the decoded header, so no
+        // field was accepted in a longer form than the writer emits (the fuzzer's widened
+        // varints must be refused).
+        let canonical = postcard::to_stdvec(h).expect("a header encodes");
+        assert_eq!(
+            bytes.get(..canonical.len()),
+            Some(&canonical[..]),
+            "verified a header that is not in canonical form"
+        );
+        assert!(offset - canonical.len() < 4, "more than 3 bytes of padding");
     }
     assert!(bytes.ends_with(&policy_core::crc32(&bytes[..bytes.len() - 4]).to_le_bytes()));
 }

@@ -15,6 +15,7 @@
 //!   ([`svg`]).
 
 pub mod faults;
+pub mod generator;
 pub mod geometry;
 pub mod json_report;
 pub mod metrics;

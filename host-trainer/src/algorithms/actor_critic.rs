@@ -216,15 +216,16 @@ impl ActorCritic {
 }
 
 impl Algorithm for ActorCritic {
-    fn start_episode(&mut self, _episode: usize, _episodes: usize) {
+    fn start_episode(&mut self, episode: usize, _episodes: usize) {
         // At rest: no exploration state crosses an episode boundary (where checkpoints are).
-        self.noise = Some(self.agent.noise_process());
+        self.noise = Some(self.agent.noise_process(episode));
         self.means = Means::default();
     }
 
     fn act(&mut self, obs: &[f32]) -> Vec<f32> {
         let agent = &self.agent;
-        let noise = self.noise.get_or_insert_with(|| agent.noise_process());
+        // Only reached without `start_episode` (a learner driven by hand): the constant σ.
+        let noise = self.noise.get_or_insert_with(|| agent.noise_process(0));
         self.pending = agent.explore(obs, noise, &mut self.streams.explore);
         self.agent.scale(&self.pending)
     }

@@ -146,6 +146,8 @@ struct Scratch {
     twin_grads: Option<Grads>,
     /// dQ/d(critic input) of DDPG's actor step.
     d_input: Matrix,
+    /// TD3's target-smoothing draws, one per action component of a batch.
+    smoothing_noise: Vec<f32>,
 }
 
 /// Scratch space of [`min_values`].
@@ -264,11 +266,12 @@ impl Agent {
         unit
     }
 
-    /// A noise process at rest with this agent's settings.
-    pub fn noise_process(&self) -> NoiseProcess {
+    /// A noise process at rest with this agent's settings, for episode `episode` (its σ
+    /// follows [`AgentConfig::sigma_at`]).
+    pub fn noise_process(&self, episode: usize) -> NoiseProcess {
         NoiseProcess::new(
             self.config.noise,
-            self.config.sigma,
+            self.config.sigma_at(episode),
             self.config.ou_theta,
             self.low.len(),
         )
@@ -367,9 +370,10 @@ impl Agent {
             .clone();
         if let Some(sm) = self.critics.smoothing {
             let rng = smoothing_rng.expect("target smoothing needs its random stream");
-            let mut noise = vec![0.0; next_action.data.len()];
-            standard_normals(rng, &mut noise);
-            for (a, n) in next_action.data.iter_mut().zip(noise) {
+            let noise = &mut self.scratch.smoothing_noise;
+            noise.resize(next_action.data.len(), 0.0);
+            standard_normals(rng, noise);
+            for (a, &n) in next_action.data.iter_mut().zip(noise.iter()) {
                 let noise = (sm.sigma * n).clamp(-sm.clip, sm.clip);
                 *a = (*a + noise).clamp(-1.0, 1.0);
             }

@@ -38,6 +38,15 @@ pub struct AgentConfig {
     pub tau: f32,
     /// Exploration noise σ in the unit action box [ours: 0.2].
     pub sigma: f32,
+    /// Exploration σ at the first episode, decaying linearly to `sigma` over the first
+    /// `sigma_decay` episodes; absent = `sigma` throughout [ours: absent; the schedule of DQN's
+    /// ε (Mnih et al. 2015), here for the margin study: start wide enough to find the way round
+    /// a margin, the paper's claim being that DCP tolerates noise as large as the action box].
+    pub sigma_start: Option<f32>,
+    /// Episodes over which `sigma_start` decays to `sigma` [ours: 1,500, half the default
+    /// budget]. A count, not a share of the budget, so a run resumed with another budget keeps
+    /// its schedule.
+    pub sigma_decay: usize,
     /// The exploration process [paper: "random process"; ours: Gaussian].
     pub noise: Noise,
     /// Mean reversion θ of the Ornstein-Uhlenbeck process [ours: 0.15, DDPG's value].
@@ -71,6 +80,8 @@ impl Default for AgentConfig {
             gamma: 0.99,
             tau: 0.005,
             sigma: 0.2,
+            sigma_start: None,
+            sigma_decay: 1_500,
             noise: Noise::Gaussian,
             ou_theta: 0.15,
             replay_capacity: 1_000_000,
@@ -82,6 +93,9 @@ impl Default for AgentConfig {
     }
 }
 
+/// The longest σ schedule, in episodes (a run's largest budget).
+pub const MAX_SIGMA_DECAY: usize = 1_000_000;
+
 /// The default reward scale; see the README section "Reward scale" for the measurement.
 pub const DEFAULT_REWARD_SCALE: f32 = 1.0;
 
@@ -90,6 +104,29 @@ pub const DEFAULT_REWARD_SCALE: f32 = 1.0;
 pub const DEFAULT_DROPOUT: f32 = 0.0;
 
 impl AgentConfig {
+    /// The exploration σ of episode `episode` (0-based): `sigma`, or with `sigma_start` the
+    /// linear decay from it to `sigma` over the first `sigma_decay` episodes.
+    ///
+    /// ```
+    /// use host_trainer::algorithms::agent_config::AgentConfig;
+    /// let c = AgentConfig { sigma: 0.2, sigma_start: Some(1.0), sigma_decay: 100, ..AgentConfig::default() };
+    /// assert_eq!(c.sigma_at(0), 1.0);
+    /// assert!((c.sigma_at(25) - 0.8).abs() < 1e-6);
+    /// assert_eq!(c.sigma_at(100), 0.2);
+    /// assert_eq!(c.sigma_at(2999), 0.2);
+    /// assert_eq!(AgentConfig::default().sigma_at(0), AgentConfig::default().sigma);
+    /// ```
+    pub fn sigma_at(&self, episode: usize) -> f32 {
+        let Some(start) = self.sigma_start else {
+            return self.sigma;
+        };
+        if episode >= self.sigma_decay {
+            return self.sigma; // exactly: the schedule ends on the configured σ
+        }
+        let progress = (episode as f64 / self.sigma_decay as f64) as f32;
+        start + (self.sigma - start) * progress
+    }
+
     /// Checks every value's range, naming the offending setting.
     pub fn validate(&self) -> Result<(), Error> {
         let unit = |what: &str, v: f32, lo: f32, hi: f32, hi_open: bool| {
@@ -102,6 +139,16 @@ impl AgentConfig {
         unit("agent.gamma", self.gamma, 0.0, 1.0, true)?;
         unit("agent.tau", self.tau, 0.0, 1.0, false)?;
         unit("agent.sigma", self.sigma, 0.0, f32::MAX, false)?;
+        if let Some(start) = self.sigma_start {
+            unit("agent.sigma_start", start, 0.0, f32::MAX, false)?;
+        }
+        if self.sigma_decay == 0 || self.sigma_decay > MAX_SIGMA_DECAY {
+            return Err(invalid(
+                "agent.sigma_decay",
+                format!("a number of episodes in 1..={MAX_SIGMA_DECAY}"),
+                self.sigma_decay,
+            ));
+        }
         unit("agent.ou_theta", self.ou_theta, 0.0, 1.0, false)?;
         unit("agent.l2", self.l2, 0.0, f32::MAX, false)?;
         unit(

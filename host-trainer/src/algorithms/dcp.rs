@@ -30,6 +30,9 @@
 //! - `cem`: cross-entropy refinement of the proposals (QT-Opt, CGP).
 //! - `state_weights`: target weights per state, over the state's own proposals: a softmax of Q
 //!   (MPO), exp(A/β) of batch-standardised advantages (AWR, CRR), or 1\[A > 0\] (CRR).
+//! - `uniform_share`: a share of the T proposals drawn uniformly over the unit box, so the
+//!   comparison can find an action far from P(s) (the margin diagnosis's finding: a parked
+//!   state's better actions lie 5 to 7 σc away).
 //! - `trust_region`: the actor's step is shrunk until the exploration policy around P(s) is
 //!   within a KL bound of the one around the slowly moving target actor P'(s) (MPO's M-step
 //!   constraint, enforced by TRPO's backtracking), so P(s) cannot flip from one slide along a
@@ -37,7 +40,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use firmware_sim::seed::SimRng;
+use firmware_sim::seed::{uniform_f32, SimRng};
 use policy_core::normal::standard_normals;
 
 use super::agent::{critic_input, Agent, Critics, Sample};
@@ -92,6 +95,12 @@ pub struct Config {
     /// N(P'(s), σc²) and N(P(s), σc²), i.e. mean ‖P(s) − P'(s)‖² / (2σc²) ≤ δ [MPO's ε_μ and
     /// TRPO's δ: 0.01].
     pub trust_region_kl: f32,
+    /// The share of the T proposals drawn uniformly over the whole unit box instead of around
+    /// P(s), rounded to a whole number of proposals [paper: 0; ours, after the margin
+    /// diagnosis: at a parked state the critic's best action lies 1 to 1.5 away in the unit
+    /// box, 5 to 7 σc, where Gaussian proposals never go; QT-Opt's CEM (Kalashnikov et al.
+    /// 2018) also starts from uniform samples, but keeps no actor].
+    pub uniform_share: f32,
 }
 
 /// DCP's defaults: the paper's DCP ([`Config::paper`]) with the winner of the DCP-variants
@@ -137,6 +146,7 @@ impl Config {
             cem_elite: 0.1,
             trust_region: false,
             trust_region_kl: 0.01,
+            uniform_share: 0.0,
         }
     }
 }
@@ -164,13 +174,15 @@ impl Config {
         Error::check_count("dcp.cem_iterations", iterations, MAX_CEM_ITERATIONS)?;
         Error::check_range("dcp.cem_elite", self.cem_elite, 1e-6, 1.0)?;
         Error::check_range("dcp.trust_region_kl", self.trust_region_kl, 1e-9, f32::MAX)?;
-        // Hill climbing keeps one candidate per state: nothing to weigh per state or refit.
+        Error::check_range("dcp.uniform_share", self.uniform_share, 0.0, 1.0)?;
+        // Hill climbing keeps one candidate per state: nothing to weigh per state or refit,
+        // and each proposal perturbs the best so far.
         if self.variant == Variant::HillClimb
-            && (self.cem || self.state_weights != StateWeights::Off)
+            && (self.cem || self.state_weights != StateWeights::Off || self.uniform_share > 0.0)
         {
             return Err(Error::invalid(
                 "dcp.variant",
-                "\"best\" or \"weighted\" with cem or state_weights",
+                "\"best\" or \"weighted\" with cem, state_weights or uniform_share",
                 "hill-climb",
             ));
         }
@@ -337,6 +349,13 @@ impl Dcp {
             let proposals = rows_mut(&mut actions, i * per + 1..(i + 1) * per);
             sample(a0.row(i), &sigma, proposals, rng);
         }
+        // Drawn after the Gaussian ones, so a share of 0 leaves every draw as it was.
+        let uniform = self.uniform_proposals();
+        for i in 0..a0.rows {
+            for v in rows_mut(&mut actions, i * per + 1..i * per + 1 + uniform) {
+                *v = 2.0 * uniform_f32(rng) - 1.0;
+            }
+        }
         let mut q = score(&actions, per);
         let rounds = if self.config.cem {
             self.config.cem_iterations
@@ -353,6 +372,11 @@ impl Dcp {
             advantage,
             per_state: per,
         }
+    }
+
+    /// How many of the T proposals are uniform over the unit box (`uniform_share`, rounded).
+    fn uniform_proposals(&self) -> usize {
+        ((self.config.uniform_share * self.config.t as f32).round() as usize).min(self.config.t)
     }
 
     /// One CEM iteration for every state: fit mean and spread (per dimension) to the elite,
@@ -840,6 +864,44 @@ mod tests {
 
     fn dcp(config: Config) -> Dcp {
         Dcp::new(config, 0.2)
+    }
+
+    #[test]
+    fn uniform_share_draws_that_many_proposals_over_the_whole_box_after_the_gaussian_ones() {
+        let fan = |share: f32| {
+            let d = dcp(Config {
+                t: 8,
+                sigma_c: Some(0.01),
+                uniform_share: share,
+                ..Config::paper()
+            });
+            let a0 = Matrix::from_vec(2, 2, vec![0.5, -0.5, 0.0, 0.25]);
+            let mut rng = seed::training_stream(3, "proposals");
+            let mut score = |actions: &Matrix, _: usize| vec![0.0; actions.rows];
+            d.compare_fan(&a0, &mut score, &mut rng).actions
+        };
+        let (gaussian, mixed) = (fan(0.0), fan(0.3)); // 0.3 × 8 = 2.4: two uniform proposals
+        let far = |m: &Matrix, state: usize, k: usize| {
+            let (row, a0) = (m.row(state * 9 + k), m.row(state * 9));
+            (row[0] - a0[0]).abs().max((row[1] - a0[1]).abs()) > 0.05
+        };
+        for state in 0..2 {
+            assert_eq!(gaussian.row(state * 9), mixed.row(state * 9), "a0 stays");
+            // Proposals 1 and 2 are uniform (far from a0 at σc = 0.01), 3..=8 Gaussian, drawn
+            // exactly as without the share.
+            assert!(far(&mixed, state, 1) && far(&mixed, state, 2));
+            for k in 3..9 {
+                assert_eq!(gaussian.row(state * 9 + k), mixed.row(state * 9 + k));
+                assert!(!far(&mixed, state, k));
+            }
+        }
+        assert!(mixed.data.iter().all(|v| (-1.0..=1.0).contains(v)));
+        let hill = Config {
+            variant: Variant::HillClimb,
+            uniform_share: 0.5,
+            ..Config::paper()
+        };
+        assert!(hill.validate().is_err());
     }
 
     fn weights_of(t: &[Target]) -> Vec<(usize, usize, f32)> {

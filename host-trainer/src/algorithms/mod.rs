@@ -80,7 +80,9 @@ pub fn readers(section: &str, key: &str) -> &'static [Algo] {
     const REPLAY: &[Algo] = &[Dcp, Ddpg, Td3, Dqn];
     match (section, key) {
         ("agent", "lr_actor") => &[Dcp, Ddpg, Td3, Ppo],
-        ("agent", "dropout" | "sigma" | "noise" | "ou_theta") => ACTOR_CRITIC,
+        ("agent", "dropout" | "sigma" | "sigma_start" | "sigma_decay" | "noise" | "ou_theta") => {
+            ACTOR_CRITIC
+        }
         (
             "agent",
             "batch" | "tau" | "l2" | "replay_capacity" | "warmup_steps" | "updates_per_step",

@@ -138,6 +138,36 @@ impl Replay {
         self.len == 0
     }
 
+    /// The stored transitions' raw observation before and after the step, oldest slot first
+    /// once the ring has wrapped (slot order before): what an analysis of the buffer's coverage
+    /// reads (`examples/margin_diagnosis.rs`).
+    ///
+    /// ```
+    /// use host_trainer::buffers::replay::{Replay, Transition};
+    /// let mut replay = Replay::new(2, 1, 1);
+    /// for x in [1.0, 2.0, 3.0] {
+    ///     let t = Transition { obs: vec![x], action: vec![0.0], reward: 0.0,
+    ///         next_obs: vec![x + 0.5], terminal: false, truncated: false };
+    ///     replay.push(&t);
+    /// }
+    /// let moves: Vec<_> = replay.moves().map(|(s, s2)| (s[0], s2[0])).collect();
+    /// assert_eq!(moves, [(2.0, 2.5), (3.0, 3.5)]); // the oldest, 1.0, was replaced
+    /// ```
+    pub fn moves(&self) -> impl Iterator<Item = (&[f32], &[f32])> + '_ {
+        let start = if self.len == self.capacity {
+            self.head
+        } else {
+            0
+        };
+        (0..self.len).map(move |k| {
+            let i = (start + k) % self.capacity;
+            (
+                slot(&self.obs, self.obs_dim, i),
+                slot(&self.next_obs, self.obs_dim, i),
+            )
+        })
+    }
+
     /// Maximum number of transitions kept.
     ///
     /// ```

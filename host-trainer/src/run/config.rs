@@ -73,7 +73,9 @@ impl TrainConfig {
         c.ppo.minibatch = 8;
         c.ppo.epochs = 2;
         // Only what `algo` reads: a config file holding another algorithm's settings is refused.
+        // Built from constants, which read back (every test that trains starts here).
         c.for_algo(algo)
+            .expect("the smoke config reads back through TOML")
     }
 }
 
@@ -162,7 +164,7 @@ impl TrainConfig {
 
     /// This config for `algo`, every setting that `algo` does not read at its default: what a
     /// sweep's run of `algo` records and is compared with.
-    pub fn for_algo(&self, algo: Algo) -> TrainConfig {
+    pub fn for_algo(&self, algo: Algo) -> Result<TrainConfig, Error> {
         let mut table = self.table();
         let defaults = TrainConfig::default().table();
         for (section, key, _) in self.unread_settings(&[algo]) {
@@ -174,11 +176,18 @@ impl TrainConfig {
                 };
             }
         }
-        let mut config: TrainConfig = toml::Value::Table(table)
-            .try_into()
-            .unwrap_or_else(|_| self.clone());
+        // The table is this config's own, with some keys at their defaults: it always reads
+        // back, and if it ever did not, the run must not go on with other settings than these.
+        let mut config: TrainConfig =
+            toml::Value::Table(table)
+                .try_into()
+                .map_err(|e: toml::de::Error| Error::InvalidConfig {
+                    what: "the run's settings".into(),
+                    expected: "a config that reads back after unread settings are reset".into(),
+                    found: e.message().to_string(),
+                })?;
         config.algo = algo;
-        config
+        Ok(config)
     }
 
     /// The config as a TOML table (what `config.toml` holds).

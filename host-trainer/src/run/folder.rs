@@ -28,6 +28,18 @@ pub const METRICS: &str = "metrics.csv";
 pub const CURVE: &str = "learning-curve.svg";
 /// The resumable training state.
 pub const CHECKPOINT: &str = "checkpoint.postcard";
+/// The folder of every checkpoint's copy (`train --keep-checkpoints`).
+pub const KEPT_CHECKPOINTS: &str = "checkpoints";
+
+/// The name of the kept copy of the checkpoint after `episode` episodes, sorting in episode
+/// order.
+///
+/// ```
+/// assert_eq!(host_trainer::run::folder::kept_checkpoint(300), "episode-0000300.postcard");
+/// ```
+pub fn kept_checkpoint(episode: usize) -> String {
+    format!("episode-{episode:07}.postcard")
+}
 /// The exported actor blob (what gets flashed).
 pub const POLICY: &str = "policy.postcard";
 /// The exported critic blob (for on-device compare steps).

@@ -77,6 +77,10 @@ pub struct Trainer {
     pub metrics: Vec<EpisodeRow>,
     /// The plant, as resolved when the run started (before the reward and γ overrides).
     pub scenario: Scenario,
+    /// Also keep a copy of every checkpoint, `checkpoints/episode-NNNNNNN.postcard` in the run
+    /// folder, to study how the run learned (`examples/margin_diagnosis.rs`). Not part of the
+    /// run: it changes no bit, and is not saved.
+    pub keep_checkpoints: bool,
     env: Box<dyn Plant>,
     /// Episode starts.
     env_rng: SimRng,
@@ -105,6 +109,7 @@ impl Trainer {
             env_rng: seed::training_stream(config.seed, "env"),
             env,
             scenario,
+            keep_checkpoints: false,
             config,
             episode: 0,
             total_steps: 0,
@@ -149,6 +154,7 @@ impl Trainer {
             env: make_env(&config, &scenario)?,
             env_rng: checkpoint.env_rng.restore(),
             scenario,
+            keep_checkpoints: false,
             episode: checkpoint.episode,
             total_steps: checkpoint.total_steps,
             metrics: checkpoint.metrics,
@@ -265,7 +271,16 @@ impl Trainer {
 
     /// Writes checkpoint, metrics and plot of the current state.
     pub fn save(&self, run: &RunDir) -> Result<(), Error> {
-        self.checkpoint().save(&run.file(folder::CHECKPOINT))?;
+        let checkpoint = self.checkpoint();
+        checkpoint.save(&run.file(folder::CHECKPOINT))?;
+        if self.keep_checkpoints {
+            let kept = run.file(folder::KEPT_CHECKPOINTS);
+            std::fs::create_dir_all(&kept).map_err(|source| Error::Io {
+                path: kept.clone(),
+                source,
+            })?;
+            checkpoint.save(&kept.join(folder::kept_checkpoint(self.episode)))?;
+        }
         self.save_metrics(run)
     }
 

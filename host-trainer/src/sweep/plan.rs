@@ -139,7 +139,7 @@ pub fn runs(
     for &algo in algos {
         // Building the trainer runs every check `train` makes (ranges, shape, task, evaluation
         // count); the seed changes none of them, so one trainer per algorithm is enough.
-        let mut config = base.for_algo(algo);
+        let mut config = base.for_algo(algo)?;
         drop(Trainer::new(config.clone())?);
         for &seed in seeds {
             config.seed = seed;
@@ -170,7 +170,7 @@ fn start_of(dir: &Path, config: &TrainConfig) -> Result<Start, Error> {
     // Settings the run's algorithm does not read play no part (a run recorded before they were
     // refused may hold some).
     let recorded = TrainConfig::from_file(&recorded_path)?;
-    let recorded = recorded.for_algo(recorded.algo);
+    let recorded = recorded.for_algo(recorded.algo)?;
     if recorded != *config {
         return Err(Error::RunDiffers {
             path: dir.to_path_buf(),

@@ -4,7 +4,7 @@
 //! come after it, in `params.rs`.
 
 use heapless::String;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::crc32::crc32;
 use crate::error::Error;
@@ -54,10 +54,14 @@ pub fn verify(bytes: &[u8]) -> Result<Verified<'_>, Error> {
     let (header, rest) = match version {
         1 => {
             let (v1, rest) = postcard::take_from_bytes::<HeaderV1>(bytes).map_err(header_error)?;
+            check_canonical(&v1, bytes, rest)?;
             (v1.into_current()?, rest)
         }
         VERSION | VERSION_QUANTISED => {
-            postcard::take_from_bytes::<Header>(bytes).map_err(header_error)?
+            let (header, rest) =
+                postcard::take_from_bytes::<Header>(bytes).map_err(header_error)?;
+            check_canonical(&header, bytes, rest)?;
+            (header, rest)
         }
         found => {
             return Err(Error::UnsupportedVersion {
@@ -124,8 +128,29 @@ pub fn verify(bytes: &[u8]) -> Result<Verified<'_>, Error> {
     Ok(Verified { header, payload })
 }
 
+/// Refuses a header that is not byte for byte postcard's encoding of its own values: postcard
+/// decodes a varint padded with extra `0x80` groups (a version written `82 00`, a 5-byte enum
+/// value), so without this one model would have many headers and the header's size would have
+/// no bound. Re-encoding the decoded header and comparing the bytes holds every field to the
+/// shortest form the writer emits, whatever field a future version adds.
+fn check_canonical<T: Serialize>(decoded: &T, bytes: &[u8], rest: &[u8]) -> Result<(), Error> {
+    let stored = bytes.get(..bytes.len() - rest.len()).unwrap_or_default();
+    // The longest encoding of any header value: magic 4, varints 3 + 5 + 5 + 3 + 3 + 3, depth 1,
+    // choices 3, activation 5, label 1 + 32, payload length 5 = 73 bytes.
+    let mut buf = [0u8; 80];
+    let canonical = postcard::to_slice(decoded, &mut buf).map_err(|_| Error::Malformed {
+        what: "header cannot be re-encoded",
+    })?;
+    if *canonical != *stored {
+        return Err(Error::Malformed {
+            what: "header is not in canonical form (a varint longer than its shortest encoding)",
+        });
+    }
+    Ok(())
+}
+
 /// The version-1 header: no encoding field (always f32) and no `choices` in the shape.
-#[derive(Deserialize)]
+#[derive(Serialize, Deserialize)]
 struct HeaderV1 {
     magic: [u8; 4],
     version: u16,
@@ -136,7 +161,7 @@ struct HeaderV1 {
     payload_len: u32,
 }
 
-#[derive(Deserialize)]
+#[derive(Serialize, Deserialize)]
 struct ShapeV1 {
     observations: u16,
     actions: u16,
