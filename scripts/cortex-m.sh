@@ -20,6 +20,10 @@
 # m4f-4x48-relu-int8-only* variants: the int8-only firmware (`--no-default-features --features
 # int8`, which links neither the f32 nor the f16 kernels), at opt-levels 3, "s" (profile
 # release-s) and "z" (release-size), the one that must fit 32 KiB with its blob.
+# The c-* variants run the example C firmware (firmware-c/, C11 built with Debian's GNU Arm
+# toolchain) on the same blobs: policy-core's C API (policy-core-ffi) built as a static library
+# for the target (release profile, fat LTO, -Zbuild-std=core) and linked into a C program that
+# prints the same lines as the Rust firmware, so host-check checks and measures both alike.
 #
 # Usage: bash scripts/cortex-m.sh [--blob FILE] [--out FILE] [--install-only]
 #   --blob FILE     a trained policy blob (e.g. from host-trainer; 2 observations, 2 actions, any
@@ -43,6 +47,7 @@
 #   * compiler: Debian's rustc-web + rust-web-src unpacked with dpkg -x into PREFIX (they Conflict
 #     with rustup, so they are never installed); `core` is built from source with -Zbuild-std;
 #   * linker: Debian's lld-NN, NN = the LLVM major rustc-web links against;
+#   * C compiler for the c-* variants: Debian's gcc-arm-none-eabi (freestanding: no newlib);
 #   * emulator: qemu-system-arm from bookworm-backports (bookworm's 7.2 would remove qemu-utils 10),
 #     with a tiny TCG plugin (firmware/qemu-plugin/icount.c) for exact instruction counts.
 # A second run finds everything in place, makes no network access for the toolchain, and only
@@ -60,13 +65,14 @@ INSTALL_ONLY=0
 SLOT_CASES=1
 REFINE_RUN=
 QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
-# name:target:qemu machine:qemu cpu:blob[:profile[:refine T[:encodings]]]. blob: trained
+# name:target:qemu machine:qemu cpu:blob[:profile[:refine T[:encodings[:firmware]]]]. blob: trained
 # (= --blob) or DEPTHxWIDTH-ACTIVATION (host-check gen), either with an optional -f16 or -int8
 # (re-encoded; default f32), or refine-actor (--refine-run's policy). profile: a cargo profile of
 # firmware/Cargo.toml, default release. refine T: the firmware's feature `refine` with
 # REFINE_T=T, --refine-run's critic in its CRITIC region. encodings: the weight encodings the
 # firmware is built to run, comma-separated (`--no-default-features --features LIST`); default
-# all three.
+# all three. firmware: rust (firmware/, the default) or c (firmware-c/ linked with
+# policy-core-ffi's static library built with the profile).
 M4F=thumbv7em-none-eabihf:mps2-an386:cortex-m4
 M3=thumbv7m-none-eabi:mps2-an385:cortex-m3
 ALL_VARIANTS=(
@@ -101,6 +107,9 @@ ALL_VARIANTS=(
   m4f-refine-actor:$M4F:refine-actor
   m4f-refine4:$M4F:refine-actor:release:4
   m4f-refine16:$M4F:refine-actor:release:16
+  c-m4f-trained:$M4F:trained:release:::c
+  c-m4f-4x48:$M4F:4x48-tanh:release:::c
+  c-m3-trained:$M3:trained:release:::c
 )
 # The opt-level of each profile the variants use (firmware/Cargo.toml; release-size's is set
 # here, through cargo's CARGO_PROFILE_RELEASE_SIZE_OPT_LEVEL), for the report.
@@ -151,7 +160,8 @@ toolchain_ready() {
   [ -z "$RUST_WEB_VERSION" ] || [ "$have" = "$RUST_WEB_VERSION" ] || return 1
   local llvm; llvm=$(lld_major); [ -n "$llvm" ] && command -v "lld-$llvm" >/dev/null || return 1
   "$RUSTC_X" -V >/dev/null 2>&1 || return 1
-  [ "$(qemu_major)" -ge 9 ] 2>/dev/null && command -v gcc >/dev/null && command -v size >/dev/null
+  [ "$(qemu_major)" -ge 9 ] 2>/dev/null && command -v gcc >/dev/null && command -v size >/dev/null \
+    && command -v arm-none-eabi-gcc >/dev/null
 }
 
 install_toolchain() {
@@ -175,11 +185,11 @@ EOF
   rw_ver=$(apt-cache "${APTO[@]}" show --no-all-versions "rustc-web$vs" | sed -n 's/^Version: //p')
   echo "rustc-web $rw_ver, $libstd, LLVM $llvm"
 
-  step "apt install: qemu-system-arm (bookworm-backports), lld-$llvm, libllvm$llvm, gcc, binutils"
+  step "apt install: qemu-system-arm (bookworm-backports), lld-$llvm, libllvm$llvm, gcc, binutils, gcc-arm-none-eabi"
   # --no-remove: abort rather than let apt remove anything already installed.
   $SUDO env DEBIAN_FRONTEND=noninteractive apt-get "${APTO[@]}" -q -y install --no-install-recommends --no-remove \
     qemu-system-arm/bookworm-backports qemu-system-common/bookworm-backports qemu-system-data/bookworm-backports \
-    "libllvm$llvm" "lld-$llvm" gcc libc6-dev binutils >"$WORK/apt-install.log" \
+    "libllvm$llvm" "lld-$llvm" gcc libc6-dev binutils gcc-arm-none-eabi >"$WORK/apt-install.log" \
     || { tail -20 "$WORK/apt-install.log"; die "apt-get install failed (log: $WORK/apt-install.log)"; }
   grep -E 'newly installed' "$WORK/apt-install.log" || true
 
@@ -284,10 +294,36 @@ run_qemu() {
   timeout "$QEMU_TIMEOUT" "${QEMU_BASE[@]}" -M "$machine" -cpu "$cpu" "${plugin_args[@]}" "${loaders[@]}" \
     -kernel "$dir/firmware.elf" </dev/null >"$dir/firmware.log" 2>"$dir/plugin.log"
 }
+# The C firmware (c-* variants): policy-core-ffi as a static library for the target, built with
+# the Rust firmware's release settings (fat LTO, one codegen unit, panic = abort; `core` and
+# compiler_builtins' memcpy/memset from source), then firmware-c/ compiled and linked against it
+# with firmware/memory.x's layout. Each target's library is built once.
+FFI_ENV=(env -u RUSTFLAGS -u CARGO_ENCODED_RUSTFLAGS -u CARGO_BUILD_RUSTFLAGS RUSTC="$RUSTC_X" RUSTC_BOOTSTRAP=1 CARGO_TARGET_DIR="$WORK/ffi"
+  CARGO_PROFILE_RELEASE_LTO=fat CARGO_PROFILE_RELEASE_CODEGEN_UNITS=1 CARGO_PROFILE_RELEASE_PANIC=abort CARGO_PROFILE_RELEASE_DEBUG=true)
+C_FLAGS=(-std=c11 -O2 -g -Wall -Wextra -Werror -ffreestanding -ffunction-sections -fdata-sections)
+build_c_firmware() { # TARGET OUT.elf
+  local target=$1 out=$2 cpu
+  case $target in
+    thumbv7em-none-eabihf) cpu=(-mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16) ;;
+    thumbv7m-none-eabi) cpu=(-mcpu=cortex-m3 -mthumb -mfloat-abi=soft) ;;
+    *) die "no C flags for $target" ;;
+  esac
+  # `cargo rustc --crate-type staticlib`: the static library alone. Built together with the
+  # rlib, LTO would keep every Rust symbol global, and libm's tanhf, for one, would no longer be
+  # inlined into the forward pass (about 0.4 more instructions per MAC on a tanh 4x48).
+  (cd "$ROOT" && "${FFI_ENV[@]}" cargo rustc --release --locked -p policy-core-ffi --lib --crate-type staticlib \
+      -Zbuild-std=core -Zbuild-std-features=compiler-builtins-mem --target "$target" 2>&1 \
+    | { grep -vE '^ +(Compiling|Downloaded|Downloading|Locking|Adding|Updating|Finished)' || true; }) || return 1
+  local lib=$WORK/ffi/$target/release/libpolicy_core_ffi.a
+  [ -f "$lib" ] || { echo "no $lib"; return 1; }
+  arm-none-eabi-gcc "${cpu[@]}" "${C_FLAGS[@]}" -I "$ROOT/policy-core-ffi/include" \
+    -nostdlib -Wl,--gc-sections -Wl,-z,noexecstack -L "$ROOT/firmware" -T "$ROOT/firmware-c/link.ld" \
+    "$ROOT"/firmware-c/{main,startup,console}.c "$lib" -lgcc -o "$out"
+}
 SELECTED=(${VARIANTS:-$(printf '%s\n' "${ALL_VARIANTS[@]}" | cut -d: -f1)})
 FAILED=(); JSONS=()
 for spec in "${ALL_VARIANTS[@]}"; do
-  IFS=: read -r name target machine cpu which profile refine encodings <<<"$spec"
+  IFS=: read -r name target machine cpu which profile refine encodings firmware <<<"$spec"
   profile=${profile:-release}
   printf '%s\n' "${SELECTED[@]}" | grep -qx "$name" || continue
   case $which in trained|trained-*) [ -n "$BLOB" ] || { echo "=== $name: skipped (no --blob)"; continue; } ;; esac
@@ -299,6 +335,10 @@ for spec in "${ALL_VARIANTS[@]}"; do
   dir=$WORK/variants/$name; mkdir -p "$dir"; rm -f "$dir"/*.log "$dir/resources.json"
   blob=$(blob_for "$which")
 
+  if [ "${firmware:-rust}" = c ]; then
+    step "$name: build the C firmware ($target; policy-core-ffi, profile $profile; no blob inside)"
+    if ! build_c_firmware "$target" "$dir/firmware.elf"; then FAILED+=("$name: build"); continue; fi
+  else
   step "$name: build ($target, profile $profile${encodings:+, encodings $encodings only}; no blob inside)"
   if ! (cd "$ROOT/firmware" && "${FW_ENV[@]}" "${refine_env[@]}" cargo build --profile "$profile" --locked -Zbuild-std=core \
         --target "$target" "${encoding_args[@]}" ${features:+--features "$features"} 2>&1 \
@@ -308,6 +348,7 @@ for spec in "${ALL_VARIANTS[@]}"; do
   elf=$WORK/fw/$target/$profile/policy-firmware
   [ -f "$elf" ] || { FAILED+=("$name: build produced no ELF"); continue; }
   cp "$elf" "$dir/firmware.elf"
+  fi
   size -A "$dir/firmware.elf" > "$dir/sizes.txt"
 
   step "$name: run under QEMU ($machine, $cpu; $(basename "$blob") in slot A; timeout ${QEMU_TIMEOUT}s)"
@@ -421,6 +462,7 @@ mkdir -p "$(dirname "$OUT")"
   --meta "qemu=$(qemu-system-arm --version | head -1)" \
   --meta "profile=release: opt-level 3, fat LTO, codegen-units 1, panic abort, -Zbuild-std=core; release-s: the same at opt-level s; release-size: the same at opt-level $SIZE_OPT_LEVEL (per variant: the profile column)" \
   --meta "encodings=every firmware runs f32, f16 and int8 blobs except the *-int8-only* variants (int8 only; per variant: firmware_encodings)" \
+  --meta "c firmware=the c-* variants: firmware-c/ (arm-none-eabi-gcc $(arm-none-eabi-gcc -dumpversion), ${C_FLAGS[*]}) linked with policy-core-ffi built with the release profile" \
   --meta "instructions=exact counts from a TCG plugin between fw_mark calls (mark cost subtracted)" \
   --meta "command=${VARIANTS:+VARIANTS=\"$VARIANTS\" }${SIZE_OPT_LEVEL_SET:+SIZE_OPT_LEVEL=$SIZE_OPT_LEVEL }${EXTRA_FEATURES:+EXTRA_FEATURES=$EXTRA_FEATURES }bash scripts/cortex-m.sh${BLOB:+ --blob $BLOB}${REFINE_RUN:+ --refine-run $REFINE_RUN}" \
   "${JSONS[@]}"

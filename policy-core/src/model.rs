@@ -37,19 +37,26 @@ use crate::normalizer::normalize_value;
 /// and output. `W` must be at least the blob's [`Shape::scratch_width`](crate::Shape::scratch_width)
 /// (its widest layer, observation or action vector); a narrower scratch is
 /// [`Error::ScratchTooSmall`], never a panic.
+///
+/// The two vectors are one array of `2 W` floats, so [`Model::act`] and the other const-generic
+/// methods hand it to the slice entry points ([`Model::act_in`] and so on) as it is: one forward
+/// path for both.
 #[derive(Clone, Debug)]
 pub struct Scratch<const W: usize> {
-    a: [f32; W],
-    b: [f32; W],
+    halves: [[f32; W]; 2],
 }
 
 impl<const W: usize> Scratch<W> {
     /// Zeroed buffers; usable in `static` initialisers.
     pub const fn new() -> Self {
         Scratch {
-            a: [0.0; W],
-            b: [0.0; W],
+            halves: [[0.0; W]; 2],
         }
+    }
+
+    /// The `2 W` floats as one slice, as the slice entry points ([`Model::act_in`]) take them.
+    pub fn as_mut_slice(&mut self) -> &mut [f32] {
+        self.halves.as_flattened_mut()
     }
 }
 
@@ -223,23 +230,74 @@ impl<'a> Model<'a> {
         low.iter().zip(high.iter())
     }
 
+    /// The scratch width this blob needs: its widest layer, observation or action vector
+    /// ([`Shape::scratch_width`](crate::Shape::scratch_width) for its kind). A [`Scratch<W>`]
+    /// needs `W` at least this; a slice scratch ([`Model::act_in`]) twice this many floats.
+    pub fn scratch_width(&self) -> usize {
+        self.layout.scratch_width
+    }
+
+    /// The floats a slice scratch for [`Model::act_in`], [`Model::q_in`] and
+    /// [`Model::choose_in`] must hold: `2 * scratch_width()`.
+    ///
+    /// ```
+    /// use policy_core::model::Model;
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/actor_4x48.postcard");
+    /// let model = Model::from_blob(BLOB).unwrap();
+    /// assert_eq!((model.scratch_width(), model.scratch_floats()), (48, 96));
+    /// ```
+    pub fn scratch_floats(&self) -> usize {
+        2 * self.layout.scratch_width
+    }
+
     /// The action for an observation (actor and discrete policy): finite and inside the bounds
     /// for every input, NaN and infinities included. A discrete policy returns the action-table
-    /// row of the largest Q value (ties: the lowest index).
+    /// row of the largest Q value (ties: the lowest index). [`Model::act_in`] with the scratch
+    /// as a slice.
     pub fn act<const W: usize>(
         &self,
         obs: &[f32],
         scratch: &mut Scratch<W>,
         action: &mut [f32],
     ) -> Result<(), Error> {
+        self.act_in(obs, scratch.as_mut_slice(), action)
+    }
+
+    /// [`Model::act`] with a caller's scratch of any length, for callers whose scratch size is
+    /// known only at run time (a C firmware, a buffer shared between models): `scratch` holds
+    /// two vectors of `W = scratch.len() / 2` floats (its first and second half; an odd last
+    /// float is unused), and `W` must be at least [`Model::scratch_width`], else
+    /// [`Error::ScratchTooSmall`] with `found` = `W`. The same bits as [`Model::act`].
+    ///
+    /// ```
+    /// use policy_core::{model::{Model, Scratch}, Error};
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/actor_4x48.postcard");
+    /// let model = Model::from_blob(BLOB).unwrap();
+    /// let mut scratch = vec![0.0f32; model.scratch_floats()];
+    /// let mut action = [0.0f32; 2];
+    /// model.act_in(&[4.0, -2.5], &mut scratch, &mut action).unwrap();
+    /// let mut fixed = [0.0f32; 2];
+    /// model.act(&[4.0, -2.5], &mut Scratch::<64>::new(), &mut fixed).unwrap();
+    /// assert_eq!(action.map(f32::to_bits), fixed.map(f32::to_bits));
+    /// assert_eq!(
+    ///     model.act_in(&[4.0, -2.5], &mut [0.0; 40], &mut action),
+    ///     Err(Error::ScratchTooSmall { needed: 48, found: 20 })
+    /// );
+    /// ```
+    pub fn act_in(
+        &self,
+        obs: &[f32],
+        scratch: &mut [f32],
+        action: &mut [f32],
+    ) -> Result<(), Error> {
         match self.header.kind {
             ModelKind::Actor => {
-                self.act_unit(obs, scratch, action)?;
+                self.act_unit_in(obs, scratch, action)?;
                 self.scale_into_bounds(action);
                 Ok(())
             }
             ModelKind::Discrete => {
-                let row = self.choose(obs, scratch)?;
+                let row = self.choose_in(obs, scratch)?;
                 self.table_row(row, action)
             }
             ModelKind::Critic => Err(self.wrong_kind(ModelKind::Actor)),
@@ -253,11 +311,20 @@ impl<'a> Model<'a> {
         scratch: &mut Scratch<W>,
         unit: &mut [f32],
     ) -> Result<(), Error> {
+        self.act_unit_in(obs, scratch.as_mut_slice(), unit)
+    }
+
+    /// [`Model::act_unit`] with a slice scratch, as [`Model::act_in`] takes it.
+    pub fn act_unit_in(
+        &self,
+        obs: &[f32],
+        scratch: &mut [f32],
+        unit: &mut [f32],
+    ) -> Result<(), Error> {
         if self.header.kind != ModelKind::Actor {
             return Err(self.wrong_kind(ModelKind::Actor));
         }
-        self.check_io(obs.len(), unit.len(), W)?;
-        let (x, y) = (&mut scratch.a[..], &mut scratch.b[..]);
+        let (x, y) = self.split_checked(obs.len(), unit.len(), scratch)?;
         self.normalize(obs, x);
         let out = self.forward(x, y);
         for (u, &v) in unit.iter_mut().zip(out) {
@@ -267,18 +334,37 @@ impl<'a> Model<'a> {
     }
 
     /// A critic's Q(s, a) for an observation and a unit-box action (clamped into the box; a
-    /// non-finite component reads as 0).
+    /// non-finite component reads as 0). [`Model::q_in`] with the scratch as a slice.
     pub fn q<const W: usize>(
         &self,
         obs: &[f32],
         unit_action: &[f32],
         scratch: &mut Scratch<W>,
     ) -> Result<f32, Error> {
+        self.q_in(obs, unit_action, scratch.as_mut_slice())
+    }
+
+    /// [`Model::q`] with a slice scratch of `2 W` floats, as [`Model::act_in`] takes it.
+    ///
+    /// ```
+    /// use policy_core::model::{Model, Scratch};
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/critic_2x32.postcard");
+    /// let critic = Model::from_blob(BLOB).unwrap();
+    /// let mut scratch = [0.0f32; 64];
+    /// let q = critic.q_in(&[1.0, 2.0], &[0.5, -0.5], &mut scratch).unwrap();
+    /// let fixed = critic.q(&[1.0, 2.0], &[0.5, -0.5], &mut Scratch::<32>::new()).unwrap();
+    /// assert_eq!(q.to_bits(), fixed.to_bits());
+    /// ```
+    pub fn q_in(
+        &self,
+        obs: &[f32],
+        unit_action: &[f32],
+        scratch: &mut [f32],
+    ) -> Result<f32, Error> {
         if self.header.kind != ModelKind::Critic {
             return Err(self.wrong_kind(ModelKind::Critic));
         }
-        self.check_io(obs.len(), unit_action.len(), W)?;
-        let (x, y) = (&mut scratch.a[..], &mut scratch.b[..]);
+        let (x, y) = self.split_checked(obs.len(), unit_action.len(), scratch)?;
         self.normalize(obs, x);
         let tail = x.get_mut(obs.len()..).unwrap_or_default();
         for (d, &u) in tail.iter_mut().zip(unit_action) {
@@ -292,19 +378,45 @@ impl<'a> Model<'a> {
     }
 
     /// A discrete policy's choice: the index of the largest Q value (ties and NaN: the lowest
-    /// index among the largest; all NaN: 0).
+    /// index among the largest; all NaN: 0). [`Model::choose_in`] with the scratch as a slice.
     pub fn choose<const W: usize>(
         &self,
         obs: &[f32],
         scratch: &mut Scratch<W>,
     ) -> Result<usize, Error> {
+        self.choose_in(obs, scratch.as_mut_slice())
+    }
+
+    /// [`Model::choose`] with a slice scratch of `2 W` floats, as [`Model::act_in`] takes it.
+    ///
+    /// ```
+    /// use policy_core::{model::Model, Error, ModelKind};
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+    /// let actor = Model::from_blob(BLOB).unwrap();
+    /// let wrong = actor.choose_in(&[0.0, 0.0], &mut [0.0; 64]);
+    /// assert_eq!(wrong, Err(Error::WrongKind { expected: ModelKind::Discrete, found: ModelKind::Actor }));
+    /// ```
+    pub fn choose_in(&self, obs: &[f32], scratch: &mut [f32]) -> Result<usize, Error> {
         if self.header.kind != ModelKind::Discrete {
             return Err(self.wrong_kind(ModelKind::Discrete));
         }
-        self.check_io(obs.len(), self.layout.actions, W)?;
-        let (x, y) = (&mut scratch.a[..], &mut scratch.b[..]);
+        let (x, y) = self.split_checked(obs.len(), self.layout.actions, scratch)?;
         self.normalize(obs, x);
         Ok(argmax(self.forward(x, y)))
+    }
+
+    /// Checks the sizes and the scratch, then splits the scratch into its two vectors of
+    /// `len / 2` floats each.
+    fn split_checked<'s>(
+        &self,
+        observations: usize,
+        actions: usize,
+        scratch: &'s mut [f32],
+    ) -> Result<(&'s mut [f32], &'s mut [f32]), Error> {
+        let width = scratch.len() / 2;
+        self.check_io(observations, actions, width)?;
+        let (x, rest) = scratch.split_at_mut(width);
+        Ok((x, rest.get_mut(..width).unwrap_or_default()))
     }
 
     fn wrong_kind(&self, expected: ModelKind) -> Error {

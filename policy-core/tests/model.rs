@@ -400,3 +400,111 @@ proptest! {
         }
     }
 }
+
+/// The golden vectors (`tests/golden/vectors.txt`) through the slice entry points: the same bits
+/// as the committed outputs, with a scratch exactly as long as the blob needs, and with a longer
+/// odd-length one (the halves are `len / 2` wide; the last float is unused).
+#[test]
+fn slice_scratch_reproduces_the_golden_vectors() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/golden/vectors.txt"
+    ))
+    .expect("vectors.txt");
+    let hex = |t: &str| u32::from_str_radix(t, 16).expect("hex");
+    let (a2, a4, c2) = (
+        golden("actor_2x32.postcard"),
+        golden("actor_4x48.postcard"),
+        golden("critic_2x32.postcard"),
+    );
+    let mut checked = 0;
+    for line in text.lines() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        let Some((lhs, rhs)) = line.split_once("->") else {
+            continue;
+        };
+        let mut input = lhs.split_whitespace();
+        let tag = input.next().expect("tag");
+        let inputs: Vec<f32> = input.map(|t| f32::from_bits(hex(t))).collect();
+        let want: Vec<u32> = rhs.split_whitespace().map(hex).collect();
+        let blob = match tag {
+            "act2x32" => &a2,
+            "act4x48" => &a4,
+            "q2x32" => &c2,
+            _ => continue,
+        };
+        let model = Model::from_blob(blob).expect("golden blob loads");
+        for len in [model.scratch_floats(), model.scratch_floats() + 7] {
+            let mut scratch = vec![f32::NAN; len];
+            if tag == "q2x32" {
+                let q = model
+                    .q_in(&inputs[..2], &inputs[2..], &mut scratch)
+                    .expect("q");
+                assert_eq!(vec![q.to_bits()], want, "{line} (scratch {len})");
+            } else {
+                let mut action = [0.0f32; 2];
+                model
+                    .act_in(&inputs, &mut scratch, &mut action)
+                    .expect("act");
+                assert_eq!(bits(&action), want, "{line} (scratch {len})");
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked > 100, "only {checked} vectors checked");
+}
+
+#[test]
+fn slice_scratch_too_short_names_the_width_needed_and_found() {
+    let actor = golden("actor_4x48.postcard");
+    let model = Model::from_blob(&actor).expect("loads");
+    assert_eq!((model.scratch_width(), model.scratch_floats()), (48, 96));
+    let mut a = [0.0; 2];
+    for (len, found) in [(0, 0), (1, 0), (95, 47), (94, 47)] {
+        assert_eq!(
+            model.act_in(&[0.0, 0.0], &mut vec![0.0; len], &mut a),
+            Err(Error::ScratchTooSmall { needed: 48, found }),
+            "scratch of {len} floats"
+        );
+    }
+    assert_eq!(model.act_in(&[0.0, 0.0], &mut [0.0; 96], &mut a), Ok(()));
+    let critic_bytes = golden("critic_2x32.postcard");
+    let critic = Model::from_blob(&critic_bytes).expect("critic");
+    let needed = critic.scratch_width();
+    assert_eq!(
+        critic.q_in(&[0.0; 2], &[0.0; 2], &mut vec![0.0; 2 * needed - 1]),
+        Err(Error::ScratchTooSmall {
+            needed,
+            found: needed - 1
+        })
+    );
+    // Kind and sizes are checked before the scratch, as in the const-generic methods.
+    assert!(matches!(
+        model.choose_in(&[0.0; 2], &mut []),
+        Err(Error::WrongKind { .. })
+    ));
+    assert!(matches!(
+        model.act_in(&[0.0; 3], &mut [], &mut a),
+        Err(Error::SizeMismatch { .. })
+    ));
+}
+
+/// A discrete policy through `choose_in` and `act_in` gives what `choose` and `act` give.
+#[test]
+fn slice_scratch_discrete_policy_matches_the_const_generic_path() {
+    let blob = discrete_blob(11);
+    let model = Model::from_blob(&blob).expect("discrete");
+    let mut rng = SplitMix64(3);
+    for obs in observations(&mut rng, 40) {
+        let mut fixed = Scratch::<64>::new();
+        let mut scratch = vec![0.0; model.scratch_floats()];
+        assert_eq!(
+            model.choose_in(&obs, &mut scratch),
+            model.choose(&obs, &mut fixed)
+        );
+        let (mut a, mut b) = ([0.0f32; 2], [0.0f32; 2]);
+        model.act_in(&obs, &mut scratch, &mut a).expect("act_in");
+        model.act(&obs, &mut fixed, &mut b).expect("act");
+        assert_eq!(bits(&a), bits(&b));
+    }
+}

@@ -77,6 +77,14 @@ pub fn aims(variants: &[Value]) -> Value {
             "variants_within_32KiB_flash": fits })
 }
 
+/// A figure for the table, or `-` where the variant has none (the C firmware times no tanhf).
+fn or_dash(v: Value) -> String {
+    match v {
+        Value::Null => "-".to_string(),
+        v => v.to_string(),
+    }
+}
+
 /// A Markdown table of the variants (one row each).
 pub fn table(variants: &[Value]) -> String {
     let mut out = String::from(
@@ -106,8 +114,8 @@ pub fn table(variants: &[Value]) -> String {
             g("/instructions/act_mean"),
             g("/instructions/act_max"),
             g("/instructions/per_mac"),
-            g("/instructions/per_mac_excluding_tanhf"),
-            g("/instructions/tanhf_each"),
+            or_dash(g("/instructions/per_mac_excluding_tanhf")),
+            or_dash(g("/instructions/tanhf_each")),
             g("/instructions/boot"),
             if g("/check/bit_exact") == Value::Bool(true) {
                 "bit-exact"

@@ -1,0 +1,942 @@
+//! The C API called from Rust: every misuse a C caller can make gives its code (NULL for every
+//! pointer argument of every function, misaligned and overlapping buffers, wrong lengths, an
+//! unloaded storage, the wrong kind), every policy-core error maps to its own code, and a loaded
+//! model gives the bits `Model` gives (policy-core's golden vectors).
+
+use core::ffi::CStr;
+use core::ptr::{null, null_mut};
+
+use policy_core::model::{Model, Scratch};
+use policy_core::slot;
+use policy_core::{Encoding, Error, ModelKind, Shape};
+use policy_core_ffi::*;
+
+fn golden(name: &str) -> Vec<u8> {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../policy-core/tests/golden/");
+    std::fs::read(format!("{path}{name}")).expect("golden blob")
+}
+
+fn new_error() -> DcpError {
+    // SAFETY: DcpError is plain data (integers and char arrays); all zeros is a valid value.
+    unsafe { core::mem::zeroed() }
+}
+
+fn new_model() -> DcpModel {
+    DcpModel {
+        opaque: [0; DCP_MODEL_BYTES],
+    }
+}
+
+fn text(chars: &[core::ffi::c_char]) -> String {
+    let bytes: Vec<u8> = chars
+        .iter()
+        .take_while(|&&c| c != 0)
+        .map(|&c| c as u8)
+        .collect();
+    String::from_utf8(bytes).expect("utf-8")
+}
+
+fn name(code: i32) -> String {
+    // SAFETY: dcp_status_name returns a static NUL-terminated string, never NULL.
+    unsafe { CStr::from_ptr(dcp_status_name(code)) }
+        .to_str()
+        .expect("ascii")
+        .to_string()
+}
+
+/// Loads `blob` into a fresh storage.
+fn load(blob: &[u8]) -> DcpModel {
+    let mut m = new_model();
+    // SAFETY: valid buffers; the blob outlives the model in every test that uses it.
+    let code = unsafe { dcp_model_load(blob.as_ptr(), blob.len(), &mut m, null_mut()) };
+    assert_eq!(code, DCP_OK, "{}", name(code));
+    m
+}
+
+/// One of every policy-core error variant known today, with its code.
+fn every_error() -> Vec<(Error, i32)> {
+    let shape = Shape {
+        observations: 2,
+        actions: 2,
+        width: 8,
+        depth: 1,
+        choices: 0,
+    };
+    vec![
+        (Error::WrongMagic { found: *b"ABCD" }, DCP_ERR_WRONG_MAGIC),
+        (
+            Error::UnsupportedVersion {
+                supported: 2,
+                found: 9,
+            },
+            DCP_ERR_UNSUPPORTED_VERSION,
+        ),
+        (
+            Error::WrongKind {
+                expected: ModelKind::Actor,
+                found: ModelKind::Critic,
+            },
+            DCP_ERR_WRONG_KIND,
+        ),
+        (
+            Error::WrongEncoding {
+                expected: Encoding::F32,
+                found: Encoding::Int8,
+            },
+            DCP_ERR_WRONG_ENCODING,
+        ),
+        (
+            Error::EncodingNotCompiled {
+                found: Encoding::F16,
+            },
+            DCP_ERR_ENCODING_NOT_COMPILED,
+        ),
+        (
+            Error::ShapeMismatch {
+                expected: shape,
+                found: shape,
+            },
+            DCP_ERR_SHAPE_MISMATCH,
+        ),
+        (
+            Error::Truncated {
+                needed: 10,
+                found: 3,
+            },
+            DCP_ERR_TRUNCATED,
+        ),
+        (
+            Error::TrailingBytes {
+                expected: 10,
+                found: 12,
+            },
+            DCP_ERR_TRAILING_BYTES,
+        ),
+        (Error::Malformed { what: "header" }, DCP_ERR_MALFORMED),
+        (
+            Error::ChecksumMismatch {
+                stored: 1,
+                computed: 2,
+            },
+            DCP_ERR_CHECKSUM_MISMATCH,
+        ),
+        (
+            Error::NonFiniteParameter { index: 7 },
+            DCP_ERR_NON_FINITE_PARAMETER,
+        ),
+        (
+            Error::InvalidParameter {
+                what: "low > high",
+                index: 1,
+            },
+            DCP_ERR_INVALID_PARAMETER,
+        ),
+        (
+            Error::ShapeBeyondLimits {
+                what: "width",
+                min: 1,
+                max: 512,
+                found: 999,
+            },
+            DCP_ERR_SHAPE_BEYOND_LIMITS,
+        ),
+        (
+            Error::SizeMismatch {
+                what: "action size",
+                expected: 2,
+                found: 3,
+            },
+            DCP_ERR_SIZE_MISMATCH,
+        ),
+        (
+            Error::ScratchTooSmall {
+                needed: 48,
+                found: 32,
+            },
+            DCP_ERR_SCRATCH_TOO_SMALL,
+        ),
+        (
+            Error::BufferTooSmall {
+                needed: 100,
+                found: 10,
+            },
+            DCP_ERR_BUFFER_TOO_SMALL,
+        ),
+        (Error::SlotEmpty, DCP_ERR_SLOT_EMPTY),
+        (Error::SlotMagic { found: *b"XXXX" }, DCP_ERR_SLOT_MAGIC),
+        (
+            Error::SlotHeaderChecksum {
+                stored: 3,
+                computed: 4,
+            },
+            DCP_ERR_SLOT_HEADER_CHECKSUM,
+        ),
+        (
+            Error::SlotOverflow {
+                needed: 300,
+                capacity: 200,
+            },
+            DCP_ERR_SLOT_OVERFLOW,
+        ),
+    ]
+}
+
+/// The mapping from policy-core's errors to codes, as a table: every variant known today has
+/// its own negative code and a name equal to the variant's (the `_ =>` arm, `DCP_ERR_OTHER`,
+/// is for variants added later and is never one of these).
+#[test]
+fn every_policy_core_error_has_its_own_code_and_name() {
+    let table = every_error();
+    assert_eq!(table.len(), 20, "one row per Error variant");
+    let mut codes: Vec<i32> = Vec::new();
+    for (e, want) in &table {
+        let code = code_of(e);
+        assert_eq!(code, *want, "{e:?}");
+        assert!(code < 0 && code != DCP_ERR_OTHER, "{e:?}");
+        let variant = format!("{e:?}");
+        let variant = variant
+            .split([' ', '{'])
+            .next()
+            .expect("variant name")
+            .to_string();
+        assert_eq!(name(code), variant);
+        codes.push(code);
+    }
+    codes.sort_unstable();
+    codes.dedup();
+    assert_eq!(codes.len(), table.len(), "codes are distinct");
+    for c in [
+        DCP_ERR_OTHER,
+        DCP_ERR_NULL_POINTER,
+        DCP_ERR_MISALIGNED,
+        DCP_ERR_BAD_LENGTH,
+        DCP_ERR_OVERLAP,
+        DCP_ERR_NOT_LOADED,
+        DCP_ERR_NO_SLOT,
+    ] {
+        assert!(!codes.contains(&c));
+        assert_ne!(name(c), "Unknown");
+    }
+    assert_eq!(name(DCP_OK), "Ok");
+    assert_eq!(name(12345), "Unknown");
+}
+
+#[test]
+fn a_verify_failure_fills_the_error_struct() {
+    let mut blob = golden("actor_2x32.postcard");
+    let n = blob.len();
+    blob[n - 1] ^= 0x40; // the stored CRC
+    let (mut h, mut e) = (
+        // SAFETY: DcpHeader is plain data; all zeros is a valid value.
+        unsafe { core::mem::zeroed::<DcpHeader>() },
+        new_error(),
+    );
+    // SAFETY: valid buffers.
+    let code = unsafe { dcp_verify(blob.as_ptr(), blob.len(), &mut h, &mut e) };
+    assert_eq!(code, DCP_ERR_CHECKSUM_MISMATCH);
+    assert_eq!(e.code, code);
+    let Err(Error::ChecksumMismatch { stored, computed }) = Model::from_blob(&blob) else {
+        panic!("the flipped blob fails its checksum");
+    };
+    assert_eq!((e.expected, e.found), (stored as usize, computed as usize));
+    assert_eq!(
+        text(&e.message),
+        Error::ChecksumMismatch { stored, computed }.to_string()
+    );
+    // A NonFiniteParameter carries its index; a SizeMismatch its sizes and what.
+    let ok = golden("actor_2x32.postcard");
+    // SAFETY: valid buffers.
+    let code =
+        unsafe { dcp_model_for_policy(ok.as_ptr(), ok.len(), 3, 2, 64, &mut new_model(), &mut e) };
+    assert_eq!(code, DCP_ERR_SIZE_MISMATCH);
+    assert_eq!((e.expected, e.found), (3, 2));
+    assert_eq!(text(&e.what), "observation size");
+}
+
+#[test]
+fn verify_reports_the_header() {
+    let blob = golden("actor_4x48.postcard");
+    // SAFETY: DcpHeader is plain data; all zeros is a valid value.
+    let mut h: DcpHeader = unsafe { core::mem::zeroed() };
+    // SAFETY: valid buffers.
+    let code = unsafe { dcp_verify(blob.as_ptr(), blob.len(), &mut h, null_mut()) };
+    assert_eq!(code, DCP_OK);
+    let m = Model::from_blob(&blob).expect("golden");
+    let header = m.header();
+    assert_eq!(h.version, u32::from(header.version));
+    assert_eq!(h.kind, DCP_KIND_ACTOR);
+    assert_eq!(h.encoding, DCP_ENCODING_F32);
+    let s = header.shape;
+    assert_eq!(
+        (h.observations, h.actions, h.width, h.depth, h.choices),
+        (2, 2, 48, u32::from(s.depth), 0)
+    );
+    assert_eq!(h.scratch_width, 48);
+    assert_eq!(text(&h.label), header.label.as_str());
+    assert_eq!(h.label_len as usize, header.label.len());
+    assert_eq!(h.payload_len, header.payload_len);
+    let crc = u32::from_le_bytes(blob[blob.len() - 4..].try_into().expect("4 bytes"));
+    assert_eq!(h.crc, crc);
+    assert_eq!(h.crc, policy_core::crc32(&blob[..blob.len() - 4]));
+    assert_eq!(h.blob_len as usize, blob.len());
+    let loaded = load(&blob);
+    // SAFETY: DcpHeader is plain data; all zeros is a valid value.
+    let mut h2: DcpHeader = unsafe { core::mem::zeroed() };
+    // SAFETY: valid buffers.
+    let code = unsafe { dcp_model_header(&loaded, &mut h2, null_mut()) };
+    assert_eq!(code, DCP_OK);
+    assert_eq!(h2.crc, h.crc);
+    assert_eq!(h2.blob_len, h.blob_len);
+}
+
+/// NULL for each pointer argument of each function, one at a time: DCP_ERR_NULL_POINTER with
+/// the argument's name, and `err` NULL is allowed everywhere.
+#[test]
+fn null_for_every_pointer_argument_is_an_error_code() {
+    let actor = golden("actor_4x48.postcard");
+    let critic = golden("critic_2x32.postcard");
+    let model = load(&actor);
+    let critic_model = load(&critic);
+    let record = [&slot::header(1, actor.len()).expect("header")[..], &actor].concat();
+    let obs = [0.5f32, -0.5];
+    let mut scratch = [0.0f32; 128];
+    let mut action = [0.0f32; 2];
+    let (mut q, mut index, mut floats, mut seq, mut blob_len) = (0.0f32, 0u32, 0usize, 0u32, 0);
+    let mut blob_at: *const u8 = null();
+    let (mut low, mut high) = ([0.0f32; 2], [0.0f32; 2]);
+    // SAFETY: plain data; all zeros is a valid value.
+    let mut header: DcpHeader = unsafe { core::mem::zeroed() };
+    // SAFETY: plain data; all zeros is a valid value.
+    let mut boot: DcpBoot = unsafe { core::mem::zeroed() };
+    let mut out_model = new_model();
+    let mut e = new_error();
+    let b = actor.as_ptr();
+    let n = actor.len();
+
+    let check = |what: &str, code: i32, e: &DcpError| {
+        assert_eq!(code, DCP_ERR_NULL_POINTER, "{what}: {}", name(code));
+        assert_eq!(e.code, code, "{what}");
+        assert_eq!(text(&e.what), what);
+    };
+    // SAFETY: every pointer below is NULL or valid for its length.
+    unsafe {
+        check("blob", dcp_verify(null(), n, &mut header, &mut e), &e);
+        check("out", dcp_verify(b, n, null_mut(), &mut e), &e);
+        check(
+            "blob",
+            dcp_model_load(null(), n, &mut out_model, &mut e),
+            &e,
+        );
+        check("model", dcp_model_load(b, n, null_mut(), &mut e), &e);
+        check(
+            "blob",
+            dcp_model_for_policy(null(), n, 2, 2, 64, &mut out_model, &mut e),
+            &e,
+        );
+        check(
+            "model",
+            dcp_model_for_policy(b, n, 2, 2, 64, null_mut(), &mut e),
+            &e,
+        );
+        check("model", dcp_model_header(null(), &mut header, &mut e), &e);
+        check("out", dcp_model_header(&model, null_mut(), &mut e), &e);
+        check("model", dcp_scratch_floats(null(), &mut floats, &mut e), &e);
+        check("out", dcp_scratch_floats(&model, null_mut(), &mut e), &e);
+
+        let (o, s, a) = (obs.as_ptr(), scratch.as_mut_ptr(), action.as_mut_ptr());
+        check("model", dcp_act(null(), o, 2, s, 128, a, 2, &mut e), &e);
+        check("obs", dcp_act(&model, null(), 2, s, 128, a, 2, &mut e), &e);
+        check(
+            "scratch",
+            dcp_act(&model, o, 2, null_mut(), 128, a, 2, &mut e),
+            &e,
+        );
+        check(
+            "action",
+            dcp_act(&model, o, 2, s, 128, null_mut(), 2, &mut e),
+            &e,
+        );
+
+        let c = &critic_model;
+        let u = [0.1f32, 0.2];
+        let up = u.as_ptr();
+        check(
+            "model",
+            dcp_q(null(), o, 2, up, 2, s, 128, &mut q, &mut e),
+            &e,
+        );
+        check(
+            "obs",
+            dcp_q(c, null(), 2, up, 2, s, 128, &mut q, &mut e),
+            &e,
+        );
+        check(
+            "unit_action",
+            dcp_q(c, o, 2, null(), 2, s, 128, &mut q, &mut e),
+            &e,
+        );
+        check(
+            "scratch",
+            dcp_q(c, o, 2, up, 2, null_mut(), 128, &mut q, &mut e),
+            &e,
+        );
+        check("q", dcp_q(c, o, 2, up, 2, s, 128, null_mut(), &mut e), &e);
+
+        check(
+            "model",
+            dcp_choose(null(), o, 2, s, 128, &mut index, &mut e),
+            &e,
+        );
+        check(
+            "obs",
+            dcp_choose(&model, null(), 2, s, 128, &mut index, &mut e),
+            &e,
+        );
+        check(
+            "scratch",
+            dcp_choose(&model, o, 2, null_mut(), 128, &mut index, &mut e),
+            &e,
+        );
+        check(
+            "index",
+            dcp_choose(&model, o, 2, s, 128, null_mut(), &mut e),
+            &e,
+        );
+
+        let (lo, hi) = (low.as_mut_ptr(), high.as_mut_ptr());
+        check("model", dcp_action_bounds(null(), lo, hi, 2, &mut e), &e);
+        check(
+            "low",
+            dcp_action_bounds(&model, null_mut(), hi, 2, &mut e),
+            &e,
+        );
+        check(
+            "high",
+            dcp_action_bounds(&model, lo, null_mut(), 2, &mut e),
+            &e,
+        );
+
+        let (r, rn) = (record.as_ptr(), record.len());
+        check(
+            "slot_a",
+            dcp_slot_choose(
+                null(),
+                rn,
+                r,
+                rn,
+                2,
+                2,
+                64,
+                &mut boot,
+                &mut out_model,
+                &mut e,
+            ),
+            &e,
+        );
+        check(
+            "slot_b",
+            dcp_slot_choose(
+                r,
+                rn,
+                null(),
+                rn,
+                2,
+                2,
+                64,
+                &mut boot,
+                &mut out_model,
+                &mut e,
+            ),
+            &e,
+        );
+        check(
+            "out",
+            dcp_slot_choose(r, rn, r, rn, 2, 2, 64, null_mut(), &mut out_model, &mut e),
+            &e,
+        );
+        check(
+            "model",
+            dcp_slot_choose(r, rn, r, rn, 2, 2, 64, &mut boot, null_mut(), &mut e),
+            &e,
+        );
+        check(
+            "slot",
+            dcp_slot_read(null(), rn, &mut seq, &mut blob_at, &mut blob_len, &mut e),
+            &e,
+        );
+        check(
+            "sequence",
+            dcp_slot_read(r, rn, null_mut(), &mut blob_at, &mut blob_len, &mut e),
+            &e,
+        );
+        check(
+            "blob",
+            dcp_slot_read(r, rn, &mut seq, null_mut(), &mut blob_len, &mut e),
+            &e,
+        );
+        check(
+            "blob_len",
+            dcp_slot_read(r, rn, &mut seq, &mut blob_at, null_mut(), &mut e),
+            &e,
+        );
+        // `err` may always be NULL: the code still comes back.
+        assert_eq!(
+            dcp_verify(null(), n, &mut header, null_mut()),
+            DCP_ERR_NULL_POINTER
+        );
+        // And a success with NULL err.
+        assert_eq!(dcp_act(&model, o, 2, s, 128, a, 2, null_mut()), DCP_OK);
+        assert_eq!(
+            dcp_slot_read(r, rn, &mut seq, &mut blob_at, &mut blob_len, null_mut()),
+            DCP_OK
+        );
+        assert_eq!((seq, blob_len), (1, actor.len()));
+        assert_eq!(blob_at, r.add(slot::HEADER_LEN));
+    }
+}
+
+#[test]
+fn a_zeroed_or_failed_storage_is_not_loaded() {
+    let zeroed = new_model();
+    let obs = [0.0f32; 2];
+    let mut scratch = [0.0f32; 128];
+    let mut action = [0.0f32; 2];
+    let mut floats = 0usize;
+    let mut e = new_error();
+    // SAFETY: valid buffers.
+    unsafe {
+        let act = |m: &DcpModel, e: &mut DcpError, s: &mut [f32], a: &mut [f32]| {
+            dcp_act(
+                m,
+                obs.as_ptr(),
+                2,
+                s.as_mut_ptr(),
+                s.len(),
+                a.as_mut_ptr(),
+                2,
+                e,
+            )
+        };
+        assert_eq!(
+            act(&zeroed, &mut e, &mut scratch, &mut action),
+            DCP_ERR_NOT_LOADED
+        );
+        assert_eq!(
+            dcp_scratch_floats(&zeroed, &mut floats, &mut e),
+            DCP_ERR_NOT_LOADED
+        );
+        // A good load, then a failed one into the same storage: no model is left behind.
+        let good = golden("actor_4x48.postcard");
+        let mut m = load(&good);
+        assert_eq!(act(&m, &mut e, &mut scratch, &mut action), DCP_OK);
+        let mut bad = good.clone();
+        bad[0] = b'X';
+        assert_eq!(
+            dcp_model_load(bad.as_ptr(), bad.len(), &mut m, &mut e),
+            DCP_ERR_WRONG_MAGIC
+        );
+        assert_eq!(e.found, u32::from_le_bytes(*b"XCPB") as usize);
+        assert_eq!(
+            act(&m, &mut e, &mut scratch, &mut action),
+            DCP_ERR_NOT_LOADED
+        );
+        assert_eq!(text(&e.what), "model");
+    }
+}
+
+#[test]
+fn wrong_lengths_and_kinds_are_error_codes() {
+    let actor = golden("actor_4x48.postcard");
+    let critic = golden("critic_2x32.postcard");
+    let (m, c) = (load(&actor), load(&critic));
+    let obs = [0.5f32, -0.5, 9.0];
+    let mut scratch = vec![0.0f32; 200];
+    let mut action = [0.0f32; 3];
+    let mut e = new_error();
+    let mut floats = 0;
+    // SAFETY: valid buffers, each at least as long as the length passed.
+    unsafe {
+        assert_eq!(dcp_scratch_floats(&m, &mut floats, &mut e), DCP_OK);
+        assert_eq!(floats, 96);
+        let s = scratch.as_mut_ptr();
+        let a = action.as_mut_ptr();
+        // Observation and action sizes.
+        assert_eq!(
+            dcp_act(&m, obs.as_ptr(), 3, s, 96, a, 2, &mut e),
+            DCP_ERR_SIZE_MISMATCH
+        );
+        assert_eq!((e.expected, e.found), (3, 2));
+        assert_eq!(
+            dcp_act(&m, obs.as_ptr(), 1, s, 96, a, 2, &mut e),
+            DCP_ERR_SIZE_MISMATCH
+        );
+        assert_eq!(
+            dcp_act(&m, obs.as_ptr(), 2, s, 96, a, 3, &mut e),
+            DCP_ERR_SIZE_MISMATCH
+        );
+        assert_eq!(text(&e.what), "action size");
+        // Scratch one float short, and empty; a longer one is fine.
+        assert_eq!(
+            dcp_act(&m, obs.as_ptr(), 2, s, 95, a, 2, &mut e),
+            DCP_ERR_SCRATCH_TOO_SMALL
+        );
+        assert_eq!((e.needed, e.found), (48, 47));
+        assert_eq!(
+            dcp_act(&m, obs.as_ptr(), 2, s, 0, a, 2, &mut e),
+            DCP_ERR_SCRATCH_TOO_SMALL
+        );
+        assert_eq!(dcp_act(&m, obs.as_ptr(), 2, s, 200, a, 2, &mut e), DCP_OK);
+        assert_eq!(e.code, DCP_OK);
+        // A length past the address space.
+        assert_eq!(
+            dcp_act(&m, obs.as_ptr(), usize::MAX / 2, s, 96, a, 2, &mut e),
+            DCP_ERR_BAD_LENGTH
+        );
+        assert_eq!(text(&e.what), "obs");
+        assert_eq!(
+            dcp_verify(actor.as_ptr(), usize::MAX, &mut core::mem::zeroed(), &mut e),
+            DCP_ERR_BAD_LENGTH
+        );
+        // Blob lengths one short and one long.
+        let mut other = new_model();
+        assert_eq!(
+            dcp_model_load(actor.as_ptr(), actor.len() - 1, &mut other, &mut e),
+            DCP_ERR_TRUNCATED
+        );
+        let mut longer = actor.clone();
+        longer.push(0);
+        assert_eq!(
+            dcp_model_load(longer.as_ptr(), longer.len(), &mut other, &mut e),
+            DCP_ERR_TRAILING_BYTES
+        );
+        // The wrong kind: act on a critic, q on an actor, choose on either.
+        assert_eq!(
+            dcp_act(&c, obs.as_ptr(), 2, s, 96, a, 2, &mut e),
+            DCP_ERR_WRONG_KIND
+        );
+        assert_eq!(
+            (e.expected, e.found),
+            (DCP_KIND_ACTOR as usize, DCP_KIND_CRITIC as usize)
+        );
+        let mut q = 0.0;
+        let u = [0.0f32; 2];
+        assert_eq!(
+            dcp_q(&m, obs.as_ptr(), 2, u.as_ptr(), 2, s, 96, &mut q, &mut e),
+            DCP_ERR_WRONG_KIND
+        );
+        let mut index = 0;
+        assert_eq!(
+            dcp_choose(&m, obs.as_ptr(), 2, s, 96, &mut index, &mut e),
+            DCP_ERR_WRONG_KIND
+        );
+        assert_eq!(
+            dcp_action_bounds(&c, a, a.add(2), 1, &mut e),
+            DCP_ERR_WRONG_KIND
+        );
+        // for_policy refuses a critic and a scratch too narrow.
+        assert_eq!(
+            dcp_model_for_policy(critic.as_ptr(), critic.len(), 2, 2, 64, &mut other, &mut e),
+            DCP_ERR_WRONG_KIND
+        );
+        assert_eq!(
+            dcp_model_for_policy(actor.as_ptr(), actor.len(), 2, 2, 32, &mut other, &mut e),
+            DCP_ERR_SCRATCH_TOO_SMALL
+        );
+        assert_eq!((e.needed, e.found), (48, 32));
+    }
+}
+
+#[test]
+fn misaligned_and_overlapping_buffers_are_error_codes() {
+    let actor = golden("actor_4x48.postcard");
+    let m = load(&actor);
+    let mut floats = vec![0.0f32; 300];
+    let mut e = new_error();
+    let base = floats.as_mut_ptr();
+    // SAFETY: every pointer points into `floats` with room for its length.
+    unsafe {
+        let odd = base.cast::<u8>().add(1).cast::<f32>();
+        assert_eq!(
+            dcp_act(&m, odd, 2, base.add(10), 96, base.add(200), 2, &mut e),
+            DCP_ERR_MISALIGNED
+        );
+        assert_eq!(text(&e.what), "obs");
+        // Scratch over the observation, the action inside the scratch.
+        assert_eq!(
+            dcp_act(&m, base.add(5), 2, base, 96, base.add(200), 2, &mut e),
+            DCP_ERR_OVERLAP
+        );
+        assert_eq!(
+            dcp_act(&m, base.add(250), 2, base, 96, base.add(95), 2, &mut e),
+            DCP_ERR_OVERLAP
+        );
+        // Adjacent is not overlapping.
+        assert_eq!(
+            dcp_act(&m, base.add(96), 2, base, 96, base.add(98), 2, &mut e),
+            DCP_OK
+        );
+        // A storage misaligned for dcp_model.
+        let mut raw = vec![0u64; 64];
+        let bad = raw.as_mut_ptr().cast::<u8>().add(4).cast::<DcpModel>();
+        assert_eq!(
+            dcp_model_load(actor.as_ptr(), actor.len(), bad, &mut e),
+            DCP_ERR_MISALIGNED
+        );
+        // The model's storage inside the blob it is loaded from.
+        let mut copy = vec![0u64; actor.len() / 8 + 64];
+        let bytes = copy.as_mut_ptr().cast::<u8>();
+        core::ptr::copy_nonoverlapping(actor.as_ptr(), bytes, actor.len());
+        assert_eq!(
+            dcp_model_load(bytes, actor.len(), bytes.cast::<DcpModel>(), &mut e),
+            DCP_ERR_OVERLAP
+        );
+        // A scratch over the model's blob.
+        assert_eq!(
+            dcp_act(
+                &m,
+                base,
+                2,
+                actor.as_ptr().cast_mut().cast::<f32>(),
+                96,
+                base.add(4),
+                2,
+                &mut e
+            ),
+            DCP_ERR_OVERLAP
+        );
+    }
+}
+
+fn hex(t: &str) -> u32 {
+    u32::from_str_radix(t, 16).expect("hex")
+}
+
+/// policy-core's golden vectors through the C API: the committed output bits.
+#[test]
+fn the_c_api_reproduces_the_golden_vectors() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../policy-core/tests/golden/vectors.txt"
+    ))
+    .expect("vectors");
+    let blobs = [
+        golden("actor_2x32.postcard"),
+        golden("actor_4x48.postcard"),
+        golden("critic_2x32.postcard"),
+    ];
+    let models = [load(&blobs[0]), load(&blobs[1]), load(&blobs[2])];
+    let mut scratch = [0.0f32; 128];
+    let mut checked = 0;
+    for line in text.lines() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        let Some((lhs, rhs)) = line.split_once("->") else {
+            continue;
+        };
+        let mut f = lhs.split_whitespace();
+        let tag = f.next().expect("tag");
+        let input: Vec<f32> = f.map(|t| f32::from_bits(hex(t))).collect();
+        let want: Vec<u32> = rhs.split_whitespace().map(hex).collect();
+        let s = scratch.as_mut_ptr();
+        let got: Vec<u32> = match tag {
+            "act2x32" | "act4x48" => {
+                let m = &models[usize::from(tag == "act4x48")];
+                let mut a = [0.0f32; 2];
+                // SAFETY: valid buffers.
+                let code =
+                    unsafe { dcp_act(m, input.as_ptr(), 2, s, 128, a.as_mut_ptr(), 2, null_mut()) };
+                assert_eq!(code, DCP_OK);
+                a.iter().map(|v| v.to_bits()).collect()
+            }
+            "q2x32" => {
+                let mut q = 0.0f32;
+                // SAFETY: valid buffers.
+                let code = unsafe {
+                    dcp_q(
+                        &models[2],
+                        input.as_ptr(),
+                        2,
+                        input[2..].as_ptr(),
+                        2,
+                        s,
+                        128,
+                        &mut q,
+                        null_mut(),
+                    )
+                };
+                assert_eq!(code, DCP_OK);
+                vec![q.to_bits()]
+            }
+            _ => continue,
+        };
+        assert_eq!(got, want, "{line}");
+        checked += 1;
+    }
+    assert!(checked > 50, "only {checked} vectors");
+}
+
+/// A discrete policy through dcp_choose and dcp_act: the same index and row as `Model`.
+#[test]
+fn a_discrete_policy_chooses_as_the_model_does() {
+    let shape = Shape {
+        observations: 2,
+        actions: 2,
+        width: 16,
+        depth: 2,
+        choices: 5,
+    };
+    let spec = policy_core::blob::Spec {
+        kind: ModelKind::Discrete,
+        encoding: Encoding::F32,
+        shape,
+        activation: policy_core::Activation::Relu,
+        label: "discrete",
+    };
+    let count = shape.param_count(ModelKind::Discrete).expect("count");
+    let prefix = shape.prefix_count(ModelKind::Discrete);
+    let mut params: Vec<f32> = (0..count)
+        .map(|i| ((i * 37 % 101) as f32 / 101.0 - 0.5) * 0.8)
+        .collect();
+    // Normaliser: mean 0, inverse std 1, clip 5; bounds [-1, 1]; a table inside them.
+    for i in 0..2 {
+        params[i] = 0.0;
+        params[2 + i] = 1.0;
+    }
+    params[4] = 5.0;
+    for i in 0..2 {
+        params[5 + i] = -1.0;
+        params[7 + i] = 1.0;
+    }
+    for v in &mut params[9..prefix] {
+        *v = v.clamp(-1.0, 1.0);
+    }
+    let mut blob = vec![0u8; 4096];
+    let len = policy_core::blob::write(
+        &spec,
+        &mut |sink: &mut dyn FnMut(&[f32])| sink(&params),
+        &mut blob,
+    )
+    .expect("a discrete blob");
+    blob.truncate(len);
+    let model = Model::from_blob(&blob).expect("loads");
+    let m = load(&blob);
+    for k in 0..20 {
+        let obs = [k as f32 * 0.3 - 3.0, 1.5 - k as f32 * 0.2];
+        let mut scratch = [0.0f32; 64];
+        let mut index = u32::MAX;
+        let mut a = [0.0f32; 2];
+        // SAFETY: valid buffers.
+        unsafe {
+            let s = scratch.as_mut_ptr();
+            assert_eq!(
+                dcp_choose(&m, obs.as_ptr(), 2, s, 64, &mut index, null_mut()),
+                DCP_OK
+            );
+            assert_eq!(
+                dcp_act(&m, obs.as_ptr(), 2, s, 64, a.as_mut_ptr(), 2, null_mut()),
+                DCP_OK
+            );
+        }
+        let mut fixed = Scratch::<16>::new();
+        assert_eq!(
+            Some(index as usize),
+            model.choose(&obs, &mut fixed).ok(),
+            "{obs:?}"
+        );
+        let mut b = [0.0f32; 2];
+        model.act(&obs, &mut fixed, &mut b).expect("act");
+        assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits));
+    }
+}
+
+fn record(seq: u32, blob: &[u8]) -> Vec<u8> {
+    [&slot::header(seq, blob.len()).expect("header")[..], blob].concat()
+}
+
+fn choose(a: &[u8], b: &[u8]) -> (i32, DcpBoot, DcpModel) {
+    // SAFETY: plain data; all zeros is a valid value.
+    let mut boot: DcpBoot = unsafe { core::mem::zeroed() };
+    let mut m = new_model();
+    // SAFETY: valid buffers (an empty slot: a dangling but aligned, non-NULL pointer, length 0).
+    let code = unsafe {
+        dcp_slot_choose(
+            a.as_ptr(),
+            a.len(),
+            b.as_ptr(),
+            b.len(),
+            2,
+            2,
+            64,
+            &mut boot,
+            &mut m,
+            null_mut(),
+        )
+    };
+    (code, boot, m)
+}
+
+/// The slot rule through C: the same slot, statuses and reasons as policy_core::slot::choose.
+#[test]
+fn the_slot_rule_matches_policy_core() {
+    let actor = golden("actor_4x48.postcard");
+    let other = golden("actor_2x32.postcard");
+    let critic = golden("critic_2x32.postcard");
+    let mut flipped = record(2, &other);
+    flipped[100] ^= 1;
+    let cases: Vec<(Vec<u8>, Vec<u8>)> = vec![
+        (record(1, &actor), vec![]),
+        (record(1, &actor), record(2, &other)),
+        (record(1, &actor), flipped),
+        (vec![0xFF; 64], record(7, &other)),
+        (vec![], vec![]),
+        (record(1, &actor), record(2, &critic)),
+        (record(u32::MAX, &actor), record(0, &other)),
+        (vec![0x55; 64], vec![0; 8]),
+    ];
+    for (a, b) in &cases {
+        let rust = slot::choose(a, b, |blob| Model::for_policy(blob, 2, 2, 64));
+        let (code, boot, m) = choose(a, b);
+        let want_running = match rust.running {
+            Some((slot::SlotId::A, _)) => DCP_SLOT_A,
+            Some((slot::SlotId::B, _)) => DCP_SLOT_B,
+            None => DCP_SLOT_NONE,
+        };
+        assert_eq!(boot.running, want_running);
+        assert_eq!(
+            code,
+            if rust.running.is_some() {
+                DCP_OK
+            } else {
+                DCP_ERR_NO_SLOT
+            }
+        );
+        for (status, c) in [(rust.a, boot.a), (rust.b, boot.b)] {
+            match status {
+                slot::Status::Running { sequence } => {
+                    assert_eq!((c.state, c.sequence), (DCP_SLOT_RUNNING, sequence))
+                }
+                slot::Status::Standby { sequence } => {
+                    assert_eq!((c.state, c.sequence), (DCP_SLOT_STANDBY, sequence))
+                }
+                slot::Status::Failed(e) => {
+                    assert_eq!(c.state, DCP_SLOT_FAILED);
+                    assert_eq!(c.error.code, code_of(&e));
+                    assert_eq!(text(&c.error.message), e.to_string());
+                }
+            }
+        }
+        // The model loaded is the running slot's, and runs; none loaded means none runs.
+        let mut h: DcpHeader = {
+            // SAFETY: plain data; all zeros is a valid value.
+            unsafe { core::mem::zeroed() }
+        };
+        // SAFETY: valid buffers.
+        let header_code = unsafe { dcp_model_header(&m, &mut h, null_mut()) };
+        match rust.running {
+            Some((_, model)) => {
+                assert_eq!(header_code, DCP_OK);
+                assert_eq!(h.width, u32::from(model.header().shape.width));
+            }
+            None => assert_eq!(header_code, DCP_ERR_NOT_LOADED),
+        }
+    }
+}

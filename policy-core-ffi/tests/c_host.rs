@@ -1,0 +1,231 @@
+//! A C program (tests/c/host_check.c) compiled against the committed header and the host static
+//! library, run on the golden blobs: its error codes are the expected ones, and its actions and
+//! Q values are policy-core's, bit for bit. Skipped, with a message, where no C compiler is
+//! installed (`CC`, else `cc`, else `gcc`).
+//!
+//! The static library is built by cargo for this test (`cargo build -p policy-core-ffi --lib`,
+//! in the same target directory, whose dependencies are built already), and found through
+//! cargo's JSON messages rather than a guessed path.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use policy_core::model::{Model, Scratch};
+use policy_core::slot;
+use policy_core_ffi::*;
+
+const MANIFEST_DIR: &str = env!("CARGO_MANIFEST_DIR");
+
+fn golden(name: &str) -> PathBuf {
+    Path::new(MANIFEST_DIR)
+        .join("../policy-core/tests/golden")
+        .join(name)
+}
+
+/// The C compiler to use, if any.
+fn c_compiler() -> Option<String> {
+    let candidates = std::env::var("CC")
+        .ok()
+        .into_iter()
+        .chain(["cc".to_string(), "gcc".to_string()]);
+    candidates.into_iter().find(|cc| {
+        Command::new(cc)
+            .arg("--version")
+            .output()
+            .is_ok_and(|o| o.status.success())
+    })
+}
+
+/// Builds the host static library with cargo and returns its path.
+fn static_library() -> PathBuf {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
+    // The target directory this test was built in (CARGO_TARGET_TMPDIR is its tmp/): cargo has
+    // released its lock by the time tests run, and the dependencies are already built there.
+    let target_dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .parent()
+        .expect("CARGO_TARGET_TMPDIR is <target dir>/tmp")
+        .to_path_buf();
+    let out = Command::new(cargo)
+        .args(["build", "--quiet", "--lib", "-p", "policy-core-ffi"])
+        .args(["--message-format", "json-render-diagnostics"])
+        .arg("--target-dir")
+        .arg(&target_dir)
+        .current_dir(MANIFEST_DIR)
+        .output()
+        .expect("cargo runs");
+    assert!(
+        out.status.success(),
+        "cargo build -p policy-core-ffi failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json = String::from_utf8(out.stdout).expect("utf-8");
+    // One compiler-artifact message per crate; the library's lists the .a among its files.
+    json.lines()
+        .filter(|l| l.contains("\"compiler-artifact\"") && l.contains("policy_core_ffi"))
+        .flat_map(|l| l.split('"'))
+        .find(|s| s.ends_with("libpolicy_core_ffi.a"))
+        .map(PathBuf::from)
+        .expect("cargo reports libpolicy_core_ffi.a")
+}
+
+fn hex(t: &str) -> u32 {
+    u32::from_str_radix(t, 16).expect("hex")
+}
+
+#[test]
+fn a_c_program_refuses_bad_input_and_acts_bit_exactly() {
+    let Some(cc) = c_compiler() else {
+        eprintln!("SKIPPED: no C compiler (CC, cc or gcc) on this machine; the C test did not run");
+        return;
+    };
+    let lib = static_library();
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("c-host");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let exe = dir.join("host_check");
+    let status = Command::new(&cc)
+        .args(["-std=c11", "-Wall", "-Wextra", "-Werror", "-O1"])
+        .arg("-I")
+        .arg(Path::new(MANIFEST_DIR).join("include"))
+        .arg(Path::new(MANIFEST_DIR).join("tests/c/host_check.c"))
+        .arg(&lib)
+        // What a host staticlib built with std needs from the system (rustc
+        // --print native-static-libs on Linux).
+        .args(["-lpthread", "-ldl", "-lm", "-lrt", "-lutil"])
+        .arg("-o")
+        .arg(&exe)
+        .status()
+        .expect("the C compiler runs");
+    assert!(status.success(), "compiling tests/c/host_check.c failed");
+
+    // Inputs: the awkward observations and a sweep.
+    let mut obs: Vec<[f32; 2]> = vec![
+        [0.0, 0.0],
+        [f32::NAN, 1.0],
+        [f32::INFINITY, f32::NEG_INFINITY],
+        [-0.0, 1.0e-39],
+        [f32::MAX, -f32::MAX],
+    ];
+    obs.extend((0..40).map(|k| [k as f32 * 0.37 - 7.0, 5.0 - k as f32 * 0.29]));
+    let obs_file = dir.join("observations.txt");
+    let lines: String = obs
+        .iter()
+        .map(|o| format!("{:08x} {:08x}\n", o[0].to_bits(), o[1].to_bits()))
+        .collect();
+    std::fs::write(&obs_file, lines).expect("write observations");
+    let actor = std::fs::read(golden("actor_4x48.postcard")).expect("actor");
+    let critic = std::fs::read(golden("critic_2x32.postcard")).expect("critic");
+    let record = |seq: u32, blob: &[u8]| {
+        [&slot::header(seq, blob.len()).expect("header")[..], blob].concat()
+    };
+    let (slot_a, slot_b) = (dir.join("slot-a.bin"), dir.join("slot-b.bin"));
+    std::fs::write(&slot_a, record(1, &actor)).expect("slot a");
+    std::fs::write(&slot_b, record(2, &critic)).expect("slot b");
+
+    let out = Command::new(&exe)
+        .arg(golden("actor_4x48.postcard"))
+        .arg(golden("critic_2x32.postcard"))
+        .arg(&obs_file)
+        .arg(&slot_a)
+        .arg(&slot_b)
+        .output()
+        .expect("host_check runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "host_check failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    // The C compiler's layout of every API type is Rust's.
+    let mut sizes = BTreeMap::new();
+    let mut codes = BTreeMap::new();
+    let (mut acts, mut qs) = (Vec::new(), Vec::new());
+    for line in stdout.lines() {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        match f.as_slice() {
+            ["SIZE", name, n] => {
+                sizes.insert(name.to_string(), n.parse::<usize>().expect("size"));
+            }
+            ["CODE", name, code, ..] => {
+                codes.insert(name.to_string(), (code.parse::<i32>().expect("code"), line));
+            }
+            ["ACT", _, a, b] => acts.push([hex(a), hex(b)]),
+            ["Q", _, q] => qs.push(hex(q)),
+            _ => {}
+        }
+    }
+    assert_eq!(sizes["dcp_error"], size_of::<DcpError>());
+    assert_eq!(sizes["dcp_header"], size_of::<DcpHeader>());
+    assert_eq!(sizes["dcp_model"], size_of::<DcpModel>());
+    assert_eq!(sizes["dcp_model_align"], align_of::<DcpModel>());
+    assert_eq!(sizes["dcp_boot"], size_of::<DcpBoot>());
+
+    let expected = [
+        ("verify_null_blob", DCP_ERR_NULL_POINTER),
+        ("verify_null_out", DCP_ERR_NULL_POINTER),
+        ("verify_short", DCP_ERR_TRUNCATED),
+        ("verify_long", DCP_ERR_TRAILING_BYTES),
+        ("verify_flipped", DCP_ERR_CHECKSUM_MISMATCH),
+        ("act_zeroed_model", DCP_ERR_NOT_LOADED),
+        ("load_actor", DCP_OK),
+        ("load_critic", DCP_OK),
+        ("for_policy_critic", DCP_ERR_WRONG_KIND),
+        ("act_null_obs", DCP_ERR_NULL_POINTER),
+        ("act_null_scratch", DCP_ERR_NULL_POINTER),
+        ("act_null_action", DCP_ERR_NULL_POINTER),
+        ("act_obs_len", DCP_ERR_SIZE_MISMATCH),
+        ("act_action_len", DCP_ERR_SIZE_MISMATCH),
+        ("act_scratch_short", DCP_ERR_SCRATCH_TOO_SMALL),
+        ("act_on_critic", DCP_ERR_WRONG_KIND),
+        ("act_overlap", DCP_ERR_OVERLAP),
+        ("choose_on_actor", DCP_ERR_WRONG_KIND),
+        ("scratch_floats", DCP_OK),
+        ("slot_choose", DCP_OK),
+        ("act_slot_model", DCP_OK),
+        ("slot_read_erased", DCP_ERR_SLOT_EMPTY),
+        ("slot_choose_erased", DCP_ERR_NO_SLOT),
+        ("act_after_no_slot", DCP_ERR_NOT_LOADED),
+    ];
+    for (name, code) in expected {
+        let (got, line) = codes
+            .get(name)
+            .unwrap_or_else(|| panic!("no CODE {name} line in:\n{stdout}"));
+        assert_eq!(*got, code, "{line}");
+    }
+    assert_eq!(
+        codes.len(),
+        expected.len(),
+        "a CODE line with no expectation"
+    );
+    assert!(
+        codes["act_scratch_short"].1.contains("needed=48 found=47"),
+        "{}",
+        codes["act_scratch_short"].1
+    );
+    assert!(stdout.contains("FLOATS 96"), "{stdout}");
+    assert!(
+        stdout.contains(&format!(
+            "BOOT running={DCP_SLOT_A} a={DCP_SLOT_RUNNING}/1 b={DCP_SLOT_FAILED}/{DCP_ERR_WRONG_KIND}"
+        )),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("REASON B wrong model kind: expected actor, found critic"),
+        "{stdout}"
+    );
+
+    // Bit for bit what policy-core computes.
+    let a = Model::from_blob(&actor).expect("actor");
+    let c = Model::from_blob(&critic).expect("critic");
+    assert_eq!((acts.len(), qs.len()), (obs.len(), obs.len()));
+    let mut scratch = Scratch::<64>::new();
+    for (k, o) in obs.iter().enumerate() {
+        let mut want = [0.0f32; 2];
+        a.act(o, &mut scratch, &mut want).expect("act");
+        assert_eq!(acts[k], want.map(f32::to_bits), "observation {k}: {o:?}");
+        let unit = [o[0] / 4.0, o[1] / 4.0];
+        let q = c.q(o, &unit, &mut scratch).expect("q");
+        assert_eq!(qs[k], q.to_bits(), "observation {k}: {o:?}");
+    }
+}
