@@ -31,6 +31,11 @@ impl Uart0 {
         uart.write_reg(CTRL, 0);
         uart.write_reg(BAUDDIV, DIVIDER);
         uart.write_reg(CTRL, TX_RX_ENABLE);
+        // A read of DATA is what tells QEMU's model to take input again: without it, input
+        // that the host sent while the receiver was off waits for QEMU's next timer event (the
+        // SysTick wrap, hundreds of millions of instructions away under -icount). On a board
+        // it reads an empty buffer, which changes nothing.
+        let _ = uart.read_reg(DATA);
         uart
     }
 
