@@ -33,6 +33,9 @@ pub fn serve(
 ) -> ! {
     let mut uart = Uart0::take();
     let hello = FromChip::Hello(hello(booted, slots, calibration));
+    // A delimiter first: whatever half frame the host holds from before a reset ends here, so
+    // the hello arrives whole and reads as the reset it is.
+    uart.write(0);
     send(&mut uart, &hello);
     let model = booted.running.as_ref().map(|(_, model)| model);
     let mut rx = Receiver::new();

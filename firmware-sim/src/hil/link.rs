@@ -48,23 +48,27 @@ impl Link for UnixStream {
 }
 
 /// A board's serial port (or a pty), opened with the `serialport` crate.
-pub struct SerialLink(pub Box<dyn serialport::SerialPort>);
+pub struct SerialLink {
+    port: Box<dyn serialport::SerialPort>,
+}
 
 impl std::fmt::Debug for SerialLink {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_tuple("SerialLink").field(&self.0.name()).finish()
+        f.debug_tuple("SerialLink")
+            .field(&self.port.name())
+            .finish()
     }
 }
 
 impl Link for SerialLink {
     fn send(&mut self, bytes: &[u8]) -> io::Result<()> {
-        self.0.write_all(bytes)?;
-        self.0.flush()
+        self.port.write_all(bytes)?;
+        self.port.flush()
     }
 
     fn receive(&mut self, buf: &mut [u8], wait: Duration) -> io::Result<usize> {
-        self.0.set_timeout(at_least_1ms(wait))?;
-        match self.0.read(buf) {
+        self.port.set_timeout(at_least_1ms(wait))?;
+        match self.port.read(buf) {
             Ok(0) => Err(closed()),
             Ok(n) => Ok(n),
             Err(e)
@@ -81,8 +85,9 @@ impl Link for SerialLink {
     }
 }
 
-/// Opens a serial port at `baud` (8N1, no flow control), exclusively: a port another program
-/// holds is refused as busy.
+/// Opens a serial port at `baud` (8N1, no flow control), exclusively: `serialport` takes the
+/// port with TIOCEXCL and an exclusive `flock`, so a port another program holds that way (a
+/// second firmware-sim, most terminal programs) is refused as busy.
 pub fn open_serial(path: &str, baud: u32) -> Result<SerialLink, String> {
     if !std::path::Path::new(path).exists() {
         return Err(format!(
@@ -92,16 +97,12 @@ pub fn open_serial(path: &str, baud: u32) -> Result<SerialLink, String> {
     let port = serialport::new(path, baud)
         .timeout(Duration::from_millis(100))
         .open()
-        .map_err(|e| {
-            let busy = matches!(
-                e.kind,
-                serialport::ErrorKind::Io(io::ErrorKind::ResourceBusy)
-            ) || e.description.contains("busy");
-            if busy {
+        .map_err(|e| match e.kind {
+            // What serialport reports for EBUSY from TIOCEXCL and for a held flock.
+            serialport::ErrorKind::NoDevice => {
                 format!("serial port {path} is busy: another program has it open")
-            } else {
-                format!("cannot open serial port {path}: {}", e.description)
             }
+            _ => format!("cannot open serial port {path}: {}", e.description),
         })?;
-    Ok(SerialLink(port))
+    Ok(SerialLink { port })
 }
