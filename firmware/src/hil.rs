@@ -35,12 +35,12 @@ pub fn serve(
     let hello = FromChip::Hello(hello(booted, slots, calibration));
     // A delimiter first: whatever half frame the host holds from before a reset ends here, so
     // the hello arrives whole and reads as the reset it is.
-    uart.write(0);
+    uart.send(0);
     send(&mut uart, &hello);
     let model = booted.running.as_ref().map(|(_, model)| model);
     let mut rx = Receiver::new();
     loop {
-        let byte = uart.read();
+        let byte = uart.receive();
         let Some(frame) = rx.push(byte) else {
             continue;
         };
@@ -88,7 +88,7 @@ fn send(uart: &mut Uart0, message: &FromChip) {
     // otherwise, and the host's tick timeout reports the silence.
     if let Ok(frame) = encode(message, &mut buf) {
         for &b in frame {
-            uart.write(b);
+            uart.send(b);
         }
     }
 }
