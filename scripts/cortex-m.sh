@@ -339,7 +339,7 @@ hil_equal() {
 # HIL_PTY and HIL_QEMU_PID.
 hil_pty_qemu() {
   local elf=$WORK/hil/m4f/firmware.elf d=$WORK/hil/runs/pty-qemu
-  mkdir -p "$d"
+  mkdir -p "$d"; rm -f "$d/qemu.log"  # a stale log would name a stale pty
   "$HC" image "$1" "$d/slot-a.bin" --sequence 1 >/dev/null
   qemu-system-arm -M mps2-an386 -cpu cortex-m4 -nodefaults -display none -icount shift=0 \
     -semihosting-config enable=on,target=native -serial pty \
