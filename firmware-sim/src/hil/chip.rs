@@ -23,8 +23,9 @@ const POLL: Duration = Duration::from_millis(100);
 /// Something that owns the chip's other end (QEMU's process): asked why the link closed, and
 /// dropped (QEMU killed) with the chip.
 pub trait Backend: Send {
-    /// Why the chip went away, if it knows (QEMU's exit status and last output line).
-    fn exit_note(&mut self) -> Option<String>;
+    /// Why the chip went away, if it knows (QEMU's exit status and last output line), waiting
+    /// up to `grace` for it to go (a closed link usually means it is going).
+    fn exit_note(&mut self, grace: Duration) -> Option<String>;
 }
 
 /// The chip in the loop (see the module docs).
@@ -307,14 +308,22 @@ impl HilChip {
                 hil_protocol::VERSION
             ),
             Frame::Bad(e) => format!("the chip sent {e}, waiting for {waiting_for}"),
-            Frame::Closed(e) => format!("the link to the chip closed, waiting for {waiting_for} ({e})"),
+            Frame::Closed(e) => {
+                let text = format!("the link to the chip closed, waiting for {waiting_for} ({e})");
+                return self.fail_after(text, Duration::from_secs(1));
+            }
             Frame::Interrupted => format!("interrupted (Ctrl-C), waiting for {waiting_for}"),
         };
         self.fail(text)
     }
 
     fn fail(&mut self, text: String) -> Error {
-        let note = self.backend.as_mut().and_then(|b| b.exit_note());
+        self.fail_after(text, Duration::ZERO)
+    }
+
+    /// [`fail`](Self::fail), giving the backend `grace` to explain.
+    fn fail_after(&mut self, text: String, grace: Duration) -> Error {
+        let note = self.backend.as_mut().and_then(|b| b.exit_note(grace));
         let text = match note {
             Some(note) => format!("{text}; {note}"),
             None => text,

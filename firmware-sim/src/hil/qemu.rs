@@ -178,7 +178,7 @@ pub fn start(
             Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
             Err(e) => return Err(io("the UART socket", e)),
         }
-        if let Some(note) = qemu.exit_note() {
+        if let Some(note) = qemu.exit_note(Duration::ZERO) {
             return Err(Error::Hil(format!(
                 "{}: QEMU did not start: {note}",
                 machine.name()
@@ -203,8 +203,17 @@ impl Qemu {
 }
 
 impl Backend for Qemu {
-    fn exit_note(&mut self) -> Option<String> {
-        let status = self.child.try_wait().ok().flatten()?;
+    fn exit_note(&mut self, grace: Duration) -> Option<String> {
+        let deadline = Instant::now() + grace;
+        let status = loop {
+            match self.child.try_wait() {
+                Ok(Some(status)) => break status,
+                Ok(None) if Instant::now() < deadline => {
+                    std::thread::sleep(Duration::from_millis(10))
+                }
+                _ => return None,
+            }
+        };
         let log = fs::read_to_string(&self.log).unwrap_or_default();
         let last = log
             .lines()
