@@ -7,7 +7,7 @@
 //!
 //! ## Frames
 //!
-//! A frame is a postcard [`Envelope`] — the protocol [`VERSION`] and the message, itself
+//! A frame is a postcard envelope — the protocol [`VERSION`] and the message, itself
 //! postcard bytes — followed by the CRC-32 (ISO-HDLC, little-endian) of those bytes, the whole
 //! COBS-encoded and ended by a `0x00` byte. postcard's own flavors build it (`CrcModifier`
 //! inside `Cobs`), and [`decode`] undoes it: COBS, then the CRC, then the version, then the
