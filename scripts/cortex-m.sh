@@ -365,7 +365,9 @@ hil_checks() {
   step "HIL: firmware-sim (host build)"
   (cd "$ROOT" && "${HOST_ENV[@]}" CARGO_TARGET_DIR="$BASE" cargo build --locked -q -p firmware-sim) || { hil_fail "firmware-sim build"; return; }
   HIL_FS=$BASE/debug/firmware-sim
-  # firmware-sim finds the HIL firmware under the target directory, where this script put it.
+  # firmware-sim finds the HIL firmware under the target directory, where this script put it
+  # (the caller's CARGO_TARGET_DIR, if any, is put back at the end).
+  local had_target=${CARGO_TARGET_DIR+set} old_target=${CARGO_TARGET_DIR-}
   export CARGO_TARGET_DIR=$BASE
   local int8=$WORK/blobs/hil-trained-int8.postcard
   "$HC" encode "$HIL_BLOB" "$int8" --encoding int8 >/dev/null
@@ -409,7 +411,7 @@ hil_checks() {
   local pid=$!
   cat "$d/mon.out" >/dev/null &
   local drain=$!
-  sleep 2; echo system_reset >"$d/mon.in"; wait "$pid"; HIL_RC=$?
+  sleep 3; echo system_reset >"$d/mon.in"; wait "$pid"; HIL_RC=$?
   kill "$drain" 2>/dev/null; wait "$drain" 2>/dev/null
   if hil_expect "board reset mid-episode" 1 "the chip reset mid-episode" "$d/reset.txt"; then
     local ran kept
@@ -423,7 +425,7 @@ hil_checks() {
   hil_expect "Ctrl-C" 1 "interrupted (Ctrl-C)" "$d/ctrlc.txt" && { grep -q '"episodes_run"' "$d/ctrlc.json" || hil_fail "Ctrl-C: no report written"; }
   hil_no_qemu "Ctrl-C" "$pid"
   set -e
-  unset CARGO_TARGET_DIR
+  if [ -n "$had_target" ]; then export CARGO_TARGET_DIR=$old_target; else unset CARGO_TARGET_DIR; fi
 }
 # HIL (hardware in the loop) -- end
 #==================================================================================================
