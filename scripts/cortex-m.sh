@@ -31,6 +31,12 @@
 #   --out FILE      JSON report path (default: <target dir>/cortex-m-report.json).
 #   --install-only  install the toolchain and QEMU, then stop.
 #   --no-slot-cases skip the A/B slot cases (they run by default).
+#   --no-hil        skip the hardware-in-the-loop checks (they run by default, last): the HIL
+#                   firmware (feature hil) for both chips, `firmware-sim run --hil` equal to the
+#                   host loop on --blob (default models/nav-walls__dcp-paper__0.postcard), its
+#                   failure cases.
+#   --hil-only      build the HIL firmware and run the HIL checks alone (firmware-sim --hil finds
+#                   it at <target dir>/cortex-m/hil/m4f|m3/firmware.elf).
 #   --refine-run DIR a run folder with policy.postcard and critic.postcard: the *-refine*
 #                   variants run that actor with DCP's compare step on the device (feature
 #                   `refine`, the critic in the CRITIC region), T = 4 and 16 proposals per tick
@@ -63,6 +69,7 @@ OUT=$BASE/cortex-m-report.json
 BLOB=
 INSTALL_ONLY=0
 SLOT_CASES=1
+HIL=1; HIL_ONLY=0; FAILED=()
 REFINE_RUN=
 QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
 # name:target:qemu machine:qemu cpu:blob[:profile[:refine T[:encodings[:firmware]]]]. blob: trained
@@ -132,8 +139,10 @@ while [ $# -gt 0 ]; do
     --out) [ $# -ge 2 ] || die "--out needs a file"; OUT=$(realpath -m "$2"); shift 2 ;;
     --install-only) INSTALL_ONLY=1; shift ;;
     --no-slot-cases) SLOT_CASES=0; shift ;;
+    --no-hil) HIL=0; shift ;;
+    --hil-only) HIL_ONLY=1; shift ;;
     --refine-run) [ $# -ge 2 ] || die "--refine-run needs a run folder"; REFINE_RUN=$(realpath "$2"); shift 2 ;;
-    -h|--help) sed -n '2,36p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,42p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) die "unknown argument $1 (see --help)" ;;
   esac
 done
@@ -320,8 +329,153 @@ build_c_firmware() { # TARGET OUT.elf
     -nostdlib -Wl,--gc-sections -Wl,-z,noexecstack -L "$ROOT/firmware" -T "$ROOT/firmware-c/link.ld" \
     "$ROOT"/firmware-c/{main,startup,console}.c "$lib" -lgcc -o "$out"
 }
+
+#==================================================================================================
+# HIL (hardware in the loop) -- begin. The HIL firmware (feature `hil`: after the same boot it
+# serves `act` over UART0) for both chips, then `firmware-sim run --hil` against the host loop:
+# the same report and trajectories bit for bit (JSON without its timing and chip fields, and
+# the SVG), on the M4F with f32 and int8 weights and on the M3 with f32; through QEMU's UART on
+# a socket and through a pty (the board path, `--hil serial:PATH`); then the failure cases, each
+# one line on stderr, a non-zero exit and no QEMU left behind.
+HIL_BLOB=${BLOB:-$ROOT/models/nav-walls__dcp-paper__0.postcard}
+HIL_RUN=(--scenario nav-walls --episodes 5 --seed 0 --faults dropout-nan:0.05,stuck:0@50)
+hil_fail() { FAILED+=("HIL $1"); echo "HIL FAILED: $1" >&2; }
+# The report without its wall-clock timing and the chip's own section (pretty JSON: fixed layout).
+hil_strip() { sed '/^  "timing": {/,/^  },/d; /^  "chip": {/,/^  },/d' "$1"; }
+# hil_expect NAME RC PATTERN FILE: the case's exit status was RC and FILE holds PATTERN.
+hil_expect() {
+  if [ "$2" != "$HIL_RC" ]; then hil_fail "$1: exit status $HIL_RC, expected $2"; tail -3 "$4" >&2; return 1; fi
+  if ! grep -q -- "$3" "$4"; then hil_fail "$1: no \"$3\" in its output"; tail -3 "$4" >&2; return 1; fi
+  echo "HIL $1: exit $HIL_RC, $(grep -m1 -- "$3" "$4" | sed 's/^ *//' | cut -c1-150)"
+}
+# hil_no_qemu NAME PID: no QEMU started by firmware-sim process PID is left.
+hil_no_qemu() {
+  if pgrep -f "firmware-sim-hil-$2-" >/dev/null; then hil_fail "$1: a QEMU process was left behind"; fi
+}
+# hil_equal NAME LINK BLOB: the host loop and the chip give the same report and trajectories.
+hil_equal() {
+  local name=$1 link=$2 blob=$3 d=$WORK/hil/runs/$1 rc_host rc_hil
+  mkdir -p "$d"; rm -f "$d"/*
+  step "HIL $name: ${HIL_RUN[*]} on the host and through --hil $link"
+  set +e
+  "$HIL_FS" run --blob "$blob" "${HIL_RUN[@]}" --json "$d/host.json" --svg "$d/host.svg" >"$d/host.txt" 2>&1; rc_host=$?
+  "$HIL_FS" run --blob "$blob" "${HIL_RUN[@]}" --hil "$link" --json "$d/hil.json" --svg "$d/hil.svg" >"$d/hil.txt" 2>&1; rc_hil=$?
+  set -e
+  grep -E '^  (chip|instructions per tick)' "$d/hil.txt" || true
+  [ -f "$d/hil.json" ] && [ -f "$d/host.json" ] || { hil_fail "$name: no report (exit $rc_hil)"; tail -3 "$d/hil.txt" >&2; return; }
+  [ "$rc_host" = "$rc_hil" ] || { hil_fail "$name: exit status $rc_hil, the host loop's $rc_host"; return; }
+  grep -q '"stopped"' "$d/hil.json" && { hil_fail "$name: the run stopped: $(grep -m1 stopped "$d/hil.txt")"; return; }
+  if ! diff <(hil_strip "$d/host.json") <(hil_strip "$d/hil.json") >"$d/diff.txt"; then
+    hil_fail "$name: the report differs from the host loop's ($d/diff.txt)"; return
+  fi
+  cmp -s "$d/host.svg" "$d/hil.svg" || { hil_fail "$name: the trajectories (SVG) differ from the host loop's"; return; }
+  echo "HIL $name: the same report and trajectories as the host loop ($(grep -c '^    {$' "$d/hil.json") episodes, exit $rc_hil)"
+  HIL_PASSED=$((HIL_PASSED + 1))
+}
+# Starts QEMU with UART0 on a pty and BLOB in slot A (as a board flashed with probe-rs); sets
+# HIL_PTY and HIL_QEMU_PID.
+hil_pty_qemu() {
+  local elf=$WORK/hil/m4f/firmware.elf d=$WORK/hil/runs/pty-qemu
+  mkdir -p "$d"; rm -f "$d/qemu.log"  # a stale log would name a stale pty
+  "$HC" image "$1" "$d/slot-a.bin" --sequence 1 >/dev/null
+  qemu-system-arm -M mps2-an386 -cpu cortex-m4 -nodefaults -display none -icount shift=0 \
+    -semihosting-config enable=on,target=native -serial pty \
+    -device "loader,file=$d/slot-a.bin,addr=$(slot_addr "$elf" a)" -kernel "$elf" >"$d/qemu.log" 2>&1 &
+  HIL_QEMU_PID=$!; HIL_PTY=
+  for _ in $(seq 100); do
+    HIL_PTY=$(sed -n 's/.*char device redirected to \(\/dev\/[^ ]*\) .*/\1/p' "$d/qemu.log")
+    [ -n "$HIL_PTY" ] && break; sleep 0.1
+  done
+  [ -n "$HIL_PTY" ] || { hil_fail "pty: QEMU printed no pty ($(tail -1 "$d/qemu.log"))"; kill "$HIL_QEMU_PID"; wait "$HIL_QEMU_PID" || true; return 1; }
+}
+hil_checks() {
+  HIL_PASSED=0
+  for spec in "m4f:$M4F" "m3:$M3"; do
+    IFS=: read -r chip target _ _ <<<"$spec"
+    step "HIL firmware: build for $chip ($target, feature hil)"
+    if ! (cd "$ROOT/firmware" && "${FW_ENV[@]}" cargo build --release --locked -Zbuild-std=core --target "$target" --features hil 2>&1 \
+          | { grep -vE '^ +(Compiling|Downloaded|Downloading|Locking|Adding|Updating|Finished)' || true; }); then
+      hil_fail "$chip: build"; return
+    fi
+    mkdir -p "$WORK/hil/$chip"; cp "$WORK/fw/$target/release/policy-firmware" "$WORK/hil/$chip/firmware.elf"
+  done
+  step "HIL: firmware-sim (host build)"
+  (cd "$ROOT" && "${HOST_ENV[@]}" CARGO_TARGET_DIR="$BASE" cargo build --locked -q -p firmware-sim) || { hil_fail "firmware-sim build"; return; }
+  HIL_FS=$BASE/debug/firmware-sim
+  # firmware-sim finds the HIL firmware under the target directory, where this script put it
+  # (the caller's CARGO_TARGET_DIR, if any, is put back at the end).
+  local had_target=${CARGO_TARGET_DIR+set} old_target=${CARGO_TARGET_DIR-}
+  export CARGO_TARGET_DIR=$BASE
+  local int8=$WORK/blobs/hil-trained-int8.postcard
+  "$HC" encode "$HIL_BLOB" "$int8" --encoding int8 >/dev/null
+  hil_equal m4f-f32 qemu-m4f "$HIL_BLOB"
+  hil_equal m4f-int8 qemu-m4f "$int8"
+  hil_equal m3-f32 qemu-m3 "$HIL_BLOB"
+  # The board path: the same run through a serial port (QEMU's pty), and a second opener refused.
+  if hil_pty_qemu "$HIL_BLOB"; then
+    hil_equal m4f-pty "serial:$HIL_PTY" "$HIL_BLOB"
+    local d=$WORK/hil/runs/busy; mkdir -p "$d"
+    "$HIL_FS" run --blob "$HIL_BLOB" --episodes 20 --hil "serial:$HIL_PTY" >"$d/first.txt" 2>&1 &
+    local first=$!; sleep 1
+    set +e; "$HIL_FS" run --blob "$HIL_BLOB" --episodes 1 --hil "serial:$HIL_PTY" >"$d/out.txt" 2>&1; HIL_RC=$?; set -e
+    hil_expect "serial port busy" 2 "is busy" "$d/out.txt" || true
+    wait "$first" || true
+    kill "$HIL_QEMU_PID"; wait "$HIL_QEMU_PID" 2>/dev/null || true
+  fi
+
+  step "HIL: failure cases"
+  local d=$WORK/hil/runs/faults; mkdir -p "$d"; rm -rf "${d:?}"/*
+  local one=(--blob "$HIL_BLOB" --episodes 1)
+  set +e
+  env PATH=/nonexistent "$HIL_FS" run "${one[@]}" --hil qemu-m4f >"$d/no-qemu.txt" 2>&1; HIL_RC=$?
+  hil_expect "QEMU missing" 2 "qemu-system-arm not found: install it with" "$d/no-qemu.txt"
+  CARGO_TARGET_DIR=$d/none "$HIL_FS" run "${one[@]}" --hil qemu-m3 >"$d/no-elf.txt" 2>&1; HIL_RC=$?
+  hil_expect "HIL firmware missing" 2 "no HIL firmware at .*: build it with" "$d/no-elf.txt"
+  "$HIL_FS" run "${one[@]}" --hil serial:"$d/no-such-tty" >"$d/no-tty.txt" 2>&1; HIL_RC=$?
+  hil_expect "serial path missing" 2 "no such device" "$d/no-tty.txt"
+  "$HIL_FS" run "${one[@]}" --hil qemu-m4f --tick-timeout 1 --hil-qemu-arg -S >"$d/silent.txt" 2>&1; HIL_RC=$?
+  hil_expect "firmware silent (QEMU started halted)" 2 "sent nothing for 1.0 s" "$d/silent.txt"
+  if [ -f "$WORK/slots/a-only/firmware.elf" ]; then
+    "$HIL_FS" run "${one[@]}" --hil qemu-m4f --hil-firmware "$WORK/slots/a-only/firmware.elf" >"$d/not-hil.txt" 2>&1; HIL_RC=$?
+    hil_expect "a firmware without feature hil" 2 "QEMU exited" "$d/not-hil.txt"
+  fi
+  "$HIL_FS" run --blob "$HIL_BLOB" "${HIL_RUN[@]}" --hil qemu-m4f --tick-budget 1000 >"$d/budget.txt" 2>&1; HIL_RC=$?
+  hil_expect "tick budget exceeded" 1 "ticks took more than the tick budget of 1000 instructions" "$d/budget.txt"
+  # A board reset mid-episode: QEMU's monitor (on a pipe) resets the chip while the run goes on.
+  rm -f "$d/mon.in" "$d/mon.out"; mkfifo "$d/mon.in" "$d/mon.out"
+  "$HIL_FS" run --blob "$HIL_BLOB" --episodes 100 --hil qemu-m4f --json "$d/reset.json" \
+    --hil-qemu-arg -monitor --hil-qemu-arg "pipe:$d/mon" >"$d/reset.txt" 2>&1 &
+  local pid=$!
+  cat "$d/mon.out" >/dev/null &
+  local drain=$!
+  sleep 3; echo system_reset >"$d/mon.in"; wait "$pid"; HIL_RC=$?
+  kill "$drain" 2>/dev/null; wait "$drain" 2>/dev/null
+  if hil_expect "board reset mid-episode" 1 "the chip reset mid-episode" "$d/reset.txt"; then
+    local ran kept
+    ran=$(sed -n 's/.*"episodes_run": \([0-9]*\).*/\1/p' "$d/reset.json"); kept=$(grep -c '^    {$' "$d/reset.json")
+    [ -n "$ran" ] && [ "$ran" = "$kept" ] && [ "$ran" -gt 0 ] || hil_fail "board reset: the report keeps $kept episodes, stopped says ${ran:-none}"
+  fi
+  hil_no_qemu "board reset" "$pid"
+  # Ctrl-C: the episodes so far are reported, QEMU is stopped.
+  "$HIL_FS" run --blob "$HIL_BLOB" --episodes 100 --hil qemu-m4f --json "$d/ctrlc.json" >"$d/ctrlc.txt" 2>&1 &
+  pid=$!; sleep 2; kill -INT "$pid"; wait "$pid"; HIL_RC=$?
+  hil_expect "Ctrl-C" 1 "interrupted (Ctrl-C)" "$d/ctrlc.txt" && { grep -q '"episodes_run"' "$d/ctrlc.json" || hil_fail "Ctrl-C: no report written"; }
+  hil_no_qemu "Ctrl-C" "$pid"
+  set -e
+  if [ -n "$had_target" ]; then export CARGO_TARGET_DIR=$old_target; else unset CARGO_TARGET_DIR; fi
+}
+# HIL (hardware in the loop) -- end
+#==================================================================================================
+
+# --hil-only: the HIL firmware and its checks alone (HIL block above).
+if [ "$HIL_ONLY" = 1 ]; then
+  hil_checks
+  step done
+  [ ${#FAILED[@]} = 0 ] || { printf 'FAILED: %s\n' "${FAILED[@]}" >&2; exit 1; }
+  echo "RESULT: PASS (HIL: $HIL_PASSED runs equal to the host loop; failure cases as expected)"; exit 0
+fi
 SELECTED=(${VARIANTS:-$(printf '%s\n' "${ALL_VARIANTS[@]}" | cut -d: -f1)})
-FAILED=(); JSONS=()
+JSONS=()
 for spec in "${ALL_VARIANTS[@]}"; do
   IFS=: read -r name target machine cpu which profile refine encodings firmware <<<"$spec"
   profile=${profile:-release}
@@ -452,6 +606,9 @@ if [ "$SLOT_CASES" = 1 ]; then
     SLOT_JSONS+=("$dir/case.json")
   done
 fi
+
+# HIL checks (block above), after the variants and the slot cases.
+[ "$HIL" = 1 ] && hil_checks
 
 #--------------------------------------------------------------------------------------------------
 step "report"

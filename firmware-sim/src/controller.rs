@@ -23,6 +23,13 @@ pub trait Controller {
     /// Writes the action for `obs` into `action`. Anything may come out (NaN included): the
     /// actuator model sanitises it before it reaches the plant.
     fn act(&mut self, obs: &[f32], action: &mut [f32]);
+    /// Why the controller can no longer act, if it cannot: a chip in the loop that went silent,
+    /// reset or garbled a frame ([`crate::hil`]). The test protocol asks after every episode;
+    /// on `Some` it drops that episode and stops, and the report says why. Host controllers
+    /// never fail.
+    fn failure(&mut self) -> Option<Error> {
+        None
+    }
 }
 
 /// The safe state a loop enters when the blob fails to load: every action is 0.

@@ -57,6 +57,9 @@ pub enum Error {
         /// What became of slot B.
         b: policy_core::slot::Status,
     },
+    /// Hardware in the loop: the chip, its link or the emulator failed (one line: what and
+    /// what to do).
+    Hil(String),
     /// An evaluation or fault setting is out of range.
     Config {
         /// The setting.
@@ -102,6 +105,7 @@ impl fmt::Display for Error {
                 "no slot holds a policy this plant's firmware can run: slot A {a}; slot B {b}"
             ),
             Error::Config { field, message } => write!(f, "{field}: {message}"),
+            Error::Hil(message) => write!(f, "{message}"),
         }
     }
 }

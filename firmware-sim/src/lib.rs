@@ -16,6 +16,8 @@
 //!   [`mod@pass`]: a run's verdict.
 //! - [`files`]: atomic output files, output paths checked before work, bounded blob reads;
 //!   [`seed`]: the random streams; [`error`]: the crate's one error type.
+//! - [`hil`]: hardware in the loop: the HIL firmware (under QEMU or on a board) computes
+//!   every action, as a [`controller::Controller`] the test protocol runs unchanged.
 //! - [`nav`]: the navigation plant of experiment 1, its layouts, reference controllers and test
 //!   protocol (margin metrics, JSON report, SVG plot).
 //! - [`badminton`]: the badminton plant of experiment 2 (two players of three agents), its
@@ -30,6 +32,7 @@ pub mod env;
 pub mod error;
 pub mod files;
 pub mod firmware;
+pub mod hil;
 pub mod nav;
 pub mod pass;
 pub mod refine;

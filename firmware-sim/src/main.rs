@@ -11,6 +11,9 @@
 use std::io;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
 
 use anyhow::{Context, Result};
 use clap::{Args, CommandFactory, Parser, Subcommand};
@@ -21,6 +24,10 @@ use firmware_sim::badminton::{self, reference::PlayerKind};
 use firmware_sim::boot::{boot_or_safe_state, PlantSizes};
 use firmware_sim::controller::Controller;
 use firmware_sim::files::{self, AtomicFile};
+use firmware_sim::hil::chip::{describe_boot, Backend, ChipOptions};
+use firmware_sim::hil::link::{open_serial, Link};
+use firmware_sim::hil::qemu::{self, slot_addresses, Machine};
+use firmware_sim::hil::HilChip;
 use firmware_sim::nav::generator;
 use firmware_sim::nav::json_report::JsonReportWriter;
 use firmware_sim::nav::metrics::EpisodeRecord;
@@ -33,7 +40,8 @@ use firmware_sim::nav::test_protocol::{
 };
 use firmware_sim::refine::RefiningPolicy;
 use firmware_sim::sensor::SensorModel;
-use firmware_sim::slots::boot_slots;
+use firmware_sim::slots::{boot_slots, FIRMWARE_SCRATCH_WIDTH};
+use policy_core::slot::SlotId;
 
 /// `println!` and `print!` that end the process quietly when standard output's reader has gone
 /// (`| head`) instead of panicking: [`firmware_sim::files::write_stdout`].
@@ -198,6 +206,49 @@ struct RunArgs {
     /// Draw walls and every episode's trajectory to this SVG file.
     #[arg(long)]
     svg: Option<PathBuf>,
+    /// Hardware in the loop: the chip computes every action. qemu-m4f or qemu-m3: the HIL
+    /// firmware under QEMU, with --blob (slot A, sequence 1) or --slot-a/--slot-b in its flash
+    /// slots; serial:PATH: a board running the HIL firmware, its slots flashed with the same
+    /// images (the chip's hello must name the blob the host boots from them).
+    #[arg(long, value_parser = parse_hil, conflicts_with_all = ["controller", "critic", "scratch_width"])]
+    hil: Option<HilTarget>,
+    /// The HIL firmware ELF for --hil qemu-* [default: <target dir>/cortex-m/hil/m4f/firmware.elf
+    /// (or m3), where `bash scripts/cortex-m.sh --hil-only` builds it].
+    #[arg(long, requires = "hil")]
+    hil_firmware: Option<PathBuf>,
+    /// Serial speed for --hil serial:PATH.
+    #[arg(long, requires = "hil", default_value_t = 115_200)]
+    baud: u32,
+    /// The longest wait, in seconds, for the chip's hello or for one tick's action.
+    #[arg(long, requires = "hil", default_value_t = 5.0)]
+    tick_timeout: f64,
+    /// Fails the run (exit 1) if a tick takes more than this many instructions on the chip.
+    #[arg(long, requires = "hil")]
+    tick_budget: Option<u64>,
+    /// One more argument for qemu-system-arm (repeatable; tests start a chip that never runs
+    /// with -S, or add a monitor socket to reset it).
+    #[arg(long, requires = "hil", hide = true, allow_hyphen_values = true)]
+    hil_qemu_arg: Vec<String>,
+}
+
+/// Where `--hil` finds the chip.
+#[derive(Clone, Debug)]
+enum HilTarget {
+    Qemu(Machine),
+    Serial(String),
+}
+
+fn parse_hil(s: &str) -> Result<HilTarget, String> {
+    match s {
+        "qemu-m4f" => Ok(HilTarget::Qemu(Machine::M4f)),
+        "qemu-m3" => Ok(HilTarget::Qemu(Machine::M3)),
+        _ => match s.strip_prefix("serial:") {
+            Some(path) if !path.is_empty() => Ok(HilTarget::Serial(path.to_string())),
+            _ => Err(format!(
+                "expected qemu-m4f, qemu-m3 or serial:PATH, found {s:?}"
+            )),
+        },
+    }
 }
 
 fn main() -> ExitCode {
@@ -280,6 +331,14 @@ fn run(args: &RunArgs) -> Result<bool> {
     let [slot_a, slot_b] = slots;
     let (slot_a, slot_b) = (slot_a?, slot_b?);
     let critic = read_critic(args)?;
+    if let Some(target) = &args.hil {
+        let given = if args.blob.is_some() {
+            Given::Blob(bytes.as_deref().unwrap_or_default())
+        } else {
+            Given::Slots(&slot_a, &slot_b)
+        };
+        return run_hil(args, target, &scenario, &cfg, given);
+    }
     let mut counts = None;
     let (mut controller, boot_error) = if args.slot_a.is_some() || args.slot_b.is_some() {
         let boot = boot_slots(
@@ -323,6 +382,187 @@ fn run(args: &RunArgs) -> Result<bool> {
     outputs.finish(&report)?;
     report_failures(&report, args.blob.as_deref());
     Ok(report.pass.passed)
+}
+
+/// What `--hil` loads into the chip's slots.
+enum Given<'a> {
+    Blob(&'a [u8]),
+    Slots(&'a [u8], &'a [u8]),
+}
+
+/// `run --hil`: the same test protocol with the chip computing every action; `Ok(passed)`.
+fn run_hil(
+    args: &RunArgs,
+    target: &HilTarget,
+    scenario: &Scenario,
+    cfg: &EvalConfig,
+    given: Given<'_>,
+) -> Result<bool> {
+    let plant = PlantSizes::of(scenario)?;
+    if !(args.tick_timeout.is_finite() && args.tick_timeout > 0.0 && args.tick_timeout <= 3600.0) {
+        anyhow::bail!(
+            "--tick-timeout must be in (0, 3600] seconds, found {}",
+            args.tick_timeout
+        );
+    }
+    let timeout = Duration::from_secs_f64(args.tick_timeout);
+    let firmware = match target {
+        HilTarget::Qemu(machine) => {
+            let elf = hil_firmware(args, *machine)?;
+            let slots = slot_addresses(&elf)?;
+            Some((*machine, elf, slots))
+        }
+        HilTarget::Serial(_) => None,
+    };
+    // The slot size of the firmware's memory.x (a board's is the user's: the example's 128 KiB).
+    let capacity = firmware
+        .as_ref()
+        .map_or(1 << 17, |(_, _, s)| s.size as usize);
+    let (image_a, image_b) = match given {
+        Given::Blob(blob) => (
+            policy_core::slot::record(blob, 1, capacity)
+                .context("--blob cannot go into a flash slot")?,
+            Vec::new(),
+        ),
+        Given::Slots(a, b) => (a.to_vec(), b.to_vec()),
+    };
+    for (name, image) in [("--slot-a", &image_a), ("--slot-b", &image_b)] {
+        if image.len() > capacity {
+            anyhow::bail!(
+                "{name}: {} bytes do not fit a slot of {capacity} bytes",
+                image.len()
+            );
+        }
+    }
+    // The host boots the same slots with the firmware's rule and scratch width: the report's
+    // controller is that blob, and the chip must say it runs the same one.
+    let host = boot_slots(&image_a, &image_b, &plant, FIRMWARE_SCRATCH_WIDTH)?;
+    let expected = host.running.map(|id| {
+        let image = if id == SlotId::A { &image_a } else { &image_b };
+        let blob = policy_core::slot::read(image)
+            .map(|r| r.blob)
+            .unwrap_or_default();
+        let crc = blob.len().checked_sub(4).map_or(0, |at| {
+            u32::from_le_bytes(blob[at..].try_into().unwrap_or_default())
+        });
+        (id, crc)
+    });
+
+    let interrupt = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&interrupt);
+    ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
+        .context("cannot catch Ctrl-C")?;
+    let (link_name, link, backend): (String, Box<dyn Link>, Option<Box<dyn Backend>>) =
+        match (target, &firmware) {
+            (HilTarget::Qemu(_), Some((machine, elf, slots))) => {
+                let mut images = Vec::new();
+                if !image_a.is_empty() {
+                    images.push((slots.a, &image_a[..]));
+                }
+                if !image_b.is_empty() {
+                    images.push((slots.b, &image_b[..]));
+                }
+                let (qemu, socket) =
+                    qemu::start(*machine, elf, &images, &args.hil_qemu_arg, timeout)?;
+                (
+                    machine.name().to_string(),
+                    Box::new(socket),
+                    Some(Box::new(qemu)),
+                )
+            }
+            (HilTarget::Serial(path), _) => {
+                let port = open_serial(path, args.baud).map_err(firmware_sim::Error::Hil)?;
+                (format!("serial:{path}"), Box::new(port), None)
+            }
+            (HilTarget::Qemu(_), None) => unreachable!("QEMU targets have a firmware"),
+        };
+    let options = ChipOptions {
+        link_name: link_name.clone(),
+        timeout,
+        ask_hello: matches!(target, HilTarget::Serial(_)),
+        interrupt: Some(interrupt),
+        budget: args.tick_budget,
+    };
+    let name = host.controller.name();
+    let mut chip = HilChip::connect(
+        link,
+        backend,
+        options,
+        name.clone(),
+        plant.observations,
+        plant.actions,
+    )?;
+    let hello = chip.hello().clone();
+    let chip_runs = hello.running.as_ref().map(|r| {
+        let id = match r.slot {
+            hil_protocol::Slot::A => SlotId::A,
+            hil_protocol::Slot::B => SlotId::B,
+        };
+        (id, r.blob_crc)
+    });
+    if chip_runs != expected {
+        let says = |r: Option<(SlotId, u32)>| {
+            r.map_or("the safe state".to_string(), |(id, crc)| {
+                format!("slot {id} (blob CRC {crc:#010x})")
+            })
+        };
+        anyhow::bail!(
+            "{link_name}: the chip runs {}, but the slots given boot {} on the host ({}): flash the same images, or give the ones it runs",
+            says(chip_runs),
+            says(expected),
+            describe_boot(&hello)
+        );
+    }
+    let runs = host
+        .running
+        .map_or("no slot runs: safe state".to_string(), |id| {
+            format!("slot {id} runs")
+        });
+    println!("{link_name}: {}; {runs}", describe_boot(&hello));
+
+    let mut outputs = Outputs::create(args, scenario, &name)?;
+    let mut report = evaluate_streaming(&mut chip, scenario, cfg, |e| outputs.episode(&e))?;
+    if let Some(e) = &host.error {
+        report.mark_boot_failure(e);
+    }
+    let chip_report = chip.report();
+    // QEMU stops here, before the outputs are written.
+    drop(chip);
+    if chip_report.ticks_over_budget > 0 {
+        report.pass.passed = false;
+        report.pass.failures.push(format!(
+            "{} ticks took more than the tick budget of {} instructions (the most: {})",
+            chip_report.ticks_over_budget,
+            chip_report.tick_budget.unwrap_or_default(),
+            chip_report.instructions_max
+        ));
+    }
+    report.chip = Some(chip_report);
+    print!("{}", report.summary());
+    outputs.finish(&report)?;
+    report_failures(&report, args.blob.as_deref());
+    Ok(report.pass.passed)
+}
+
+/// The HIL firmware ELF: `--hil-firmware`, else where scripts/cortex-m.sh builds it.
+fn hil_firmware(args: &RunArgs, machine: Machine) -> Result<PathBuf> {
+    if let Some(elf) = &args.hil_firmware {
+        anyhow::ensure!(
+            elf.is_file(),
+            "--hil-firmware {}: no such file",
+            elf.display()
+        );
+        return Ok(elf.clone());
+    }
+    let target_dir =
+        std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| PathBuf::from("target"), PathBuf::from);
+    let elf = machine.default_firmware(&target_dir);
+    anyhow::ensure!(
+        elf.is_file(),
+        "no HIL firmware at {}: build it with `bash scripts/cortex-m.sh --hil-only` (or give --hil-firmware ELF)",
+        elf.display()
+    );
+    Ok(elf)
 }
 
 /// `--svg` draws the first rally of at least this many hits.

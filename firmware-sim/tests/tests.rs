@@ -23,6 +23,10 @@ mod determinism;
 mod faults;
 /// Wall geometry properties: never crosses or leaves through a wall, slides parallel.
 mod geometry;
+/// Hardware in the loop against a fake chip on a socket pair: the host loop's report bit for
+/// bit, and each fault (silence, a garbled, cut or foreign-version frame, a reset, Ctrl-C)
+/// stopping the run with its reason; `--hil` bad input.
+mod hil;
 /// Generated layouts: reproducible from their seed, valid, solved by the oracle from every
 /// start, with margins that stop a straight-line controller.
 mod layouts;

@@ -27,6 +27,8 @@
 #![no_main]
 
 mod console;
+#[cfg(feature = "hil")]
+mod hil;
 mod observations;
 #[cfg(feature = "refine")]
 mod proposals;
@@ -34,6 +36,8 @@ mod proposals;
 mod refine;
 mod slots;
 mod stack;
+#[cfg(feature = "hil")]
+mod uart;
 
 use core::hint::black_box;
 
@@ -116,6 +120,14 @@ fn main() -> ! {
     let boot_ticks = elapsed(t0);
     let boot_stack = stack::used_below(sp);
     let model = booted.running.as_ref().map(|(_, model)| model);
+
+    // Hardware in the loop: from here on the host sends the observations. `serve` never
+    // returns; the constant `if` keeps the code below compiled (and free of warnings) in this
+    // build too, and the optimiser drops it.
+    #[cfg(feature = "hil")]
+    if hil::SERVE {
+        hil::serve(&booted, (slot_a, slot_b), (cal_insns, cal_ticks), SCRATCH);
+    }
 
     #[cfg(feature = "refine")]
     let mut refiner = match refine::Refiner::boot(slots::critic_region()) {

@@ -172,8 +172,24 @@ pub struct Report {
     pub timing: Timing,
     /// The scenario's pass criteria.
     pub pass: PassOutcome,
+    /// Why the run stopped before its last episode (a chip in the loop failed), if it did: the
+    /// totals are those of the episodes that ran to the end.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stopped: Option<Stopped>,
+    /// The chip's side of a hardware-in-the-loop run (`run --hil`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub chip: Option<crate::hil::ChipReport>,
     /// One record per test.
     pub episodes: Vec<EpisodeRecord>,
+}
+
+/// Why and when a run stopped early (the episode it stopped in is not counted).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Stopped {
+    /// Episodes that ran to the end before the failure.
+    pub episodes_run: u64,
+    /// The failure, one line.
+    pub reason: String,
 }
 
 impl Report {
@@ -195,6 +211,14 @@ impl Report {
         Report {
             timing: Timing::default(),
             ..self.clone()
+        }
+    }
+
+    /// Episodes that ran to the end (all of them unless the run [`stopped`](Report::stopped)).
+    pub fn ran(&self) -> u64 {
+        match &self.stopped {
+            Some(s) => s.episodes_run,
+            None => self.config.episodes as u64,
         }
     }
 
@@ -268,12 +292,25 @@ impl Report {
             ("boot", boot),
             ("pass criteria", verdict),
         ];
+        let tests = match &self.stopped {
+            Some(_) => format!("{} of {} tests", self.ran(), self.config.episodes),
+            None => format!("{} tests", self.config.episodes),
+        };
         let mut out = format!(
-            "{} | {} | {} tests, seed {}\n",
-            self.scenario, self.controller, self.config.episodes, self.config.seed
+            "{} | {} | {tests}, seed {}\n",
+            self.scenario, self.controller, self.config.seed
         );
         for (k, v) in rows {
             out.push_str(&format!("  {k:<33} {v}\n"));
+        }
+        if let Some(chip) = &self.chip {
+            for (k, v) in chip.rows() {
+                out.push_str(&format!("  {k:<33} {v}\n"));
+            }
+        }
+        if let Some(s) = &self.stopped {
+            let row = format!("after {} episodes: {}", s.episodes_run, s.reason);
+            out.push_str(&format!("  {:<33} {row}\n", "stopped"));
         }
         out
     }
@@ -353,12 +390,30 @@ pub fn evaluate_streaming<E: From<Error>>(
     env.set_goal_terminates(false);
     let mut clock = Clock::default();
     let mut totals = Totals::default();
+    let mut stopped = None;
     for i in 0..cfg.episodes as u64 {
         let (record, sanitized) = run_episode(controller, &mut env, cfg, i, &mut clock);
+        if let Some(e) = controller.failure() {
+            // The episode the controller failed in did not run as the protocol says: dropped.
+            stopped = Some(Stopped {
+                episodes_run: i,
+                reason: e.to_string(),
+            });
+            break;
+        }
         totals.add(&record, sanitized);
         on_episode(record)?;
     }
-    Ok(totals.report(controller.name(), scenario, cfg, clock.timing()))
+    let mut report = totals.report(controller.name(), scenario, cfg, clock.timing());
+    if let Some(s) = stopped {
+        report.pass.passed = false;
+        report.pass.failures.insert(
+            0,
+            format!("stopped after {} episodes: {}", s.episodes_run, s.reason),
+        );
+        report.stopped = Some(s);
+    }
+    Ok(report)
 }
 
 /// One test episode of the firmware loop; returns its record and the number of sanitised
@@ -461,7 +516,8 @@ impl Totals {
         cfg: &EvalConfig,
         timing: Timing,
     ) -> Report {
-        let n = self.episodes as f64;
+        // At least one: a run that stopped in its first episode has rates of 0, not NaN.
+        let n = self.episodes.max(1) as f64;
         let per_step = |count: u64| count as f64 / self.steps.max(1) as f64;
         let mut report = Report {
             scenario: scenario.name.clone(),
@@ -485,6 +541,8 @@ impl Totals {
                 passed: true,
                 failures: Vec::new(),
             },
+            stopped: None,
+            chip: None,
             episodes: Vec::new(),
         };
         report.pass = judge(&report, scenario);

@@ -1,0 +1,319 @@
+//! Hardware in the loop without hardware: the chip controller ([`HilChip`]) against an
+//! in-process fake chip on a socket pair that runs policy-core on the host, answers as the HIL
+//! firmware does, and misbehaves on purpose. A good chip gives the host loop's report bit for
+//! bit; each fault stops the run with its one-line reason after the episodes that completed.
+//! (The real firmware under QEMU is checked by scripts/cortex-m.sh.)
+
+use std::os::unix::net::UnixStream;
+use std::process::Command;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Duration;
+
+use firmware_sim::controller::BlobPolicy;
+use firmware_sim::hil::chip::ChipOptions;
+use firmware_sim::hil::HilChip;
+use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::test_protocol::{evaluate_controller, EvalConfig, Report};
+use hil_protocol::{
+    decode, encode, encode_version, Calibration, Encoding, FromChip, Hello, Receiver, Running,
+    Slot, SlotState, ToChip, Values, MAX_FRAME, VERSION,
+};
+
+const BLOB: &[u8] = include_bytes!("../../models/nav-walls__dcp-paper__0.postcard");
+const BIN: &str = env!("CARGO_BIN_EXE_firmware-sim");
+
+/// What the fake chip does at observation number `at` (counted from 0 over the whole run).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Fault {
+    None,
+    /// Answers nothing from then on.
+    Silent,
+    /// One byte of the action frame changed.
+    Garbled,
+    /// The action frame cut in half, then a delimiter (its COBS code bytes then point past it).
+    Truncated,
+    /// The action in a frame of the next protocol version.
+    OtherVersion,
+    /// A new hello instead of the action: the board reset.
+    Reset,
+    /// The link closes.
+    Closed,
+    /// The action of another tick.
+    WrongTick,
+}
+
+fn hello() -> Hello {
+    Hello {
+        running: Some(Running {
+            slot: Slot::A,
+            sequence: 1,
+            blob_crc: u32::from_le_bytes(BLOB[BLOB.len() - 4..].try_into().expect("4 bytes")),
+            blob_len: BLOB.len() as u32,
+            depth: 4,
+            width: 48,
+            observations: 2,
+            actions: 2,
+            encoding: Encoding::F32,
+        }),
+        a: SlotState::Running { sequence: 1 },
+        b: SlotState::Failed {
+            reason: "empty slot".try_into().expect("fits"),
+        },
+        calibration: Calibration {
+            instructions: 200_000,
+            ticks: 5_000,
+        },
+    }
+}
+
+fn send(link: &mut UnixStream, frame: &[u8]) {
+    use std::io::Write;
+    // The host may have gone (it stops at the first fault): nothing to do then.
+    let _ = link.write_all(frame);
+}
+
+/// The fake chip: the HIL firmware's loop with policy-core on the host.
+fn fake_chip(mut link: UnixStream, fault: Fault, at: u64) {
+    use std::io::Read;
+    let mut policy = BlobPolicy::boot(BLOB).expect("boots");
+    let mut buf = [0u8; MAX_FRAME];
+    send(
+        &mut link,
+        encode(&FromChip::Hello(hello()), &mut buf).expect("fits"),
+    );
+    let mut rx = Receiver::new();
+    let mut seen = 0u64;
+    let mut byte = [0u8; 1];
+    while let Ok(1) = link.read(&mut byte) {
+        let Some(frame) = rx.push(byte[0]) else {
+            continue;
+        };
+        let Ok(ToChip::Observe { tick, observation }) = frame.and_then(decode::<ToChip>) else {
+            panic!("the host sent a bad frame");
+        };
+        let mut action = [0.0f32; 2];
+        firmware_sim::controller::Controller::act(&mut policy, &observation, &mut action);
+        let answer = FromChip::Action {
+            tick,
+            action: Values::from_slice(&action).expect("fits"),
+            ticks: 540 + (tick % 3),
+        };
+        let fault = if seen == at { fault } else { Fault::None };
+        seen += 1;
+        let frame = encode(&answer, &mut buf).expect("fits").to_vec();
+        match fault {
+            Fault::None => send(&mut link, &frame),
+            Fault::Silent => {
+                // Keep the link open, answer nothing.
+                while let Ok(n) = link.read(&mut byte) {
+                    if n == 0 {
+                        return;
+                    }
+                }
+                return;
+            }
+            Fault::Garbled => {
+                let mut bad = frame.clone();
+                bad[3] = if bad[3] == 0x55 { 0x56 } else { 0x55 };
+                send(&mut link, &bad);
+            }
+            Fault::Truncated => {
+                let mut cut = frame[..frame.len() / 2].to_vec();
+                cut.push(0);
+                send(&mut link, &cut);
+            }
+            Fault::OtherVersion => {
+                let frame = encode_version(&answer, VERSION + 1, &mut buf).expect("fits");
+                send(&mut link, frame);
+            }
+            Fault::Reset => {
+                send(&mut link, &[0]);
+                send(
+                    &mut link,
+                    encode(&FromChip::Hello(hello()), &mut buf).expect("fits"),
+                );
+            }
+            Fault::Closed => return,
+            Fault::WrongTick => {
+                let wrong = FromChip::Action {
+                    tick: tick + 1,
+                    action: Values::from_slice(&action).expect("fits"),
+                    ticks: 1,
+                };
+                send(&mut link, encode(&wrong, &mut buf).expect("fits"));
+            }
+        }
+    }
+}
+
+fn cfg() -> EvalConfig {
+    EvalConfig {
+        episodes: 3,
+        seed: 4,
+        faults: "dropout-nan:0.05,stuck:0@50".parse().expect("faults"),
+        record_trajectories: true,
+        ..EvalConfig::default()
+    }
+}
+
+/// Runs the test protocol through a fake chip with `fault` at observation `at`.
+fn run_fake(fault: Fault, at: u64, interrupt: bool) -> Report {
+    let (host, chip) = UnixStream::pair().expect("socket pair");
+    let fake = std::thread::spawn(move || fake_chip(chip, fault, at));
+    let flag = Arc::new(AtomicBool::new(false));
+    let name = BlobPolicy::boot(BLOB).expect("boots");
+    let name = firmware_sim::controller::Controller::name(&name);
+    let options = ChipOptions {
+        link_name: "fake".into(),
+        timeout: Duration::from_millis(300),
+        ask_hello: false,
+        interrupt: Some(Arc::clone(&flag)),
+        budget: Some(541 * 40),
+    };
+    let mut chip = HilChip::connect(Box::new(host), None, options, name, 2, 2).expect("hello");
+    // Ctrl-C after the hello.
+    flag.store(interrupt, std::sync::atomic::Ordering::SeqCst);
+    let s = Scenario::builtin("nav-walls").expect("builtin");
+    let mut report = evaluate_controller(&mut chip, &s, &cfg()).expect("runs");
+    report.chip = Some(chip.report());
+    drop(chip);
+    fake.join().expect("the fake chip ends when the host goes");
+    report
+}
+
+fn host_report() -> Report {
+    let s = Scenario::builtin("nav-walls").expect("builtin");
+    let mut policy = BlobPolicy::boot(BLOB).expect("boots");
+    evaluate_controller(&mut policy, &s, &cfg()).expect("runs")
+}
+
+#[test]
+fn a_chip_that_answers_gives_the_host_loops_report_bit_for_bit() {
+    let hil = run_fake(Fault::None, u64::MAX, false);
+    let chip = hil.chip.clone().expect("chip section");
+    assert_eq!(chip.ticks, hil.total_steps);
+    assert_eq!(chip.slot, "A");
+    // 540..=542 ticks x 40 instructions a tick; the budget of 541 is passed by the 542s.
+    assert_eq!(chip.instructions_max, 542 * 40);
+    assert!(chip.ticks_over_budget > 0 && chip.ticks_over_budget < chip.ticks);
+    let hil = Report {
+        chip: None,
+        ..hil.without_timing()
+    };
+    // Debug compares f64 NaN-safe and bit-exact enough for equal runs; the records hold the
+    // trajectories, which follow every action.
+    assert_eq!(
+        format!("{:?}", hil),
+        format!("{:?}", host_report().without_timing())
+    );
+}
+
+/// Each fault at observation 250 (episode 1 of 3, 200 ticks each): the run stops with its
+/// reason, episode 0 is kept, and the report fails.
+#[test]
+fn each_fault_stops_the_run_with_its_reason_after_the_episodes_that_completed() {
+    let host = host_report();
+    let cases = [
+        (Fault::Silent, "fake: the chip sent nothing for 0.3 s, waiting for the action of tick 250: it hangs, or the link is down"),
+        (Fault::Garbled, "fake: the chip sent a garbled frame (CRC-32 mismatch), waiting for the action of tick 250"),
+        (Fault::Truncated, "fake: the chip sent a garbled frame (invalid COBS), waiting for the action of tick 250"),
+        (Fault::OtherVersion, "fake: the chip sent a frame of protocol version 2, waiting for the action of tick 250; firmware-sim speaks version 1: flash a HIL firmware of this version"),
+        (Fault::Reset, "fake: the chip reset mid-episode (a new hello at tick 250: slot A running (sequence 1); slot B failed: empty slot)"),
+        (Fault::Closed, "fake: the link to the chip closed, waiting for the action of tick 250 (the link was closed)"),
+        (Fault::WrongTick, "fake: the chip answered tick 250 with tick 251 (2 values for 2)"),
+    ];
+    for (fault, reason) in cases {
+        let r = run_fake(fault, 250, false);
+        let stopped = r
+            .stopped
+            .clone()
+            .unwrap_or_else(|| panic!("{fault:?}: not stopped"));
+        assert_eq!(stopped.reason, reason, "{fault:?}");
+        assert_eq!(stopped.episodes_run, 1, "{fault:?}");
+        assert_eq!(r.episodes.len(), 1, "{fault:?}");
+        assert_eq!(
+            format!("{:?}", r.episodes[0]),
+            format!("{:?}", host.episodes[0]),
+            "{fault:?}: the completed episode is the host's"
+        );
+        assert!(!r.pass.passed);
+        assert!(r.pass.failures[0].starts_with("stopped after 1 episodes: fake: "));
+        assert!(r.summary().contains("1 of 3 tests"), "{}", r.summary());
+        assert!(!reason.contains('\n'));
+    }
+}
+
+#[test]
+fn ctrl_c_stops_the_run_before_the_first_tick() {
+    let r = run_fake(Fault::None, u64::MAX, true);
+    let stopped = r.stopped.expect("stopped");
+    assert_eq!(stopped.episodes_run, 0);
+    assert_eq!(
+        stopped.reason,
+        "fake: interrupted (Ctrl-C), waiting for the action of tick 0"
+    );
+    // Rates over no episode are 0, not NaN.
+    assert_eq!(r.success_rate, 0.0);
+}
+
+#[test]
+fn a_chip_silent_from_the_start_is_refused_at_connect() {
+    let (host, _chip) = UnixStream::pair().expect("socket pair");
+    let options = ChipOptions {
+        link_name: "fake".into(),
+        timeout: Duration::from_millis(100),
+        ask_hello: false,
+        interrupt: None,
+        budget: None,
+    };
+    let e = HilChip::connect(Box::new(host), None, options, "x".into(), 2, 2).expect_err("silent");
+    assert_eq!(
+        e.to_string(),
+        "fake: the chip sent nothing for 0.1 s, waiting for the hello: it hangs, or the link is down"
+    );
+}
+
+fn cli(args: &[&str]) -> (Option<i32>, String) {
+    let o = Command::new(BIN)
+        .arg("run")
+        .args(args)
+        .env("CARGO_TARGET_DIR", "/nonexistent-target")
+        .output()
+        .expect("spawn");
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn hil_bad_input_is_one_line_and_exit_2() {
+    let blob = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../models/nav-walls__dcp-paper__0.postcard"
+    );
+    let manifest = concat!(env!("CARGO_MANIFEST_DIR"), "/Cargo.toml");
+    let cases: [(&[&str], &str); 5] = [
+        (&["--blob", blob, "--hil", "qemu-m7"], "expected qemu-m4f, qemu-m3 or serial:PATH"),
+        (
+            &["--blob", blob, "--hil", "qemu-m4f"],
+            "error: no HIL firmware at /nonexistent-target/cortex-m/hil/m4f/firmware.elf: build it with `bash scripts/cortex-m.sh --hil-only` (or give --hil-firmware ELF)",
+        ),
+        (
+            &["--blob", blob, "--hil", "qemu-m4f", "--hil-firmware", manifest],
+            "not an ELF file",
+        ),
+        (
+            &["--blob", blob, "--hil", "serial:/nonexistent/tty"],
+            "error: serial port /nonexistent/tty: no such device (is the board plugged in?)",
+        ),
+        (&["--blob", blob, "--tick-budget", "5"], "--hil"),
+    ];
+    for (args, needle) in cases {
+        let (code, err) = cli(args);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+}
