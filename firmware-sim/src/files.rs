@@ -446,6 +446,26 @@ fn folder_of(path: &Path) -> &Path {
         .unwrap_or(Path::new("."))
 }
 
+/// `println!` for the binaries: [`write_stdout`], so a reader that goes away (`| head`) ends
+/// the program quietly instead of a panic.
+#[macro_export]
+macro_rules! outln {
+    () => {
+        $crate::files::write_stdout(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::files::write_stdout(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// `print!` for the binaries: see [`outln!`].
+#[macro_export]
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::files::write_stdout(format_args!($($arg)*))
+    };
+}
+
 /// The exit status after standard output's reader went away: a shell's status for a process
 /// killed by SIGPIPE.
 pub const BROKEN_PIPE_STATUS: i32 = 141;

@@ -17,6 +17,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result};
 use clap::{Args, CommandFactory, Parser, Subcommand};
+use firmware_sim::{out, outln};
 
 use firmware_sim::actuator::ActuatorModel;
 use firmware_sim::badminton::play::{play_match, Length};
@@ -42,24 +43,6 @@ use firmware_sim::refine::RefiningPolicy;
 use firmware_sim::sensor::SensorModel;
 use firmware_sim::slots::{boot_slots, FIRMWARE_SCRATCH_WIDTH};
 use policy_core::slot::SlotId;
-
-/// `println!` and `print!` that end the process quietly when standard output's reader has gone
-/// (`| head`) instead of panicking: [`firmware_sim::files::write_stdout`].
-macro_rules! outln {
-    () => {
-        firmware_sim::files::write_stdout(format_args!("\n"))
-    };
-    ($($arg:tt)*) => {
-        firmware_sim::files::write_stdout(format_args!("{}\n", format_args!($($arg)*)))
-    };
-}
-
-/// See [`outln`].
-macro_rules! out {
-    ($($arg:tt)*) => {
-        firmware_sim::files::write_stdout(format_args!($($arg)*))
-    };
-}
 
 #[derive(Parser, Debug)]
 #[command(

@@ -26,6 +26,7 @@ use firmware_sim::boot::{self, PlantSizes};
 use firmware_sim::files;
 use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::test_protocol::{self, EvalConfig, Report};
+use firmware_sim::{out, outln};
 use host_trainer::algorithms::noise::Noise;
 use host_trainer::algorithms::{self, Algo};
 use host_trainer::blob::export::{self, ImageFormat, SlotTarget};
@@ -43,24 +44,6 @@ use host_trainer::sweep::record::Status;
 use host_trainer::sweep::{report, supervise};
 use policy_core::slot::SlotId;
 use policy_core::Encoding;
-
-/// `println!` and `print!` that end the process quietly when standard output's reader has gone
-/// (`| head`) instead of panicking: [`firmware_sim::files::write_stdout`].
-macro_rules! outln {
-    () => {
-        firmware_sim::files::write_stdout(format_args!("\n"))
-    };
-    ($($arg:tt)*) => {
-        firmware_sim::files::write_stdout(format_args!("{}\n", format_args!($($arg)*)))
-    };
-}
-
-/// See [`outln`].
-macro_rules! out {
-    ($($arg:tt)*) => {
-        firmware_sim::files::write_stdout(format_args!($($arg)*))
-    };
-}
 
 #[derive(Debug, Parser)]
 #[command(

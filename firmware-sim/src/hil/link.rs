@@ -30,20 +30,25 @@ impl Link for UnixStream {
 
     fn receive(&mut self, buf: &mut [u8], wait: Duration) -> io::Result<usize> {
         self.set_read_timeout(Some(at_least_1ms(wait)))?;
-        match self.read(buf) {
-            Ok(0) => Err(closed()),
-            Ok(n) => Ok(n),
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
-                ) =>
-            {
-                Ok(0)
-            }
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => Ok(0),
-            Err(e) => Err(e),
+        received(self.read(buf))
+    }
+}
+
+/// One read's outcome as `Link::receive` reports it: bytes, 0 when nothing came in time (or a
+/// signal interrupted the wait), and end of stream as the link closing.
+fn received(read: io::Result<usize>) -> io::Result<usize> {
+    match read {
+        Ok(0) => Err(closed()),
+        Ok(n) => Ok(n),
+        Err(e)
+            if matches!(
+                e.kind(),
+                io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
+            ) =>
+        {
+            Ok(0)
         }
+        Err(e) => Err(e),
     }
 }
 
@@ -68,20 +73,7 @@ impl Link for SerialLink {
 
     fn receive(&mut self, buf: &mut [u8], wait: Duration) -> io::Result<usize> {
         self.port.set_timeout(at_least_1ms(wait))?;
-        match self.port.read(buf) {
-            Ok(0) => Err(closed()),
-            Ok(n) => Ok(n),
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
-                ) =>
-            {
-                Ok(0)
-            }
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => Ok(0),
-            Err(e) => Err(e),
-        }
+        received(self.port.read(buf))
     }
 }
 
