@@ -10,7 +10,8 @@
 //! - [`controller`]: blob policies of any shape (policy-core's runtime model) and the safe
 //!   state; [`boot`]: booting a blob against a plant's sizes; [`slots`]: booting from the A/B
 //!   flash slots with the firmware's own rule (policy-core's `slot::choose`); [`refine`]: DCP's
-//!   compare step on the device.
+//!   compare step on the device; [`heads`]: an actor of several heads with the critic choosing
+//!   among them.
 //! - [`firmware`]: the firmware's side of each tick, around the controller: the [`sensor`]
 //!   (noise, delay, dropouts) and the [`actuator`] (saturation, rate limit, a stuck dimension);
 //!   [`mod@pass`]: a run's verdict.
@@ -32,6 +33,7 @@ pub mod env;
 pub mod error;
 pub mod files;
 pub mod firmware;
+pub mod heads;
 pub mod hil;
 pub mod nav;
 pub mod pass;

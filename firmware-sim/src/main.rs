@@ -25,6 +25,7 @@ use firmware_sim::badminton::{self, reference::PlayerKind};
 use firmware_sim::boot::{boot_or_safe_state, PlantSizes};
 use firmware_sim::controller::Controller;
 use firmware_sim::files::{self, AtomicFile};
+use firmware_sim::heads::HeadsPolicy;
 use firmware_sim::hil::chip::{describe_boot, Backend, ChipOptions};
 use firmware_sim::hil::link::{open_serial, Link};
 use firmware_sim::hil::qemu::{self, slot_addresses, Machine};
@@ -142,15 +143,25 @@ struct RunArgs {
     #[arg(long, conflicts_with = "controller")]
     slot_b: Option<PathBuf>,
     /// The actor's critic blob (critic.postcard): with --refine, each action is DCP's compare
-    /// step on the device (policy-core's `compare::refine_model`).
-    /// (The compare step runs from --blob only: a slot boot would run the plain actor, so
-    /// --critic with --slot-a/--slot-b is refused.)
-    #[arg(long, requires = "refine", conflicts_with_all = ["controller", "slot_a", "slot_b"])]
+    /// step on the device (policy-core's `compare::refine_model`); with --heads, the critic
+    /// chooses among the actor's heads (policy-core's `compare::choose_head`).
+    /// (Both run from --blob only: a slot boot would run the plain actor, so --critic with
+    /// --slot-a/--slot-b is refused.)
+    #[arg(long, requires = "critic_use", conflicts_with_all = ["controller", "slot_a", "slot_b"])]
     critic: Option<PathBuf>,
     /// T,SIGMA: before each action, T proposals around the actor's unit action with noise σ,
     /// the best under the critic replacing it only if its Q is higher (needs --critic).
-    #[arg(long, requires = "critic", value_parser = parse_refine)]
+    #[arg(long, requires = "critic", group = "critic_use", value_parser = parse_refine)]
     refine: Option<(usize, f32)>,
+    /// The blob is an actor of several heads (DCP's `heads`): it outputs a whole number of the
+    /// plant's actions, and the critic (--critic) chooses one head each tick.
+    #[arg(
+        long,
+        requires = "critic",
+        group = "critic_use",
+        conflicts_with = "hil"
+    )]
+    heads: bool,
     /// With --slot-a/--slot-b: the firmware's scratch width; a blob with a wider layer is refused
     /// as the chip refuses it [default: 64, the example firmware's].
     #[arg(long)]
@@ -322,7 +333,7 @@ fn run(args: &RunArgs) -> Result<bool> {
         };
         return run_hil(args, target, &scenario, &cfg, given);
     }
-    let mut counts = None;
+    let (mut counts, mut head_counts) = (None, None);
     let (mut controller, boot_error) = if args.slot_a.is_some() || args.slot_b.is_some() {
         let boot = boot_slots(
             &slot_a,
@@ -333,6 +344,17 @@ fn run(args: &RunArgs) -> Result<bool> {
         )?;
         out!("{}", boot.describe());
         (boot.controller, boot.error)
+    } else if let (Some(bytes), Some(critic), true) =
+        (bytes.as_deref(), critic.as_deref(), args.heads)
+    {
+        let plant = PlantSizes::of(&scenario)?;
+        match HeadsPolicy::boot(bytes, critic, &plant) {
+            Ok(policy) => {
+                head_counts = Some(policy.counts());
+                (Box::new(policy) as Box<dyn Controller>, None)
+            }
+            Err(_) => HeadsPolicy::boot_or_safe_state(bytes, critic, &plant),
+        }
     } else if let (Some(bytes), Some(critic), Some((t, sigma))) =
         (bytes.as_deref(), critic.as_deref(), args.refine)
     {
@@ -361,6 +383,13 @@ fn run(args: &RunArgs) -> Result<bool> {
     if let Some((ticks, replaced)) = counts.map(|c| c.get()) {
         let share = replaced as f64 / ticks.max(1) as f64;
         outln!("  compare step                      a proposal replaced the actor's action on {replaced} of {ticks} ticks ({share:.3})");
+    }
+    if let Some(chosen) = head_counts.map(|c| c.get()) {
+        let list: Vec<String> = chosen.iter().map(u64::to_string).collect();
+        outln!(
+            "  heads                             ticks on which each head was chosen: {}",
+            list.join(", ")
+        );
     }
     outputs.finish(&report)?;
     report_failures(&report, args.blob.as_deref());

@@ -688,6 +688,59 @@ fn the_compare_step_runs_in_the_loop() {
     drop(dir);
 }
 
+/// `--critic FILE --heads` runs an actor of several heads with the critic choosing one each
+/// tick; an actor of one head is its plain self; a critic that cannot judge the heads boots the
+/// safe state, with the reason; --heads without --critic, or with --refine, is bad input.
+#[test]
+fn an_actor_of_heads_runs_with_its_critic_choosing() {
+    let golden = concat!(env!("CARGO_MANIFEST_DIR"), "/../policy-core/tests/golden/");
+    let actor = format!("{golden}actor_2x32.postcard");
+    let critic = format!("{golden}critic_2x32.postcard");
+    let text = |o: &Output| String::from_utf8_lossy(&o.stdout).into_owned();
+    let metrics = |t: &str| -> String {
+        t.lines()
+            .filter(|l| l.contains("settled error") || l.contains("stuck at margin"))
+            .collect()
+    };
+    let plain = run(&["--blob", &actor, "--episodes", "3"]);
+    let one = run(&[
+        "--blob",
+        &actor,
+        "--critic",
+        &critic,
+        "--heads",
+        "--episodes",
+        "3",
+    ]);
+    assert_eq!(metrics(&text(&plain)), metrics(&text(&one)), "one head");
+    assert!(
+        text(&one).contains("ticks on which each head was chosen: 600"),
+        "{}",
+        text(&one)
+    );
+    let misfit = run(&[
+        "--blob",
+        &actor,
+        "--critic",
+        &actor,
+        "--heads",
+        "--episodes",
+        "1",
+    ]);
+    assert_eq!(misfit.status.code(), Some(1), "{}", stderr(&misfit));
+    let all = text(&misfit) + &stderr(&misfit);
+    assert!(all.contains("wrong model kind"), "{all}");
+    assert!(all.contains("safe-state"), "{all}");
+    assert_bad_input(&run(&["--blob", &actor, "--heads"]), &["--critic"]);
+    assert_bad_input(
+        &run(&[
+            "--blob", &actor, "--critic", &critic, "--heads", "--refine", "4,0.2",
+        ]),
+        &["--heads", "--refine"],
+    );
+    assert_bad_input(&run(&["--blob", &actor, "--critic", &critic]), &["--heads"]);
+}
+
 #[test]
 fn scenario_generate_writes_the_same_solvable_file_for_a_seed_and_refuses_bad_input() {
     let dir = scratch("generate");

@@ -23,7 +23,9 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
 use firmware_sim::boot::{self, PlantSizes};
+use firmware_sim::controller::Controller;
 use firmware_sim::files;
+use firmware_sim::heads::HeadsPolicy;
 use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::test_protocol::{self, EvalConfig, Report};
 use firmware_sim::{out, outln};
@@ -169,6 +171,9 @@ struct EvalArgs {
     /// The policy blob (policy.postcard).
     #[arg(long)]
     blob: PathBuf,
+    /// The critic blob of an actor of several heads (DCP's `heads`): it chooses the head.
+    #[arg(long)]
+    critic: Option<PathBuf>,
     /// Built-in scenario or scenario file.
     #[arg(long, default_value = "nav-walls")]
     task: String,
@@ -404,8 +409,16 @@ fn train_command(args: TrainArgs) -> Result<ExitCode> {
     // Every file first, then the report: a reader of standard output that goes away (which
     // ends the program) cannot cost the run its blobs or its evaluation.
     let blob = trainer.export(&run)?;
+    // An actor of several heads runs with its critic choosing the head, as on the chip.
+    let heads = trainer.config.algo == Algo::Dcp && trainer.config.dcp.heads > 1;
+    let critic = if heads {
+        Some(files::read_blob(&run.file(folder::CRITIC))?)
+    } else {
+        None
+    };
     let report = evaluate(
         &blob,
+        critic.as_deref(),
         &run.file(folder::POLICY),
         &trainer.scenario,
         trainer.config.eval_episodes,
@@ -665,7 +678,21 @@ fn eval_command(args: EvalArgs) -> Result<()> {
     let scenario = trainer::scenario(&args.task)?;
     let blob = files::read_blob(&args.blob)
         .with_context(|| format!("cannot read blob {}", args.blob.display()))?;
-    let report = evaluate(&blob, &args.blob, &scenario, args.episodes, args.seed)?;
+    let critic = match &args.critic {
+        Some(path) => Some(
+            files::read_blob(path)
+                .with_context(|| format!("cannot read critic {}", path.display()))?,
+        ),
+        None => None,
+    };
+    let report = evaluate(
+        &blob,
+        critic.as_deref(),
+        &args.blob,
+        &scenario,
+        args.episodes,
+        args.seed,
+    )?;
     print_summary(&report);
     if let Some(path) = &args.json {
         files::write_atomic(path, report_json(&report)?.as_bytes())
@@ -798,21 +825,29 @@ fn inspect_command(args: &InspectArgs) -> Result<()> {
 /// Boots the blob as firmware-sim's loop does and runs its test protocol. Where the loop would run
 /// a blob that does not boot in the safe state (what a chip does), a user asking to evaluate a
 /// file gets an error naming `source`, before any episode runs.
+/// With `critic`, the blob is an actor of several heads and the critic chooses among them.
 fn evaluate(
     blob: &[u8],
+    critic: Option<&[u8]>,
     source: &Path,
     scenario: &Scenario,
     episodes: usize,
     seed: u64,
 ) -> Result<Report> {
-    let mut policy = boot::boot(blob, &PlantSizes::of(scenario)?)
-        .with_context(|| format!("{} does not boot", source.display()))?;
+    let plant = PlantSizes::of(scenario)?;
+    let does_not_boot = || format!("{} does not boot", source.display());
+    let mut policy: Box<dyn Controller> = match critic {
+        None => Box::new(boot::boot(blob, &plant).with_context(does_not_boot)?),
+        Some(critic) => {
+            Box::new(HeadsPolicy::boot(blob, critic, &plant).with_context(does_not_boot)?)
+        }
+    };
     let config = EvalConfig {
         episodes,
         seed,
         ..EvalConfig::default()
     };
-    test_protocol::evaluate_controller(&mut policy, scenario, &config)
+    test_protocol::evaluate_controller(policy.as_mut(), scenario, &config)
         .with_context(|| format!("evaluating the policy on {}", scenario.name))
 }
 

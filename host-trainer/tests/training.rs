@@ -137,7 +137,7 @@ fn paper_smoke(seed: u64) -> TrainConfig {
 /// paper's DCP.
 fn dcp_variant_options() -> Vec<(&'static str, TrainConfig)> {
     type Edit = fn(&mut TrainConfig);
-    let edits: [(&str, Edit); 12] = [
+    let edits: [(&str, Edit); 13] = [
         ("softmax", |c| c.dcp.state_weights = StateWeights::Softmax),
         ("exp", |c| c.dcp.state_weights = StateWeights::Exp),
         ("binary", |c| c.dcp.state_weights = StateWeights::Binary),
@@ -156,6 +156,7 @@ fn dcp_variant_options() -> Vec<(&'static str, TrainConfig)> {
         }),
         ("uniform-share", |c| c.dcp.uniform_share = 0.25),
         ("sigma-schedule", |c| c.agent.sigma_start = Some(1.0)),
+        ("heads", |c| c.dcp.heads = 2),
         ("td3", |c| c.algo = Algo::Td3),
     ];
     edits
@@ -240,6 +241,110 @@ fn a_twin_critic_checkpoint_refuses_a_config_without_twins() {
         .configure(&plain.sections())
         .expect_err("twin state, no twin config");
     assert!(err.contains("twin critics"), "{err}");
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+/// The margin study's candidate files (`experiments/margin/*.toml`): each is DCP's defaults
+/// with its own options and nothing else, and each loads, validates and trains (2 episodes of
+/// the smoke network).
+#[test]
+fn margin_candidate_files_set_their_options_only_and_train() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../experiments/margin");
+    let defaults = TrainConfig::default();
+    type Check = fn(&TrainConfig) -> bool;
+    let candidates: [(&str, Check); 4] = [
+        ("sigma-schedule", |c| {
+            c.agent.sigma_start == Some(1.0) && c.dcp.uniform_share == 0.0
+        }),
+        ("uniform-share", |c| {
+            c.dcp.uniform_share == 0.25 && c.agent.sigma_start.is_none()
+        }),
+        ("uniform-sigma", |c| {
+            c.dcp.uniform_share == 0.25 && c.agent.sigma_start == Some(1.0)
+        }),
+        ("heads", |c| c.dcp.heads == 2 && c.dcp.uniform_share == 0.0),
+    ];
+    let out = scratch("margin-files");
+    for (name, check) in candidates {
+        let mut config = TrainConfig::from_file(&dir.join(format!("{name}.toml"))).expect("loads");
+        config.validate().expect("valid");
+        assert!(check(&config), "{name}: its options");
+        let mut back = config.clone();
+        (
+            back.agent.sigma_start,
+            back.dcp.uniform_share,
+            back.dcp.heads,
+        ) = (None, 0.0, 1);
+        assert_eq!(back, defaults, "{name}: nothing else changed");
+        let smoke = TrainConfig::smoke(Algo::Dcp, 0);
+        let sigma_start = config.agent.sigma_start;
+        (config.agent, config.episodes, config.dcp.t) = (smoke.agent, 2, smoke.dcp.t);
+        config.agent.sigma_start = sigma_start;
+        config.eval_episodes = smoke.eval_episodes;
+        let run = out.join(name);
+        std::fs::create_dir_all(&run).expect("dir");
+        let (trainer, _) = train_to_end(config, &run);
+        assert!(
+            trainer.last_stat("critic_loss").is_some_and(f32::is_finite),
+            "{name}"
+        );
+    }
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+/// An actor of two heads acts in training exactly as firmware-sim runs its exported actor and
+/// critic (the critic choosing the head), bit for bit, on ordinary and non-finite observations;
+/// its checkpoint refuses a config of another head count.
+#[test]
+fn a_two_head_actor_acts_as_its_blobs_run() {
+    use firmware_sim::boot::PlantSizes;
+    use firmware_sim::controller::Controller;
+    use firmware_sim::heads::HeadsPolicy;
+    let out = scratch("two-heads");
+    let mut config = paper_smoke(7);
+    config.dcp.heads = 2;
+    config.episodes = 3;
+    let (trainer, run) = train_to_end(config, &out);
+    trainer.export(&run).expect("export");
+    let actor = std::fs::read(run.file(folder::POLICY)).expect("actor blob");
+    let critic = std::fs::read(run.file(folder::CRITIC)).expect("critic blob");
+    let plant = PlantSizes {
+        observations: 2,
+        actions: 2,
+    };
+    let mut policy = HeadsPolicy::boot(&actor, &critic, &plant).expect("boots");
+    assert_eq!(policy.heads(), 2);
+    let mut rng = firmware_sim::seed::training_stream(1, "observations");
+    let special = [f32::NAN, f32::INFINITY, -f32::INFINITY, 1e30, -0.0];
+    for i in 0..600 {
+        let mut obs = [0.0f32; 2];
+        for o in &mut obs {
+            *o = 12.0 * firmware_sim::seed::uniform_f32(&mut rng) - 6.0;
+        }
+        if i % 50 == 0 {
+            obs[i / 50 % 2] = special[i / 100 % special.len()];
+        }
+        let mut chip = [0.0f32; 2];
+        policy.act(&obs, &mut chip);
+        let host = trainer.algorithm().greedy(&obs);
+        assert_eq!(
+            chip.map(f32::to_bits).to_vec(),
+            host.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+            "observation {obs:?}"
+        );
+    }
+    assert_eq!(policy.counts().get().iter().sum::<u64>(), 600);
+
+    let mut learner = trainer.checkpoint().learner;
+    let mut one = paper_smoke(7);
+    one.episodes = 3;
+    let err = learner
+        .configure(&one.sections())
+        .expect_err("two heads, one-head config");
+    assert!(
+        err.contains("1 actor head(s) and the checkpoint's actor has 2"),
+        "{err}"
+    );
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
 

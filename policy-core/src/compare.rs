@@ -9,6 +9,8 @@ use rand_core::Rng;
 
 use crate::critic::Critic;
 use crate::error::Error;
+#[cfg(doc)]
+use crate::model::argmax;
 use crate::model::{Model, Scratch};
 use crate::policy::Policy;
 
@@ -176,4 +178,66 @@ where
     best.action = best.unit;
     actor.scale(&mut best.action);
     Ok(best)
+}
+
+/// An actor of several heads on the device: the actor's output holds K actions of
+/// `action.len()` one after the other (its bounds K times), and the critic chooses among them,
+/// the head of largest Q(s, head) in the unit box by [`argmax`]'s rule (ties to the lowest head,
+/// a NaN never wins). The chosen head's action, scaled into its bounds, goes to `action`;
+/// `units` (K·A floats, the caller's: no allocation) ends holding every head's scaled action.
+/// Returns the chosen head.
+///
+/// Errors: `actor` is not an actor, `critic` not a critic, `units` is not the actor's output
+/// size or not a whole number of `action.len()` actions, or the sizes do not fit `obs` or the
+/// scratch.
+///
+/// ```
+/// use policy_core::compare::choose_head;
+/// use policy_core::model::{Model, Scratch};
+/// static ACTOR: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+/// static CRITIC: &[u8] = include_bytes!("../tests/golden/critic_2x32.postcard");
+/// let (actor, critic) = (Model::from_blob(ACTOR).unwrap(), Model::from_blob(CRITIC).unwrap());
+/// let mut scratch = Scratch::<32>::new();
+/// // Two one-dimensional heads of this 2-output actor, each scored by a critic of two actions
+/// // does not fit: the critic must take one head's actions.
+/// let (mut units, mut action) = ([0.0f32; 2], [0.0f32; 1]);
+/// assert!(choose_head(&actor, &critic, &[3.0, -1.0], &mut scratch, &mut units, &mut action).is_err());
+/// // One head of two actions: the head is the actor's own action.
+/// let (mut units, mut action) = ([0.0f32; 2], [0.0f32; 2]);
+/// let head = choose_head(&actor, &critic, &[3.0, -1.0], &mut scratch, &mut units, &mut action);
+/// let mut plain = [0.0f32; 2];
+/// actor.act(&[3.0, -1.0], &mut scratch, &mut plain).unwrap();
+/// assert_eq!((head, action), (Ok(0), plain));
+/// ```
+pub fn choose_head<const W: usize>(
+    actor: &Model<'_>,
+    critic: &Model<'_>,
+    obs: &[f32],
+    scratch: &mut Scratch<W>,
+    units: &mut [f32],
+    action: &mut [f32],
+) -> Result<usize, Error> {
+    let a = action.len();
+    if a == 0 || units.len() % a != 0 {
+        return Err(Error::SizeMismatch {
+            what: "heads' outputs (a whole number of actions)",
+            expected: a * (units.len() / a.max(1)).max(1),
+            found: units.len(),
+        });
+    }
+    actor.act_unit(obs, scratch, units)?;
+    let mut best: Option<(usize, f32)> = None;
+    for (k, head) in units.chunks(a).enumerate() {
+        let q = critic.q(obs, head, scratch)?;
+        // `argmax`'s rule, kept as a running best so no Q buffer is needed.
+        match best {
+            _ if q.is_nan() => {}
+            Some((_, b)) if q <= b => {}
+            _ => best = Some((k, q)),
+        }
+    }
+    let k = best.map_or(0, |(k, _)| k);
+    actor.scale(units);
+    action.copy_from_slice(&units[k * a..(k + 1) * a]);
+    Ok(k)
 }

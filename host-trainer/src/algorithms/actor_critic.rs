@@ -51,6 +51,14 @@ impl Sections {
         }
     }
 
+    /// The actor's heads: DCP's `heads`, else 1.
+    fn heads(&self) -> usize {
+        match self {
+            Sections::Dcp(dcp, _) => dcp.heads,
+            _ => 1,
+        }
+    }
+
     /// Critic updates per actor update: TD3's delay, else 1.
     fn policy_delay(&self) -> u64 {
         match self {
@@ -131,7 +139,8 @@ impl ActorCritic {
         high: &[f32],
     ) -> Result<ActorCritic, Error> {
         let mut init = seed::training_stream(seed, "init");
-        let mut agent = Agent::new(shared.clone(), obs_dim, low, high, &mut init)?;
+        let mut agent =
+            Agent::with_heads(shared.clone(), obs_dim, low, high, own.heads(), &mut init)?;
         agent.set_critics(own.critics(), &mut init);
         Ok(ActorCritic {
             agent,
@@ -164,6 +173,13 @@ impl ActorCritic {
                 } else {
                     "lacks"
                 }
+            ));
+        }
+        if own.heads() != self.agent.heads() {
+            return Err(format!(
+                "the config asks for {} actor head(s) and the checkpoint's actor has {}",
+                own.heads(),
+                self.agent.heads()
             ));
         }
         self.agent.config = shared.clone();

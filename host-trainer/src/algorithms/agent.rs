@@ -18,6 +18,7 @@
 //! paper's "dynamic input normalisation").
 
 use firmware_sim::seed::SimRng;
+use policy_core::model::argmax;
 use policy_core::normal::standard_normals;
 use serde::{Deserialize, Serialize};
 
@@ -175,6 +176,20 @@ impl Agent {
         high: &[f32],
         rng: &mut SimRng,
     ) -> Result<Agent, Error> {
+        Agent::with_heads(config, obs_dim, low, high, 1, rng)
+    }
+
+    /// [`Agent::new`] with an actor of `heads` heads: its output holds `heads` actions one after
+    /// the other, and the critic chooses among them ([`Agent::chosen_unit`]). One head is the
+    /// plain actor, with the same initial weights as [`Agent::new`].
+    pub fn with_heads(
+        config: AgentConfig,
+        obs_dim: usize,
+        low: &[f32],
+        high: &[f32],
+        heads: usize,
+        rng: &mut SimRng,
+    ) -> Result<Agent, Error> {
         config.validate()?;
         if low.len() != high.len() {
             return Err(Error::ShapeMismatch {
@@ -185,7 +200,7 @@ impl Agent {
         }
         let act_dim = low.len();
         let actor = Net::new(
-            config.net(obs_dim, act_dim, Output::Tanh, config.dropout),
+            config.net(obs_dim, heads * act_dim, Output::Tanh, config.dropout),
             rng,
         );
         let critic = Net::new(
@@ -235,12 +250,18 @@ impl Agent {
         self.actor.config.inputs
     }
 
-    /// Action size.
+    /// Action size (of the plant; an actor of several heads outputs this many per head).
     pub fn act_dim(&self) -> usize {
-        self.actor.config.outputs
+        self.low.len()
     }
 
-    /// What export and evaluation see: the actor, the frozen normaliser, the bounds.
+    /// The actor's heads: 1, or several whose actions the critic chooses among.
+    pub fn heads(&self) -> usize {
+        self.actor.config.outputs / self.act_dim().max(1)
+    }
+
+    /// What export and evaluation see: the actor, the frozen normaliser, the bounds (one
+    /// head's; [`Agent::actor_blob`] repeats them per head).
     pub fn parts(&self) -> ActorParts<'_> {
         ActorParts {
             net: &self.actor,
@@ -251,15 +272,39 @@ impl Agent {
     }
 
     /// The greedy action in plant units from the trainer's own networks, bit-exact with
-    /// policy-core's `Model::act` on the exported blob.
+    /// policy-core's `Model::act` on the exported blob (with several heads, with policy-core's
+    /// `compare::choose_head` on the exported actor and critic).
     pub fn greedy(&self, obs: &[f32]) -> Vec<f32> {
-        forward::act(&self.parts(), obs)
+        if self.heads() == 1 {
+            return forward::act(&self.parts(), obs);
+        }
+        let unit = self.chosen_unit(obs);
+        let bounds = self.low.iter().zip(&self.high);
+        let scale = |(&u, (&lo, &hi))| policy_core::bounds::scale_value(u, lo, hi);
+        unit.iter().zip(bounds).map(scale).collect()
+    }
+
+    /// The actor's unit action for a raw observation: its only head's, or the head the critic
+    /// values most, Q(s, head) under the online critic Q1 (the exported one), by policy-core's
+    /// [`argmax`] rule (ties to the lowest head, NaN never wins), as `compare::choose_head`.
+    pub fn chosen_unit(&self, obs: &[f32]) -> Vec<f32> {
+        let mut unit = forward::act_unit(&self.parts(), obs);
+        let a = self.act_dim();
+        if self.heads() > 1 {
+            let q: Vec<f32> = (0..self.heads())
+                .map(|k| forward::q(&self.critic, &self.norm, obs, &unit[k * a..(k + 1) * a]))
+                .collect();
+            let best = argmax(&q);
+            unit.copy_within(best * a..(best + 1) * a, 0);
+            unit.truncate(a);
+        }
+        unit
     }
 
     /// Exploration: ã = clip(P(s) + noise, -1, 1) in the unit box, with the next draw of the
-    /// episode's noise process (see [`super::noise`]).
+    /// episode's noise process (see [`super::noise`]); P(s) the chosen head's action.
     pub fn explore(&self, obs: &[f32], noise: &mut NoiseProcess, rng: &mut SimRng) -> Vec<f32> {
-        let mut unit = forward::act_unit(&self.parts(), obs);
+        let mut unit = self.chosen_unit(obs);
         for (u, n) in unit.iter_mut().zip(noise.sample(rng)) {
             *u = (*u + n).clamp(-1.0, 1.0);
         }
@@ -368,6 +413,9 @@ impl Agent {
             .actor_target
             .forward(&s.z_next, &mut self.scratch.target_tape, None)
             .clone();
+        if self.heads() > 1 {
+            next_action = self.target_choice(&s.z_next, &next_action);
+        }
         if let Some(sm) = self.critics.smoothing {
             let rng = smoothing_rng.expect("target smoothing needs its random stream");
             let noise = &mut self.scratch.smoothing_noise;
@@ -387,6 +435,25 @@ impl Agent {
         (0..s.reward.len())
             .map(|i| s.reward[i] + s.discount[i] * (1.0 - s.terminal[i]) * q_next[i])
             .collect()
+    }
+
+    /// The target actor's action a' of several heads: per row of `heads` (B × K·A), the head
+    /// the target critic Q1' values most ([`argmax`]), as the policy chooses
+    /// with Q1 at run time.
+    fn target_choice(&mut self, z_next: &Matrix, heads: &Matrix) -> Matrix {
+        let (k, a) = (self.heads(), self.act_dim());
+        let per_head = Matrix::from_vec(heads.rows * k, a, heads.data.clone());
+        let input = critic_input(z_next, &per_head, k);
+        let split = &mut self.scratch.split;
+        let q = min_values(&self.critic_target, None, &input, split, &self.workers);
+        let mut chosen = Matrix::zeros(heads.rows, a);
+        for i in 0..heads.rows {
+            let best = argmax(&q[i * k..(i + 1) * k]);
+            chosen
+                .row_mut(i)
+                .copy_from_slice(per_head.row(i * k + best));
+        }
+        chosen
     }
 
     /// Q for each row of a critic input built by [`critic_input`] (inference: no dropout).
@@ -516,9 +583,17 @@ impl Agent {
                 .is_none_or(|t| t.critic.is_finite() && t.critic_target.is_finite())
     }
 
-    /// The actor blob (what gets flashed).
+    /// The actor blob (what gets flashed). An actor of K heads has K·A outputs and its bounds
+    /// K times; it runs with its critic ([`Agent::critic_blob`]) choosing the head.
     pub fn actor_blob(&self, label: &str) -> Result<Vec<u8>, Error> {
-        export::actor_blob(&self.parts(), label)
+        let k = self.heads();
+        let (low, high) = (self.low.repeat(k), self.high.repeat(k));
+        let parts = ActorParts {
+            low: &low,
+            high: &high,
+            ..self.parts()
+        };
+        export::actor_blob(&parts, label)
     }
 
     /// The critic blob (for the on-device compare step).

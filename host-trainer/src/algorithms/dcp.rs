@@ -37,6 +37,10 @@
 //!   within a KL bound of the one around the slowly moving target actor P'(s) (MPO's M-step
 //!   constraint, enforced by TRPO's backtracking), so P(s) cannot flip from one slide along a
 //!   wall to the other faster than the target follows.
+//! - `heads`: an actor of K heads, K actions per state, the critic choosing among them when
+//!   acting; the compare step proposes around every head and regresses each head toward the
+//!   best candidate nearest it (multiple-choice learning's winner-take-all, with the critic
+//!   as the judge), so two ways round a wall can keep one head each.
 
 use serde::{Deserialize, Serialize};
 
@@ -101,6 +105,13 @@ pub struct Config {
     /// box, 5 to 7 σc, where Gaussian proposals never go; QT-Opt's CEM (Kalashnikov et al.
     /// 2018) also starts from uniform samples, but keeps no actor].
     pub uniform_share: f32,
+    /// The actor's heads K: K actions per state, the critic choosing among them when acting
+    /// (on the chip too); each head regressed toward the best of the candidates nearest it
+    /// [paper: 1; ours, after the margin diagnosis, to test whether a single regression head
+    /// averages the two ways round a wall into the push between them; winner-take-all
+    /// assignment as in multiple-choice learning, Guzman-Rivera et al. 2012, with the critic
+    /// as the oracle that picks a head].
+    pub heads: usize,
 }
 
 /// DCP's defaults: the paper's DCP ([`Config::paper`]) with the winner of the DCP-variants
@@ -147,6 +158,7 @@ impl Config {
             trust_region: false,
             trust_region_kl: 0.01,
             uniform_share: 0.0,
+            heads: 1,
         }
     }
 }
@@ -157,6 +169,8 @@ pub const MAX_T: usize = 4096;
 pub const MAX_N_STEP: usize = 1000;
 /// The most CEM iterations.
 pub const MAX_CEM_ITERATIONS: usize = 100;
+/// The most actor heads.
+pub const MAX_HEADS: usize = 8;
 
 impl Config {
     /// Checks every value's range, naming the offending setting.
@@ -175,6 +189,20 @@ impl Config {
         Error::check_range("dcp.cem_elite", self.cem_elite, 1e-6, 1.0)?;
         Error::check_range("dcp.trust_region_kl", self.trust_region_kl, 1e-9, f32::MAX)?;
         Error::check_range("dcp.uniform_share", self.uniform_share, 0.0, 1.0)?;
+        Error::check_count("dcp.heads", self.heads, MAX_HEADS)?;
+        // Several heads run the best-of-T rule per head; the other rules are for one head.
+        if self.heads > 1
+            && (self.variant != Variant::Best
+                || self.cem
+                || self.state_weights != StateWeights::Off
+                || self.trust_region)
+        {
+            return Err(Error::invalid(
+                "dcp.heads",
+                "1 with variant, cem, state_weights or trust_region set (several heads take the \"best\" rule alone)",
+                self.heads,
+            ));
+        }
         // Hill climbing keeps one candidate per state: nothing to weigh per state or refit,
         // and each proposal perturbs the best so far.
         if self.variant == Variant::HillClimb
@@ -279,9 +307,10 @@ struct Candidates {
     per_state: usize,
 }
 
-/// A regression target: minibatch row, candidate row, weight.
+/// A regression target: minibatch row, actor head, candidate row, weight.
 struct Target {
     row: usize,
+    head: usize,
     candidate: usize,
     weight: f32,
 }
@@ -309,6 +338,9 @@ impl Dcp {
         proposal_rng: &mut SimRng,
         dropout_rng: &mut SimRng,
     ) -> ActorStats {
+        if agent.heads() > 1 {
+            return self.actor_update_heads(agent, s, proposal_rng, dropout_rng);
+        }
         let a0 = agent.actor_eval(&s.z);
         let scoring = self.config.scoring;
         let mut score = |actions: &Matrix, per: usize| score(agent, scoring, &s.z, actions, per);
@@ -333,6 +365,85 @@ impl Dcp {
         if let Some((old, anchor, kl)) = before {
             self.trust_region(agent, &s.z, old, &anchor, kl);
         }
+        stats.loss = loss;
+        stats
+    }
+
+    /// The actor step of an actor of K heads: T proposals around each head (the first
+    /// `uniform_share` of them uniform over the box), all B × K × (T + 1) candidates scored in
+    /// one critic pass; each candidate belongs to the head nearest it (squared distance in the
+    /// unit box, ties to the lowest head), and each head is regressed toward the best candidate
+    /// it owns when that beats the head's own action, weighted by the advantage over it. So a
+    /// head follows what wins near it, and two ways round a wall can each keep a head instead
+    /// of being averaged into one.
+    fn actor_update_heads(
+        &self,
+        agent: &mut Agent,
+        s: &Sample,
+        rng: &mut SimRng,
+        dropout_rng: &mut SimRng,
+    ) -> ActorStats {
+        let (heads, a) = (agent.heads(), agent.act_dim());
+        let p0 = agent.actor_eval(&s.z);
+        let states = p0.rows;
+        let per_head = self.config.t + 1;
+        let per = heads * per_head;
+        let mut actions = Matrix::zeros(states * per, a);
+        let sigma = vec![self.sigma_c; a];
+        for i in 0..states {
+            for (k, head) in p0.row(i).chunks(a).enumerate() {
+                let first = i * per + k * per_head;
+                actions.row_mut(first).copy_from_slice(head);
+                sample(
+                    head,
+                    &sigma,
+                    rows_mut(&mut actions, first + 1..first + per_head),
+                    rng,
+                );
+            }
+        }
+        let uniform = self.uniform_proposals();
+        for first in (0..states * heads).map(|h| h * per_head) {
+            for v in rows_mut(&mut actions, first + 1..first + 1 + uniform) {
+                *v = 2.0 * uniform_f32(rng) - 1.0;
+            }
+        }
+        let q = score(agent, self.config.scoring, &s.z, &actions, per);
+        let mut targets = Vec::new();
+        for i in 0..states {
+            let own = |k: usize| i * per + k * per_head;
+            let mut best: Vec<Option<usize>> = vec![None; heads];
+            for r in i * per..(i + 1) * per {
+                let owner = nearest(p0.row(i), actions.row(r));
+                if r != own(owner) && best[owner].is_none_or(|b| q[r] > q[b]) {
+                    best[owner] = Some(r);
+                }
+            }
+            for (head, b) in best.iter().enumerate() {
+                let Some(candidate) = *b else { continue };
+                let weight = q[candidate] - q[own(head)];
+                if weight > 0.0 {
+                    targets.push(Target {
+                        row: i,
+                        head,
+                        candidate,
+                        weight,
+                    });
+                }
+            }
+        }
+        let mut stats = ActorStats {
+            loss: 0.0,
+            kept: targets.len() as f32 / (states * heads).max(1) as f32,
+            advantage: targets.iter().map(|t| t.weight).sum::<f32>() / targets.len().max(1) as f32,
+        };
+        if targets.is_empty() {
+            return stats;
+        }
+        self.normalise_weights(&mut targets);
+        let p = agent.actor_forward_train_after_eval(&s.z, p0, dropout_rng);
+        let (loss, grad) = weighted_regression(&p, &actions, &targets);
+        agent.actor_step(&grad);
         stats.loss = loss;
         stats
     }
@@ -443,6 +554,7 @@ impl Dcp {
                 Variant::Weighted => {
                     targets.extend(range.filter(|&k| c.advantage[k] > 0.0).map(|k| Target {
                         row,
+                        head: 0,
                         candidate: k,
                         weight: c.advantage[k],
                     }))
@@ -451,6 +563,7 @@ impl Dcp {
                     let best = range.max_by(|&a, &b| c.advantage[a].total_cmp(&c.advantage[b]));
                     targets.extend(best.filter(|&k| c.advantage[k] > 0.0).map(|k| Target {
                         row,
+                        head: 0,
                         candidate: k,
                         weight: c.advantage[k],
                     }));
@@ -501,6 +614,7 @@ impl Dcp {
             .filter(|&(_, k)| w[k] > 0.0)
             .map(|(row, k)| Target {
                 row,
+                head: 0,
                 candidate: k,
                 weight: w[k],
             })
@@ -584,6 +698,25 @@ fn perturb(mean: &[f32], spread: &[f32], out: &mut [f32]) {
     for ((o, &m), &s) in out.iter_mut().zip(mean).zip(spread) {
         *o = (m + s * *o).clamp(-1.0, 1.0);
     }
+}
+
+/// Which of the heads (`heads`, one action after the other, each as long as `action`) lies
+/// nearest `action`: squared distance, ties to the lowest head.
+fn nearest(heads: &[f32], action: &[f32]) -> usize {
+    let distance = |head: &[f32]| -> f32 {
+        head.iter()
+            .zip(action)
+            .map(|(h, x)| (h - x) * (h - x))
+            .sum()
+    };
+    let mut best = (0, f32::INFINITY);
+    for (k, head) in heads.chunks(action.len().max(1)).enumerate() {
+        let d = distance(head);
+        if d < best.1 {
+            best = (k, d);
+        }
+    }
+    best.0
 }
 
 /// Rows `rows` of `m`, which are contiguous, as one slice.
@@ -717,12 +850,13 @@ fn weighted_regression(p: &Matrix, actions: &Matrix, targets: &[Target]) -> (f32
     let total: f32 = targets.iter().map(|t| t.weight).sum();
     let mut grad = Matrix::zeros(p.rows, p.cols);
     let mut loss = 0.0;
+    let a = actions.cols;
     for t in targets {
         let w = t.weight / total;
-        for ((g, &pk), &ak) in grad
-            .row_mut(t.row)
+        let head = t.head * a..(t.head + 1) * a;
+        for ((g, &pk), &ak) in grad.row_mut(t.row)[head.clone()]
             .iter_mut()
-            .zip(p.row(t.row))
+            .zip(&p.row(t.row)[head])
             .zip(actions.row(t.candidate))
         {
             let d = pk - ak;
@@ -766,6 +900,54 @@ mod tests {
             advantage,
             per_state,
         }
+    }
+
+    #[test]
+    fn a_head_target_moves_only_its_own_head() {
+        // One state, two heads of two actions: head 1 is pulled toward (0.5, 0.5).
+        let p = Matrix::from_vec(1, 4, vec![0.1, 0.2, -0.3, 0.4]);
+        let actions = Matrix::from_vec(2, 2, vec![9.0, 9.0, 0.5, 0.5]);
+        let targets = [Target {
+            row: 0,
+            head: 1,
+            candidate: 1,
+            weight: 1.0,
+        }];
+        let (loss, grad) = weighted_regression(&p, &actions, &targets);
+        assert!((loss - (0.8f32 * 0.8 + 0.1 * 0.1)).abs() < 1e-6, "{loss}");
+        let expected = [0.0, 0.0, 2.0 * -0.8, 2.0 * -0.1];
+        for (g, e) in grad.data.iter().zip(expected) {
+            assert!((g - e).abs() < 1e-6, "{:?}", grad.data);
+        }
+    }
+
+    #[test]
+    fn a_candidate_belongs_to_the_nearest_head_ties_to_the_lowest() {
+        let heads = [0.0, 0.0, 1.0, 1.0, 1.0, 1.0];
+        assert_eq!(nearest(&heads, &[0.2, 0.1]), 0);
+        assert_eq!(nearest(&heads, &[0.9, 0.7]), 1, "heads 1 and 2 coincide");
+        assert_eq!(nearest(&heads, &[0.5, 0.5]), 0, "equidistant");
+        assert_eq!(nearest(&heads, &[f32::NAN, 0.5]), 0);
+    }
+
+    #[test]
+    fn several_heads_take_the_best_rule_alone() {
+        let heads = |edit: fn(&mut Config)| {
+            let mut c = Config {
+                heads: 2,
+                ..Config::default()
+            };
+            edit(&mut c);
+            c.validate()
+        };
+        assert!(heads(|_| {}).is_ok());
+        assert!(heads(|c| c.uniform_share = 0.25).is_ok());
+        assert!(heads(|c| c.cem = true).is_err());
+        assert!(heads(|c| c.variant = Variant::Weighted).is_err());
+        assert!(heads(|c| c.state_weights = StateWeights::Exp).is_err());
+        assert!(heads(|c| c.trust_region = true).is_err());
+        assert!(heads(|c| c.heads = 0).is_err());
+        assert!(heads(|c| c.heads = MAX_HEADS + 1).is_err());
     }
 
     #[test]
@@ -815,16 +997,19 @@ mod tests {
         let targets = [
             Target {
                 row: 0,
+                head: 0,
                 candidate: 0,
                 weight: 2.0,
             },
             Target {
                 row: 1,
+                head: 0,
                 candidate: 1,
                 weight: 1.0,
             },
             Target {
                 row: 1,
+                head: 0,
                 candidate: 2,
                 weight: 0.5,
             },
