@@ -11,6 +11,8 @@
 //!
 //! Imports flow one way, from the bottom of this list to its top; no two modules import each
 //! other.
+//! - [`team`]: experiment 2's teams: badminton players of three learners each, trained on
+//!   random pairings within the team, checkpointed, exported as player folders.
 //! - [`sweep`]: many seeds and algorithms as parallel `train` processes: planning, supervising
 //!   the processes, and the summary with its intervals.
 //! - [`run`]: one training run: its configuration (which composes the algorithms' sections),
@@ -46,5 +48,6 @@ pub mod nn;
 pub mod rng_state;
 pub mod run;
 pub mod sweep;
+pub mod team;
 
 pub use error::Error;

@@ -44,6 +44,7 @@ use host_trainer::run::trainer::{self, Outcome, Trainer};
 use host_trainer::sweep::plan::{self, Seeds};
 use host_trainer::sweep::record::Status;
 use host_trainer::sweep::{report, supervise};
+use host_trainer::team::{self, config::TeamConfig, folder::TeamRun};
 use policy_core::slot::SlotId;
 use policy_core::Encoding;
 
@@ -75,6 +76,45 @@ enum Command {
     /// Train one run per (algo, seed) as parallel processes; skips finished runs, continues
     /// unfinished ones, and writes OUT/sweep.md and OUT/sweep.json.
     Sweep(SweepArgs),
+    /// Train a badminton team (experiment 2): N players of three agents each, random pairings,
+    /// one point per episode; writes OUT/{scenario}__{algo}__{seed}/ and exports every player
+    /// into its players/ folder.
+    Team(TeamArgs),
+}
+
+/// Flags override the config file, which overrides the defaults (the paper's values).
+#[derive(Debug, Args)]
+struct TeamArgs {
+    /// Team config file (TOML); see config.toml in any team folder.
+    #[arg(long, conflicts_with = "resume")]
+    config: Option<PathBuf>,
+    /// Learning algorithm of every agent: dcp, ddpg, td3 or ppo [default: dcp].
+    #[arg(long, value_enum, conflicts_with = "resume")]
+    algo: Option<Algo>,
+    /// DCP's proposals per state T [default: 16].
+    #[arg(long, conflicts_with = "resume")]
+    t: Option<usize>,
+    /// Players in the team [default: 16].
+    #[arg(long, conflicts_with = "resume")]
+    players: Option<usize>,
+    /// Points of training [default: 20000]; with --resume, a new budget.
+    #[arg(long)]
+    points: Option<usize>,
+    /// The team's seed [default: 0].
+    #[arg(long, conflicts_with = "resume")]
+    seed: Option<u64>,
+    /// Badminton scenario: badminton or a scenario TOML file [default: badminton].
+    #[arg(long, conflicts_with = "resume")]
+    scenario: Option<String>,
+    /// Existing output folder; the team's folder is created in it.
+    #[arg(long, required_unless_present = "resume", conflicts_with = "resume")]
+    out: Option<PathBuf>,
+    /// Continue the team in this folder from its checkpoint.
+    #[arg(long)]
+    resume: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
 }
 
 /// Flags override the config file, which overrides the defaults (the paper's values).
@@ -270,9 +310,10 @@ fn main() -> ExitCode {
         Some(Command::Export(args)) => export_command(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Inspect(args)) => inspect_command(&args).map(|()| ExitCode::SUCCESS),
         Some(Command::Sweep(args)) => sweep_command(args),
+        Some(Command::Team(args)) => team_command(args),
         None => {
             eprintln!(
-                "host-trainer: missing a subcommand: train, eval, export, inspect or sweep (see --help)"
+                "host-trainer: missing a subcommand: train, eval, export, inspect, sweep or team (see --help)"
             );
             return ExitCode::from(2);
         }
@@ -667,6 +708,65 @@ fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
         );
         return Ok(ExitCode::FAILURE);
     }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn team_command(args: TeamArgs) -> Result<ExitCode> {
+    let (mut team, _lock) = match &args.resume {
+        Some(dir) => {
+            let team = TeamRun::resume(dir, args.points)?;
+            let lock = lock::acquire(team.dir.path())?;
+            (team, lock)
+        }
+        None => {
+            let mut config = match &args.config {
+                Some(path) => TeamConfig::from_file(path)?,
+                None => TeamConfig::default(),
+            };
+            config.algo = args.algo.unwrap_or(config.algo);
+            config.dcp.t = args.t.unwrap_or(config.dcp.t);
+            config.players = args.players.unwrap_or(config.players);
+            config.points = args.points.unwrap_or(config.points);
+            config.seed = args.seed.unwrap_or(config.seed);
+            config.scenario = args.scenario.clone().unwrap_or(config.scenario);
+            let out = args.out.as_deref().unwrap_or(Path::new("."));
+            let team = TeamRun::create(config, out)?;
+            let lock = lock::acquire(team.dir.path())?;
+            (team, lock)
+        }
+    };
+    install_ctrl_c_handler();
+    let bar = progress::bar(team.config.points as u64, "point", args.quiet);
+    bar.set_position(team.team.points as u64);
+    let started = Instant::now();
+    let before = team.team.points;
+    let outcome = team.train(&mut |t| {
+        bar.set_position(t.points as u64);
+        if INTERRUPTS.load(Ordering::SeqCst) > 0 {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    });
+    bar.finish_and_clear();
+    if let team::folder::Outcome::Stopped(points) = outcome? {
+        eprintln!(
+            "host-trainer: interrupted after point {points} of {}; checkpoint written. Continue with: host-trainer team --resume {}",
+            team.config.points,
+            team.dir.path().display()
+        );
+        return Ok(ExitCode::from(INTERRUPTED));
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    let players = team.export()?;
+    let played = team.team.points - before;
+    outln!(
+        "trained {} ({played} points in {seconds:.1} s, {:.1} points/s); exported {} players into {}",
+        team.dir.path().display(),
+        played as f64 / seconds.max(1e-9),
+        players.len(),
+        team.dir.path().join(team::folder::PLAYERS).display()
+    );
     Ok(ExitCode::SUCCESS)
 }
 

@@ -1158,3 +1158,47 @@ fn keep_checkpoints_keeps_a_copy_of_each_and_changes_no_bit() {
         std::fs::remove_dir_all(&base).expect("cleanup");
     }
 }
+
+/// `team` refuses a team of 0 or 1 player, a budget of 0 points, DQN, a missing output folder,
+/// an unknown scenario and a resume of a folder holding no team, in one line, writing nothing;
+/// a tiny team trains, exports its players and refuses to be created twice.
+#[test]
+fn team_bad_input_is_one_line_and_writes_nothing() {
+    let out_dir = scratch("team-cli");
+    let dir = out_dir.to_str().expect("utf-8");
+    for (args, needle) in [
+        (vec!["--players", "1"], "players"),
+        (vec!["--players", "0"], "players"),
+        (vec!["--points", "0"], "points"),
+        (vec!["--algo", "dqn"], "dqn"),
+        (vec!["--scenario", "no-such-court.toml"], "no-such-court"),
+    ] {
+        let mut all = vec!["team", "--out", dir, "--quiet"];
+        all.extend(args);
+        let out = host_trainer(&all);
+        assert_one_line_error(&out, &[needle]);
+        assert!(entries(&out_dir).is_empty(), "{all:?} wrote something");
+    }
+    let missing = out_dir.join("missing");
+    let out = host_trainer(&["team", "--out", missing.to_str().expect("utf-8")]);
+    assert_one_line_error(&out, &["does not exist"]);
+    let out = host_trainer(&["team", "--resume", dir]);
+    assert_one_line_error(&out, &["checkpoint"]);
+
+    let tiny = [
+        "team",
+        "--players",
+        "2",
+        "--points",
+        "6",
+        "--out",
+        dir,
+        "--quiet",
+    ];
+    assert_ok(&host_trainer(&tiny));
+    let player = out_dir.join("badminton__dcp-t16__0/players/p01/player.toml");
+    assert!(player.is_file(), "{player:?}");
+    let again = host_trainer(&tiny);
+    assert_one_line_error(&again, &["already holds a run"]);
+    std::fs::remove_dir_all(&out_dir).expect("cleanup");
+}

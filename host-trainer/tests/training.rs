@@ -292,6 +292,151 @@ fn margin_candidate_files_set_their_options_only_and_train() {
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
 
+/// A badminton team of three DCP players trains on its pairings, the same seed gives the same
+/// player blobs, stopping and resuming equals the uninterrupted run, and DCP with another T
+/// starts from the same weights; the exported players load as folders of a manifest and blobs
+/// of each agent's shape.
+#[test]
+fn a_team_trains_resumes_exactly_and_exports_its_players() {
+    use host_trainer::team::config::TeamConfig;
+    use host_trainer::team::folder::{Outcome, TeamRun, MANIFEST};
+    let out = scratch("team");
+    let config = |t: usize| {
+        let smoke = TrainConfig::smoke(Algo::Dcp, 0);
+        let mut c = TeamConfig {
+            players: 3,
+            points: 60,
+            checkpoint_every: 20,
+            agent: smoke.agent,
+            ..TeamConfig::default()
+        };
+        c.agent.warmup_steps = 8;
+        c.dcp.t = t;
+        c
+    };
+    let folder = |name: &str| {
+        let d = out.join(name);
+        std::fs::create_dir_all(&d).expect("dir");
+        d
+    };
+    let blobs = |run: &TeamRun| -> Vec<Vec<u8>> {
+        run.export().expect("export");
+        (run.team.players.iter().enumerate())
+            .flat_map(|(p, _)| ["catch", "serve", "reset"].map(move |r| (p, r)))
+            .map(|(p, r)| {
+                let file = run.dir.path().join(format!("players/p{p:02}/{r}.postcard"));
+                std::fs::read(file).expect("blob")
+            })
+            .collect()
+    };
+    let go = |_: &host_trainer::team::training::Team| std::ops::ControlFlow::Continue(());
+    let mut whole = TeamRun::create(config(4), &folder("a")).expect("team");
+    assert_eq!(
+        whole.train(&mut go.clone()).expect("train"),
+        Outcome::Finished
+    );
+    let mut again = TeamRun::create(config(4), &folder("b")).expect("team");
+    again.train(&mut go.clone()).expect("train");
+    assert!(blobs(&whole) == blobs(&again), "same seed, same bytes");
+    let t = whole.team.players[0].agents[1].get().stat_names();
+    assert!(t.contains(&"critic_loss"));
+    let csv = std::fs::read_to_string(whole.dir.file(folder::METRICS)).expect("metrics");
+    assert_eq!(
+        csv.lines().count(),
+        4,
+        "a header and one row per 20 points:\n{csv}"
+    );
+    let header: Vec<&str> = csv.lines().next().expect("header").split(',').collect();
+    let column = header
+        .iter()
+        .position(|&h| h == "serve_critic_loss")
+        .expect("column");
+    let last: Vec<&str> = csv.lines().last().expect("row").split(',').collect();
+    let loss: f64 = last[column].parse().expect("a number");
+    assert!(loss.is_finite(), "the serve learners updated:\n{csv}");
+
+    // Stopped after 30 points, resumed to 60: the same team.
+    let mut parts = TeamRun::create(config(4), &folder("parts")).expect("team");
+    let mut stop = |t: &host_trainer::team::training::Team| {
+        if t.points == 30 {
+            std::ops::ControlFlow::Break(())
+        } else {
+            std::ops::ControlFlow::Continue(())
+        }
+    };
+    assert_eq!(parts.train(&mut stop).expect("train"), Outcome::Stopped(30));
+    let mut resumed = TeamRun::resume(parts.dir.path(), None).expect("resume");
+    resumed.train(&mut go.clone()).expect("train");
+    assert!(blobs(&resumed) == blobs(&whole), "resume");
+
+    // T changes the run, not the initialisation.
+    let fresh = |t: usize, name: &str| TeamRun::create(config(t), &folder(name)).expect("team");
+    let weights = |run: &TeamRun| -> Vec<Vec<u32>> {
+        (blobs(run).iter())
+            .map(|b| {
+                let model = policy_core::model::Model::from_blob(b).expect("loads");
+                model.values().map(f32::to_bits).collect()
+            })
+            .collect()
+    };
+    let (t1, t16) = (fresh(1, "t1"), fresh(16, "t16"));
+    assert!(
+        weights(&t1) == weights(&t16),
+        "same initial weights for any T"
+    );
+    let mut t1 = t1;
+    t1.train(&mut go.clone()).expect("train");
+    assert!(
+        weights(&t1) != weights(&whole),
+        "T = 1 trains otherwise than T = 4"
+    );
+
+    let manifest = std::fs::read_to_string(whole.dir.path().join("players/p01").join(MANIFEST))
+        .expect("manifest");
+    assert!(manifest.contains("format = 1") && manifest.contains("serve = \"serve.postcard\""));
+    for (role, actions) in [("catch", 2), ("serve", 3), ("reset", 2)] {
+        let file = whole
+            .dir
+            .path()
+            .join(format!("players/p01/{role}.postcard"));
+        let bytes = std::fs::read(file).expect("blob");
+        let model = policy_core::model::Model::from_blob(&bytes).expect("loads");
+        model.expect_sizes(10, actions).expect("the agent's shape");
+    }
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+/// Bad team settings are refused before anything is written: fewer than two players, a budget
+/// of 0 points, DQN, σ bounds the wrong way round.
+#[test]
+fn bad_team_settings_are_refused_before_a_folder_is_made() {
+    use host_trainer::team::config::TeamConfig;
+    use host_trainer::team::folder::TeamRun;
+    let out = scratch("team-bad");
+    type Edit = fn(&mut TeamConfig);
+    let cases: [(Edit, &str); 5] = [
+        (|c| c.players = 0, "players"),
+        (|c| c.players = 1, "players"),
+        (|c| c.points = 0, "points"),
+        (|c| c.algo = Algo::Dqn, "algo"),
+        (|c| (c.sigma_min, c.sigma_max) = (0.3, 0.2), "sigma_min"),
+    ];
+    for (edit, what) in cases {
+        let mut config = TeamConfig::default();
+        edit(&mut config);
+        let err = TeamRun::create(config, &out)
+            .expect_err("refused")
+            .to_string();
+        assert!(err.contains(what), "{err}");
+        assert_eq!(
+            std::fs::read_dir(&out).expect("out").count(),
+            0,
+            "nothing written"
+        );
+    }
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
 /// An actor of two heads acts in training exactly as firmware-sim runs its exported actor and
 /// critic (the critic choosing the head), bit for bit, on ordinary and non-finite observations;
 /// its checkpoint refuses a config of another head count.

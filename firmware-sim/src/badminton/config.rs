@@ -191,6 +191,20 @@ impl Config {
         })
     }
 
+    /// The scenario as TOML text, which [`Config::from_toml_str`] reads back to the same value
+    /// (a trained team records the plant it trained on).
+    ///
+    /// ```
+    /// use firmware_sim::badminton::Config;
+    /// let c = Config::builtin();
+    /// assert_eq!(Config::from_toml_str(&c.to_toml(), "copy").unwrap(), c);
+    /// ```
+    pub fn to_toml(&self) -> String {
+        // Plain data with string keys always serialises; keep the error visible if not.
+        toml::to_string(self)
+            .unwrap_or_else(|e| format!("# could not serialise the scenario: {e}\n"))
+    }
+
     /// Checks every rule of a value built in code; the error names the key.
     pub fn validate(&self) -> Result<(), Error> {
         self.broken_rule().map_or(Ok(()), |(key, message)| {

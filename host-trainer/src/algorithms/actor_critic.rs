@@ -108,6 +108,9 @@ pub struct ActorCritic {
     /// The episode's exploration process (at rest at every episode start).
     #[serde(skip)]
     noise: Option<NoiseProcess>,
+    /// The exploration σ set by [`Algorithm::set_exploration_sigma`], never saved.
+    #[serde(skip)]
+    sigma: Option<f32>,
     /// The unit action of the step between `act` and `learn`.
     #[serde(skip)]
     pending: Vec<f32>,
@@ -155,6 +158,7 @@ impl ActorCritic {
             policy_delay: own.policy_delay(),
             update: own.update(shared),
             noise: None,
+            sigma: None,
             pending: Vec::new(),
             means: Means::default(),
         })
@@ -234,7 +238,10 @@ impl ActorCritic {
 impl Algorithm for ActorCritic {
     fn start_episode(&mut self, episode: usize, _episodes: usize) {
         // At rest: no exploration state crosses an episode boundary (where checkpoints are).
-        self.noise = Some(self.agent.noise_process(episode));
+        self.noise = Some(match self.sigma {
+            Some(sigma) => self.agent.noise_process_with(sigma),
+            None => self.agent.noise_process(episode),
+        });
         self.means = Means::default();
     }
 
@@ -260,6 +267,10 @@ impl Algorithm for ActorCritic {
             self.update()?;
         }
         Ok(())
+    }
+
+    fn set_exploration_sigma(&mut self, sigma: Option<f32>) {
+        self.sigma = sigma;
     }
 
     fn stat_names(&self) -> &'static [&'static str] {

@@ -314,9 +314,14 @@ impl Agent {
     /// A noise process at rest with this agent's settings, for episode `episode` (its σ
     /// follows [`AgentConfig::sigma_at`]).
     pub fn noise_process(&self, episode: usize) -> NoiseProcess {
+        self.noise_process_with(self.config.sigma_at(episode))
+    }
+
+    /// A noise process at rest with this agent's settings and the σ given.
+    pub fn noise_process_with(&self, sigma: f32) -> NoiseProcess {
         NoiseProcess::new(
             self.config.noise,
-            self.config.sigma_at(episode),
+            sigma,
             self.config.ou_theta,
             self.low.len(),
         )

@@ -39,6 +39,10 @@ pub trait Algorithm {
     /// Learns from the step just taken: stores it, and updates when the algorithm's schedule
     /// says so. `Err(what)` names the first non-finite loss (the run has diverged).
     fn learn(&mut self, step: &Step<'_>) -> Result<(), &'static str>;
+    /// Sets the exploration σ of the episodes that start from now on, in place of the config's
+    /// (a badminton team draws one per game); `None` goes back to the config's schedule.
+    /// Algorithms whose exploration has no σ (PPO's learned spread, DQN's ε) ignore it.
+    fn set_exploration_sigma(&mut self, _sigma: Option<f32>) {}
     /// Names of the algorithm's own `metrics.csv` columns.
     fn stat_names(&self) -> &'static [&'static str];
     /// The values of those columns for the episode just finished (NaN where nothing ran).

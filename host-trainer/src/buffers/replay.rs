@@ -68,7 +68,9 @@ pub struct Batch {
 }
 
 impl Replay {
-    /// An empty buffer for `capacity` transitions (the storage is allocated up front).
+    /// An empty buffer for `capacity` transitions. The storage grows with the transitions
+    /// stored, up to the capacity, so a buffer (and a checkpoint) holds only what was stored: a
+    /// badminton team keeps 48 buffers that each see a few thousand transitions.
     ///
     /// # Panics
     /// If `capacity` is 0.
@@ -92,12 +94,12 @@ impl Replay {
             act_dim,
             len: 0,
             head: 0,
-            obs: vec![0.0; capacity * obs_dim],
-            action: vec![0.0; capacity * act_dim],
-            reward: vec![0.0; capacity],
-            next_obs: vec![0.0; capacity * obs_dim],
-            terminal: vec![0.0; capacity],
-            end: vec![false; capacity],
+            obs: Vec::new(),
+            action: Vec::new(),
+            reward: Vec::new(),
+            next_obs: Vec::new(),
+            terminal: Vec::new(),
+            end: Vec::new(),
         }
     }
 
@@ -114,12 +116,17 @@ impl Replay {
         );
         assert_eq!(t.action.len(), self.act_dim, "Replay::push: action size");
         let i = self.head;
-        slot_mut(&mut self.obs, self.obs_dim, i).copy_from_slice(&t.obs);
-        slot_mut(&mut self.next_obs, self.obs_dim, i).copy_from_slice(&t.next_obs);
-        slot_mut(&mut self.action, self.act_dim, i).copy_from_slice(&t.action);
-        self.reward[i] = t.reward;
-        self.terminal[i] = if t.terminal { 1.0 } else { 0.0 };
-        self.end[i] = t.terminal || t.truncated;
+        put(&mut self.obs, self.obs_dim, i, &t.obs);
+        put(&mut self.next_obs, self.obs_dim, i, &t.next_obs);
+        put(&mut self.action, self.act_dim, i, &t.action);
+        put(&mut self.reward, 1, i, &[t.reward]);
+        put(
+            &mut self.terminal,
+            1,
+            i,
+            &[if t.terminal { 1.0 } else { 0.0 }],
+        );
+        put(&mut self.end, 1, i, &[t.terminal || t.truncated]);
         self.head = (i + 1) % self.capacity;
         self.len = (self.len + 1).min(self.capacity);
     }
@@ -327,8 +334,15 @@ fn slot(data: &[f32], dim: usize, i: usize) -> &[f32] {
     &data[i * dim..(i + 1) * dim]
 }
 
-fn slot_mut(data: &mut [f32], dim: usize, i: usize) -> &mut [f32] {
-    &mut data[i * dim..(i + 1) * dim]
+/// Writes slot `i` (of `dim` values): appended while the storage is still growing (slots are
+/// filled in order until the ring wraps), overwritten after. A buffer saved before storage
+/// grew (every slot allocated) takes the second branch from the start.
+fn put<T: Copy>(data: &mut Vec<T>, dim: usize, i: usize, values: &[T]) {
+    if data.len() <= i * dim {
+        data.extend_from_slice(values);
+    } else {
+        data[i * dim..(i + 1) * dim].copy_from_slice(values);
+    }
 }
 
 #[cfg(test)]

@@ -54,11 +54,7 @@ pub struct Checkpoint {
 impl Checkpoint {
     /// The file's bytes: magic, postcard, CRC-32.
     pub fn to_bytes(&self) -> Result<Vec<u8>, String> {
-        let mut bytes = MAGIC.to_vec();
-        bytes = postcard::to_extend(self, bytes).map_err(|e| e.to_string())?;
-        let crc = policy_core::crc32(&bytes);
-        bytes.extend_from_slice(&crc.to_le_bytes());
-        Ok(bytes)
+        seal(MAGIC, self)
     }
 
     /// Parses a checkpoint file's bytes: magic, checksum, then the contents.
@@ -72,17 +68,7 @@ impl Checkpoint {
         let Some(rest) = bytes.strip_prefix(MAGIC.as_slice()) else {
             return Err(wrong_magic(bytes));
         };
-        let Some((body, crc)) = rest.split_last_chunk::<CRC_LEN>() else {
-            return Err(format!("truncated: {} bytes", bytes.len()));
-        };
-        let stored = u32::from_le_bytes(*crc);
-        let computed = policy_core::crc32(&bytes[..bytes.len() - CRC_LEN]);
-        if stored != computed {
-            return Err(format!(
-                "checksum mismatch (stored CRC-32 {stored:08x}, computed {computed:08x}): the file is corrupt or truncated"
-            ));
-        }
-        postcard::from_bytes(body).map_err(|e| format!("corrupt contents ({e})"))
+        unseal(rest, bytes)
     }
 
     /// Writes the checkpoint atomically. (A crash-safety test can stop the process halfway
@@ -92,16 +78,7 @@ impl Checkpoint {
             path: path.to_path_buf(),
             message,
         })?;
-        let io = |source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        };
-        let mut file = AtomicFile::create(path).map_err(io)?;
-        let (first, second) = bytes.split_at(bytes.len() / 2);
-        file.write_all(first).map_err(io)?;
-        crash_test::checkpoint_half_written(&mut file);
-        file.write_all(second).map_err(io)?;
-        file.commit().map_err(io)
+        write_in_halves(path, &bytes)
     }
 
     /// Reads a checkpoint file.
@@ -115,6 +92,45 @@ impl Checkpoint {
             message,
         })
     }
+}
+
+/// A resumable state's file bytes: `magic`, the postcard encoding of `value`, then the CRC-32
+/// (policy-core's, little-endian) of everything before it. Team checkpoints share it.
+pub fn seal(magic: &[u8; 8], value: &impl Serialize) -> Result<Vec<u8>, String> {
+    let bytes = postcard::to_extend(value, magic.to_vec()).map_err(|e| e.to_string())?;
+    let crc = policy_core::crc32(&bytes);
+    Ok([bytes, crc.to_le_bytes().to_vec()].concat())
+}
+
+/// The value [`seal`] wrote: `rest` is `bytes` after a magic the caller has checked; the
+/// checksum covers the whole of `bytes`.
+pub fn unseal<T: serde::de::DeserializeOwned>(rest: &[u8], bytes: &[u8]) -> Result<T, String> {
+    let Some((body, crc)) = rest.split_last_chunk::<CRC_LEN>() else {
+        return Err(format!("truncated: {} bytes", bytes.len()));
+    };
+    let stored = u32::from_le_bytes(*crc);
+    let computed = policy_core::crc32(&bytes[..bytes.len() - CRC_LEN]);
+    if stored != computed {
+        return Err(format!(
+            "checksum mismatch (stored CRC-32 {stored:08x}, computed {computed:08x}): the file is corrupt or truncated"
+        ));
+    }
+    postcard::from_bytes(body).map_err(|e| format!("corrupt contents ({e})"))
+}
+
+/// Writes `bytes` to `path` atomically, in two halves so the crash-safety test can stop the
+/// process between them.
+pub fn write_in_halves(path: &Path, bytes: &[u8]) -> Result<(), Error> {
+    let io = |source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut file = AtomicFile::create(path).map_err(io)?;
+    let (first, second) = bytes.split_at(bytes.len() / 2);
+    file.write_all(first).map_err(io)?;
+    crash_test::checkpoint_half_written(&mut file);
+    file.write_all(second).map_err(io)?;
+    file.commit().map_err(io)
 }
 
 fn wrong_magic(bytes: &[u8]) -> String {
