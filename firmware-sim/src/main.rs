@@ -66,6 +66,31 @@ enum Command {
     /// Navigation layouts as scenario files.
     #[command(subcommand)]
     Scenario(ScenarioCommand),
+    /// Draw a badminton critic's Q over the court as SVG: the catch critic over the targets it
+    /// can ask for, the serve critic over the landing points of its serves.
+    Heatmap(HeatmapArgs),
+}
+
+#[derive(Args, Debug)]
+struct HeatmapArgs {
+    /// The critic blob (a player's catch-critic.postcard or serve-critic.postcard).
+    #[arg(long)]
+    critic: PathBuf,
+    /// Which agent's critic it is.
+    #[arg(long, value_parser = ["catch", "serve"])]
+    role: String,
+    /// The SVG file to write.
+    #[arg(long)]
+    out: PathBuf,
+    /// Grid steps per action dimension (catch: N×N targets; serve: N×N×N serves).
+    #[arg(long, default_value_t = 41)]
+    grid: usize,
+    /// Badminton scenario: badminton or a scenario file.
+    #[arg(long, default_value = "badminton")]
+    scenario: String,
+    /// The picture's title [default: the critic blob's label].
+    #[arg(long)]
+    title: Option<String>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -261,6 +286,7 @@ fn main() -> ExitCode {
         Command::Run(args) => run(args),
         Command::Match(args) => play(args),
         Command::Scenario(ScenarioCommand::Generate(args)) => generate_layout(args),
+        Command::Heatmap(args) => heatmap(args),
     };
     match outcome {
         Ok(true) => ExitCode::SUCCESS,
@@ -685,6 +711,33 @@ fn generate_layout(args: &GenerateArgs) -> Result<bool> {
 /// The outputs of one command, checked together before any work (writable, two different
 /// files even when spelt differently), so a long run never ends in "cannot write" and never
 /// writes one report over the other.
+/// `heatmap`: every input checked before the map is computed; the SVG written atomically.
+fn heatmap(args: &HeatmapArgs) -> Result<bool> {
+    use firmware_sim::badminton::heatmap;
+    outputs_ok(None, Some(&args.out))?;
+    let config = badminton::Config::resolve(&args.scenario)?;
+    let path = args.critic.display();
+    let critic =
+        files::read_blob(&args.critic).with_context(|| format!("cannot read critic {path}"))?;
+    let map = match args.role.as_str() {
+        "catch" => heatmap::catch_map(&config, &critic, args.grid),
+        _ => heatmap::serve_map(&config, &critic, args.grid),
+    }
+    .with_context(|| format!("{path}"))?;
+    let title = match &args.title {
+        Some(t) => t.clone(),
+        None => policy_core::model::Model::from_blob(&critic)?
+            .header()
+            .label
+            .as_str()
+            .to_string(),
+    };
+    let svg = heatmap::svg(&map, &config, &format!("{title}, {} critic", args.role))?;
+    written(files::write_atomic(&args.out, svg.as_bytes()), &args.out)?;
+    outln!("wrote {} ({} points)", args.out.display(), map.points.len());
+    Ok(true)
+}
+
 fn outputs_ok(json: Option<&Path>, svg: Option<&Path>) -> Result<()> {
     let paths: Vec<&Path> = json.into_iter().chain(svg).collect();
     Ok(files::check_outputs(&paths)?)

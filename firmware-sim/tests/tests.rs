@@ -23,6 +23,8 @@ mod determinism;
 mod faults;
 /// Wall geometry properties: never crosses or leaves through a wall, slides parallel.
 mod geometry;
+/// `firmware-sim heatmap`: the critics' maps of the court, their SVG and bad input.
+mod heatmap_cli;
 /// Hardware in the loop against a fake chip on a socket pair: the host loop's report bit for
 /// bit, and each fault (silence, a garbled, cut or foreign-version frame, a reset, Ctrl-C)
 /// stopping the run with its reason; `--hil` bad input.

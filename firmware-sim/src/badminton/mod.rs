@@ -8,13 +8,15 @@
 //! - [`game`]: the plant ([`Badminton`], a [`crate::env::Plant`]);
 //! - [`mod@reference`]: the `random` and `scripted` players ([`clear`]: the scripted clear's
 //!   speed); [`play`]: matches and the paper's
-//!   measures; [`figure`]: one rally drawn from above and from the side.
+//!   measures; [`figure`]: one rally drawn from above and from the side; [`heatmap`]: a
+//!   critic's Q over the court (catch targets, serve landing points).
 
 pub mod clear;
 pub mod config;
 pub mod court;
 pub mod figure;
 pub mod game;
+pub mod heatmap;
 pub mod play;
 pub mod player;
 pub mod reference;
