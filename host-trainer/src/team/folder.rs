@@ -20,9 +20,10 @@ use firmware_sim::badminton::game::{Badminton, Role};
 use firmware_sim::badminton::{self};
 
 use super::config::TeamConfig;
-use super::training::{plant_error, Team};
+use super::training::{plant_error, Tally, Team};
 use crate::run::checkpoint::{seal, unseal, write_in_halves};
 use crate::run::folder::{self, blob_label, RunDir};
+use crate::run::plot::{self, Panel, Series};
 use crate::Error;
 
 /// Magic and format version of a team checkpoint.
@@ -192,7 +193,40 @@ impl TeamRun {
         };
         checkpoint.save(&self.dir.file(folder::CHECKPOINT))?;
         self.dir
-            .write(folder::METRICS, self.metrics_csv().as_bytes())
+            .write(folder::METRICS, self.metrics_csv().as_bytes())?;
+        self.dir
+            .write(folder::CURVE, self.learning_curve().as_bytes())
+    }
+
+    /// `learning-curve.svg`: serve error and catch success per block of points, and the hits
+    /// per point (the rallies lengthen as the team learns).
+    pub fn learning_curve(&self) -> String {
+        let rows = &self.team.rows;
+        let line = |name: &str, color: &'static str, y: &dyn Fn(&Tally) -> Option<f64>| Series {
+            name: name.into(),
+            color,
+            opacity: 1.0,
+            points: (rows.iter())
+                .filter_map(|r| y(&r.tally).map(|y| (r.points as f64, y)))
+                .collect(),
+        };
+        let ratio = |a: u64, b: u64| (b > 0).then(|| a as f64 / b as f64);
+        let rates = Panel {
+            y_label: "rate".into(),
+            y_range: Some((0.0, 1.0)),
+            series: vec![
+                line("serve error", "#d62728", &|t| ratio(t.faults, t.hits)),
+                line("catch success", "#2ca02c", &|t| ratio(t.caught, t.in_balls)),
+            ],
+        };
+        let hits = Panel {
+            y_label: "hits per point".into(),
+            y_range: None,
+            series: vec![line("hits per point", "#1f77b4", &|t| {
+                ratio(t.hits, t.points)
+            })],
+        };
+        plot::svg(&self.config.team_name(), "points", &[rates, hits])
     }
 
     /// `metrics.csv`: one row per block of points: hits per point, lets, serve error (out and
