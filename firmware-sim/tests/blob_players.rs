@@ -142,6 +142,38 @@ fn a_blob_player_plays_scripted_end_to_end_and_the_same_folder_and_seed_give_the
     assert_ne!(positions(&player), positions(&other));
 }
 
+/// The optional keys: critics are read (not run) and the scenario must load.
+#[test]
+fn a_folder_with_critics_and_its_scenario_loads() {
+    let dir = Scratch::new("full");
+    let manifest = PLAYER_TOML.replace(
+        "label = \"example\"",
+        "label = \"full\"\nscenario = \"badminton.toml\"",
+    )
+        + "[critics]\ncatch = \"c.postcard\"\nserve = \"c.postcard\"\nreset = \"c.postcard\"\n";
+    let player = dir.player("p", &manifest);
+    let folder = Path::new(&player);
+    std::fs::write(folder.join("badminton.toml"), Config::BUILTIN).expect("scenario");
+    std::fs::write(folder.join("c.postcard"), b"any bytes").expect("critic");
+    let PlayerKind::Folder(loaded) = player.parse::<PlayerKind>().expect("loads") else {
+        panic!("a folder")
+    };
+    assert_eq!(loaded.label, "full");
+    assert!(loaded
+        .scenario
+        .as_ref()
+        .is_some_and(|p| p.ends_with("badminton.toml")));
+    assert_eq!(loaded.critics.as_ref().map(|c| c[1].1.len()), Some(9));
+    // A scenario that does not load is refused, naming its file and key.
+    let text = Config::BUILTIN.replace("dt = 0.001", "dt = nan");
+    std::fs::write(folder.join("badminton.toml"), text).expect("scenario");
+    let e = player
+        .parse::<PlayerKind>()
+        .expect_err("bad scenario")
+        .to_string();
+    assert!(e.contains("badminton.toml:17: shuttle.dt"), "{e}");
+}
+
 #[test]
 fn measures_run_on_a_player_folder_as_the_library_gives_them() {
     let dir = Scratch::new("measures");
@@ -276,6 +308,11 @@ fn a_bad_player_folder_is_one_line_exit_2_and_nothing_written() {
             "actors.catch = \"serve.postcard\": not a catch agent (action size: the plant needs 2, found 3; the catch agent takes 10 observations and gives 2 actions)",
         ),
         (
+            "a-folder",
+            swap("\"catch.postcard\"", "\".\""),
+            "actors.catch = \".\": not a file",
+        ),
+        (
             "long-label",
             swap("\"example\"", &format!("{:?}", "x".repeat(65))),
             "must be at most 64 characters",
@@ -345,6 +382,16 @@ fn a_bad_player_folder_is_one_line_exit_2_and_nothing_written() {
         refused(
             &linked,
             "actors.serve = \"serve.postcard\": resolves outside the folder",
+        );
+        // The manifest itself, linked from outside.
+        let manifest_out = dir.player("manifest-link", PLAYER_TOML);
+        let outside = dir.path("outside.toml");
+        std::fs::rename(Path::new(&manifest_out).join("player.toml"), &outside).expect("mv");
+        std::os::unix::fs::symlink(&outside, Path::new(&manifest_out).join("player.toml"))
+            .expect("symlink");
+        refused(
+            &manifest_out,
+            "player.toml = \"player.toml\": resolves outside the folder",
         );
         // A link that stays inside is followed.
         let inner = dir.player("inner-link", PLAYER_TOML);
