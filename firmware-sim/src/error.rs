@@ -60,6 +60,16 @@ pub enum Error {
     /// Hardware in the loop: the chip, its link or the emulator failed (one line: what and
     /// what to do).
     Hil(String),
+    /// A badminton player argument names no player, or a player folder
+    /// ([`crate::badminton::blob_player`]) cannot be played: no `player.toml`, a manifest that
+    /// does not parse or breaks a rule, a path outside the folder, a blob missing, unreadable or
+    /// of the wrong shape for its agent.
+    Player {
+        /// The argument or folder, as given.
+        player: String,
+        /// What is wrong.
+        message: String,
+    },
     /// An evaluation or fault setting is out of range.
     Config {
         /// The setting.
@@ -104,6 +114,9 @@ impl fmt::Display for Error {
                 f,
                 "no slot holds a policy this plant's firmware can run: slot A {a}; slot B {b}"
             ),
+            Error::Player { player, message } => {
+                write!(f, "player {player:?}: {message}")
+            }
             Error::Config { field, message } => write!(f, "{field}: {message}"),
             Error::Hil(message) => write!(f, "{message}"),
         }

@@ -20,7 +20,7 @@ use clap::{Args, CommandFactory, Parser, Subcommand};
 use firmware_sim::{out, outln};
 
 use firmware_sim::actuator::ActuatorModel;
-use firmware_sim::badminton::play::{play_match, Length};
+use firmware_sim::badminton::play::{play_match, Length, MeasuresReport};
 use firmware_sim::badminton::{self, reference::PlayerKind};
 use firmware_sim::boot::{boot_or_safe_state, PlantSizes};
 use firmware_sim::controller::Controller;
@@ -126,12 +126,23 @@ enum LayoutKind {
 
 #[derive(Args, Debug)]
 struct MatchArgs {
-    /// Player 0: scripted or random.
+    /// Player 0: scripted, random, or a player folder (a directory holding player.toml and its
+    /// three actor blobs).
     #[arg(long)]
     p0: PlayerKind,
-    /// Player 1: scripted or random.
+    /// Player 1: scripted, random, or a player folder.
     #[arg(long)]
     p1: PlayerKind,
+    /// Instead of a match: each player's catch test and serve test (--balls serves) and reset
+    /// effect (--points points each way), against the other player.
+    #[arg(long, conflicts_with_all = ["games", "svg"])]
+    measures: bool,
+    /// Serves of the catch and serve tests, 1..=1000000.
+    #[arg(long, requires = "measures", default_value_t = 1000)]
+    balls: u32,
+    /// Points of the reset effect, each way, 1..=100000.
+    #[arg(long, requires = "measures", default_value_t = 100)]
+    points: u32,
     /// Games to play, 1..=1000.
     #[arg(long, default_value_t = 1)]
     games: u32,
@@ -617,6 +628,9 @@ fn play(args: &MatchArgs) -> Result<bool> {
     outputs_ok(args.json.as_deref(), args.svg.as_deref())?;
     let config = badminton::Config::resolve(&args.scenario)?;
     let kinds = [args.p0.clone(), args.p1.clone()];
+    if args.measures {
+        return measures(args, &config, &kinds);
+    }
     let mut drawn: Option<badminton::game::Rally> = None;
     let keep_rally = |game: &badminton::Badminton| {
         let hits = |r: &badminton::game::Rally| r.hits.len();
@@ -658,6 +672,29 @@ fn play(args: &MatchArgs) -> Result<bool> {
         eprintln!("FAIL: {}", report.pass.failures.join("; "));
     }
     Ok(report.pass.passed)
+}
+
+/// `match --measures`: `Ok(every agent booted)`.
+fn measures(args: &MatchArgs, config: &badminton::Config, kinds: &[PlayerKind; 2]) -> Result<bool> {
+    for (flag, n, most) in [
+        ("--balls", args.balls, 1_000_000),
+        ("--points", args.points, 100_000),
+    ] {
+        anyhow::ensure!(
+            (1..=most).contains(&n),
+            "{flag} must be in 1..={most}, found {n}"
+        );
+    }
+    let report = MeasuresReport::of(config, kinds, args.balls, args.points, args.seed)?;
+    out!("{}", report.summary());
+    if let Some(path) = &args.json {
+        let text = serde_json::to_string_pretty(&report)?;
+        written(files::write_atomic(path, text.as_bytes()), path)?;
+    }
+    if !report.booted() {
+        eprintln!("FAIL: an agent played the safe state (its blob did not boot)");
+    }
+    Ok(report.booted())
 }
 
 /// Generates a layout, checks it, writes it (and its picture); always `Ok(true)` once written.

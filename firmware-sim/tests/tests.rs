@@ -12,6 +12,9 @@ mod badminton_physics;
 /// Badminton rules: faults, the let at the rally cap, games, who serves, mirrored frames,
 /// determinism, margins as ground truth, and the Plant interface's transition contract.
 mod badminton_rules;
+/// Player folders: `match` and `--measures` on a folder's blobs, reproducible; every bad folder
+/// refused in one line; a blob that does not boot plays the safe state, and the report says so.
+mod blob_players;
 /// Booting blobs: any shape and plant size through the runtime model, discrete policies, the
 /// safe state on corrupt bytes or wrong sizes.
 mod boot;

@@ -79,3 +79,48 @@ pub fn runtime_blob(
     };
     blob::to_vec_with(&spec, &mut |sink| sink(&params)).expect("blob")
 }
+
+/// A badminton actor blob (10 observations, `actions` actions, 2×16 tanh) with random weights,
+/// its weights stored in `encoding`.
+pub fn badminton_actor(
+    actions: u16,
+    seed: u64,
+    encoding: policy_core::Encoding,
+    label: &str,
+) -> Vec<u8> {
+    let shape = Shape {
+        observations: 10,
+        actions,
+        width: 16,
+        depth: 2,
+        choices: 0,
+    };
+    let f32_blob = runtime_blob(ModelKind::Actor, shape, Activation::Tanh, seed, label);
+    blob::encode(&f32_blob, encoding).expect("encode")
+}
+
+/// The manifest of a player folder with the three actors (and critics, if `critics`) under
+/// their usual names.
+pub const PLAYER_TOML: &str = "format = 1
+label = \"example\"
+[actors]
+catch = \"catch.postcard\"
+serve = \"serve.postcard\"
+reset = \"reset.postcard\"
+";
+
+/// Writes a player folder into `dir` (created): `PLAYER_TOML` and an f32 catch actor, an f16
+/// serve actor and an int8 reset actor (the folder under tests/data/example-player).
+pub fn write_example_player(dir: &std::path::Path) {
+    use policy_core::Encoding;
+    std::fs::create_dir_all(dir).expect("player folder");
+    std::fs::write(dir.join("player.toml"), PLAYER_TOML).expect("manifest");
+    for (name, actions, seed, encoding) in [
+        ("catch", 2, 1, Encoding::F32),
+        ("serve", 3, 2, Encoding::F16),
+        ("reset", 2, 3, Encoding::Int8),
+    ] {
+        let blob = badminton_actor(actions, seed, encoding, &format!("example {name}"));
+        std::fs::write(dir.join(format!("{name}.postcard")), blob).expect("blob");
+    }
+}

@@ -7,10 +7,13 @@
 //!   margins, and how actions map onto targets and hits; [`rules`]: points, games, who serves;
 //! - [`game`]: the plant ([`Badminton`], a [`crate::env::Plant`]);
 //! - [`mod@reference`]: the `random` and `scripted` players ([`clear`]: the scripted clear's
-//!   speed); [`play`]: matches and the paper's
-//!   measures; [`figure`]: one rally drawn from above and from the side; [`heatmap`]: a
-//!   critic's Q over the court (catch targets, serve landing points).
+//!   speed); [`agent`]: the [`agent::Player`] trait every seat plays through;
+//!   [`blob_player`]: players made of three blobs, loaded from a player folder; [`play`]:
+//!   matches and the paper's measures; [`figure`]: one rally drawn from above and from the
+//!   side; [`heatmap`]: a critic's Q over the court (catch targets, serve landing points).
 
+pub mod agent;
+pub mod blob_player;
 pub mod clear;
 pub mod config;
 pub mod court;

@@ -74,6 +74,10 @@ pub struct PlayerStats {
     pub catches: Rate,
     /// Its hits, and how many went out or into the net.
     pub serve_errors: Rate,
+    /// The agents (a player folder's) that played the safe state because their blob did not
+    /// boot: `"serve: blob rejected: ..."`. Absent from the JSON when empty.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub boot_errors: Vec<String>,
 }
 
 /// The result of a match.
@@ -124,15 +128,20 @@ pub fn play_match(
         &config.pass,
         kinds.each_ref().map(PlayerKind::is_judged),
     );
+    for (seat, kind) in kinds.iter().enumerate() {
+        for (role, e) in kind.boot_errors() {
+            report.mark_boot_failure(seat, role, &e);
+        }
+    }
     Ok(report)
 }
 
 /// Plays points of the plant's match (from 0–0) until `length` is reached. A match of `n` games
 /// also stops, unfinished, after `4 · point_cap · n` points: lets do not count, and two players
 /// who never miss would let forever (the let rate then fails the pass criteria).
-pub fn play(
+pub fn play<'a>(
     game: &mut Badminton,
-    players: &mut [Box<dyn Player>; 2],
+    players: &mut [Box<dyn Player + 'a>; 2],
     length: Length,
     mut on_point: impl FnMut(&Badminton),
 ) -> MatchReport {
@@ -186,7 +195,7 @@ fn over(report: &MatchReport, length: Length) -> bool {
 }
 
 /// Plays one point to its end.
-pub fn play_point(game: &mut Badminton, players: &mut [Box<dyn Player>; 2]) -> PointEnd {
+pub fn play_point<'a>(game: &mut Badminton, players: &mut [Box<dyn Player + 'a>; 2]) -> PointEnd {
     let mut turn = game.reset(0);
     let mut action = [0.0f32; 3];
     while let Some(decision) = turn.decide {
@@ -282,6 +291,27 @@ pub fn judge(report: &MatchReport, pass: &MatchPass, judged: [bool; 2]) -> PassO
 }
 
 impl MatchReport {
+    /// Records that player `seat`'s `role` agent played the safe state because its blob did not
+    /// boot (`why`): the match fails, that reason first, as a navigation run's boot failure does
+    /// ([`crate::nav::test_protocol::Report::mark_boot_failure`]).
+    pub fn mark_boot_failure(&mut self, seat: usize, role: Role, why: &str) {
+        let player = &mut self.players[seat.min(1)];
+        player.boot_errors.push(format!("{}: {why}", role.name()));
+        let failure = format!(
+            "p{seat} {}: the {} blob did not boot: {why} (played the safe state: zero action)",
+            player.name,
+            role.name()
+        );
+        let first_after_boot = self
+            .pass
+            .failures
+            .iter()
+            .take_while(|f| f.contains("did not boot"))
+            .count();
+        self.pass.failures.insert(first_after_boot, failure);
+        self.pass.passed = false;
+    }
+
     /// The table `firmware-sim match` prints.
     pub fn summary(&self) -> String {
         let [a, b] = &self.players;
@@ -334,6 +364,12 @@ impl MatchReport {
         out.push_str(&format!("  {:<30} {:<22} {}\n", "", "p0", "p1"));
         for (k, x, y) in &rows {
             out.push_str(&format!("  {k:<30} {x:<22} {y}\n"));
+        }
+        for (seat, p) in self.players.iter().enumerate() {
+            for e in &p.boot_errors {
+                let what = "safe state (blob did not boot)";
+                out.push_str(&format!("  {what:<30} p{seat} {e}\n"));
+            }
         }
         let verdict = if self.pass.passed {
             "PASS".to_string()
@@ -440,6 +476,7 @@ pub fn reset_effect(
     points: u32,
     seed: u64,
 ) -> Result<(Rate, Rate), Error> {
+    let (player, opponent) = (&player, &opponent);
     let rate = |enabled: bool| -> Result<Rate, Error> {
         let mut game = Badminton::new(config)?;
         game.set_reset_enabled(0, enabled);
@@ -451,4 +488,145 @@ pub fn reset_effect(
         Ok(report.players[0].catches)
     };
     Ok((rate(true)?, rate(false)?))
+}
+
+/// The paper's three measures of one player against an opponent: the catch test (catching the
+/// opponent's serves), the serve test, and catch success with the reset agent enabled and
+/// disabled.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Measures {
+    /// The player's name.
+    pub name: String,
+    /// The opponent's name (the server of the catch test, the other side of the reset effect).
+    pub opponent: String,
+    /// Catch test: its catches of the opponent's in-ball serves.
+    pub catches: Rate,
+    /// Serve test: its first serves that went out or into the net.
+    pub serve_errors: Rate,
+    /// Its catches over the incoming in-balls of points against the opponent, reset enabled.
+    pub reset_enabled: Rate,
+    /// ... and with its reset agent disabled.
+    pub reset_disabled: Rate,
+    /// The agents that played the safe state (see [`PlayerStats::boot_errors`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub boot_errors: Vec<String>,
+}
+
+/// Both players' [`Measures`], as `firmware-sim match --measures` prints and writes them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MeasuresReport {
+    /// Scenario name.
+    pub scenario: String,
+    /// Seed of the players' random streams.
+    pub seed: u64,
+    /// Serves of the catch test and of the serve test.
+    pub balls: u32,
+    /// Points each way (reset enabled, disabled) of the reset effect.
+    pub points: u32,
+    /// Player 0 against player 1, and player 1 against player 0.
+    pub players: [Measures; 2],
+}
+
+/// Measures `player` against `opponent`: the catch test and the serve test over `balls` serves,
+/// the reset effect over `points` points each way. Players are built from `seed` as in a match
+/// (the measured player in seat 0).
+pub fn measure(
+    config: &Config,
+    player: &PlayerKind,
+    opponent: &PlayerKind,
+    balls: u32,
+    points: u32,
+    seed: u64,
+) -> Result<Measures, Error> {
+    let catches = {
+        let mut catcher = player.build(config, seed, 0);
+        let mut server = opponent.build(config, seed, 1);
+        catch_test(config, catcher.as_mut(), server.as_mut(), balls)?
+    };
+    let serve_errors = serve_test(config, player.build(config, seed, 0).as_mut(), balls)?;
+    let (reset_enabled, reset_disabled) =
+        reset_effect(config, player.clone(), opponent.clone(), points, seed)?;
+    Ok(Measures {
+        name: player.to_string(),
+        opponent: opponent.to_string(),
+        catches,
+        serve_errors,
+        reset_enabled,
+        reset_disabled,
+        boot_errors: player
+            .boot_errors()
+            .into_iter()
+            .map(|(role, e)| format!("{}: {e}", role.name()))
+            .collect(),
+    })
+}
+
+impl MeasuresReport {
+    /// Measures each player against the other.
+    pub fn of(
+        config: &Config,
+        kinds: &[PlayerKind; 2],
+        balls: u32,
+        points: u32,
+        seed: u64,
+    ) -> Result<MeasuresReport, Error> {
+        let [a, b] = kinds;
+        Ok(MeasuresReport {
+            scenario: config.name.clone(),
+            seed,
+            balls,
+            points,
+            players: [
+                measure(config, a, b, balls, points, seed)?,
+                measure(config, b, a, balls, points, seed)?,
+            ],
+        })
+    }
+
+    /// Whether every agent booted (a measure of a safe state is not the player's).
+    pub fn booted(&self) -> bool {
+        self.players.iter().all(|p| p.boot_errors.is_empty())
+    }
+
+    /// The table `firmware-sim match --measures` prints.
+    pub fn summary(&self) -> String {
+        let [a, b] = &self.players;
+        let mut out = format!(
+            "{} | measures of p0 {} and p1 {}, each against the other | seed {}\n",
+            self.scenario, a.name, b.name, self.seed
+        );
+        out.push_str(&format!("  {:<38} {:<22} {}\n", "", "p0", "p1"));
+        let rows: [(String, &Rate, &Rate); 4] = [
+            (
+                format!("catch test ({} serves, in-balls)", self.balls),
+                &a.catches,
+                &b.catches,
+            ),
+            (
+                format!("serve test ({} serves, out + net)", self.balls),
+                &a.serve_errors,
+                &b.serve_errors,
+            ),
+            (
+                format!("catch, reset on ({} points)", self.points),
+                &a.reset_enabled,
+                &b.reset_enabled,
+            ),
+            (
+                format!("catch, reset off ({} points)", self.points),
+                &a.reset_disabled,
+                &b.reset_disabled,
+            ),
+        ];
+        for (k, x, y) in &rows {
+            out.push_str(&format!("  {k:<38} {:<22} {}\n", x.show(), y.show()));
+        }
+        for (seat, p) in self.players.iter().enumerate() {
+            for e in &p.boot_errors {
+                let what = "safe state (blob did not boot)";
+                out.push_str(&format!("  {what:<38} p{seat} {e}\n"));
+            }
+        }
+        out
+    }
 }

@@ -1,6 +1,8 @@
 //! The reference players of docs/design.md §3, for tests and gates: `random` (uniform actions)
 //! and `scripted` (good but not perfect). Both act on their observation alone, like a trained
-//! player would; `scripted` knows the physics and predicts the shuttle from what it sees.
+//! player would; `scripted` knows the physics and predicts the shuttle from what it sees. The
+//! players a command line names ([`PlayerKind`]) add player folders, whose blobs play through
+//! [`BlobPlayer`].
 //!
 //! ```
 //! use firmware_sim::badminton::reference::{PlayerKind, Player};
@@ -12,12 +14,19 @@
 //! p.act(Role::Reset, &[0.0; 10], &mut target); // back to (-3, 0) of its own frame
 //! assert!((target[0] - (1.0 - 6.0 / 6.7)).abs() < 1e-6 && target[1] == 0.0);
 //! let err = "smash".parse::<PlayerKind>().unwrap_err().to_string();
-//! assert_eq!(err, "player \"smash\": expected scripted or random");
+//! assert_eq!(
+//!     err,
+//!     "player \"smash\": expected scripted or random, or a player folder (a directory holding player.toml)"
+//! );
 //! ```
 
 use std::fmt;
+use std::path::Path;
 use std::str::FromStr;
+use std::sync::Arc;
 
+pub use super::agent::Player;
+use super::blob_player::{BlobPlayer, PlayerFolder, MANIFEST};
 use super::clear::ClearSolver;
 use super::config::Config;
 use super::court::{Court, Vec2};
@@ -25,18 +34,10 @@ use super::game::Role;
 use super::player::{action_for_hit, action_for_target};
 use super::shuttle::{Physics, Shuttle};
 use crate::seed::{normal, stream, uniform, SimRng};
+use crate::Error;
 
-/// A badminton player: its three agents behind one call.
-pub trait Player {
-    /// Name used in reports.
-    fn name(&self) -> String;
-    /// The action of the player's `role` agent for this observation (own frame), written into
-    /// `action` (2 numbers for catch and reset, 3 for serve).
-    fn act(&mut self, role: Role, observation: &[f32], action: &mut [f32]);
-}
-
-/// A player named on the command line: `scripted` or `random`. (A player made of three
-/// blobs, one per agent, would still be named by one word.)
+/// A player named on the command line: `scripted`, `random`, or a player folder (a directory
+/// holding `player.toml`: three blobs, one per agent; [`super::blob_player`]).
 #[derive(Clone, Debug, PartialEq, Eq)]
 #[non_exhaustive]
 pub enum PlayerKind {
@@ -44,48 +45,53 @@ pub enum PlayerKind {
     Random,
     /// The scripted reference player.
     Scripted,
+    /// The blobs of a player folder, loaded and checked.
+    Folder(Arc<PlayerFolder>),
 }
 
-/// A player argument that names no player.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct UnknownPlayer(pub String);
-
-impl fmt::Display for UnknownPlayer {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "player {:?}: expected scripted or random", self.0)
-    }
-}
-
-impl std::error::Error for UnknownPlayer {}
-
+/// `scripted`, `random`, or the path of a player folder, loaded and checked (the words come
+/// first: name a folder called `random` as `./random`).
 impl FromStr for PlayerKind {
-    type Err = UnknownPlayer;
+    type Err = Error;
 
-    fn from_str(s: &str) -> Result<PlayerKind, UnknownPlayer> {
+    fn from_str(s: &str) -> Result<PlayerKind, Error> {
         match s {
             "random" => Ok(PlayerKind::Random),
             "scripted" => Ok(PlayerKind::Scripted),
-            other => Err(UnknownPlayer(other.to_string())),
+            other if Path::new(other).is_dir() => Ok(PlayerKind::Folder(Arc::new(
+                PlayerFolder::load(Path::new(other))?,
+            ))),
+            other => Err(Error::Player {
+                player: other.to_string(),
+                message: format!(
+                    "expected scripted or random, or a player folder (a directory holding {MANIFEST}){}",
+                    if Path::new(other).exists() { ", found a file" } else { "" }
+                ),
+            }),
         }
     }
 }
 
+/// The name in reports: `scripted`, `random`, or the folder's label.
 impl fmt::Display for PlayerKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
             PlayerKind::Random => "random",
             PlayerKind::Scripted => "scripted",
+            PlayerKind::Folder(folder) => &folder.label,
         })
     }
 }
 
 impl PlayerKind {
-    /// The player, its random stream drawn from `seed` and its seat (0 or 1).
-    pub fn build(&self, config: &Config, seed: u64, seat: usize) -> Box<dyn Player> {
+    /// The player, its random stream drawn from `seed` and its seat (0 or 1). A folder's player
+    /// runs from the bytes the kind holds, so it borrows the kind.
+    pub fn build<'a>(&'a self, config: &Config, seed: u64, seat: usize) -> Box<dyn Player + 'a> {
         let rng = stream(seed, "badminton-player", seat as u64);
         match self {
             PlayerKind::Random => Box::new(Random { rng }),
             PlayerKind::Scripted => Box::new(Scripted::new(config, rng)),
+            PlayerKind::Folder(folder) => Box::new(BlobPlayer::boot(folder)),
         }
     }
 
@@ -93,6 +99,18 @@ impl PlayerKind {
     /// baseline).
     pub fn is_judged(&self) -> bool {
         !matches!(self, PlayerKind::Random)
+    }
+
+    /// The agents that play the safe state because their blob does not boot, and why (none
+    /// for `scripted` and `random`).
+    pub fn boot_errors(&self) -> Vec<(Role, String)> {
+        match self {
+            PlayerKind::Folder(folder) => folder
+                .boot_errors()
+                .map(|(role, e)| (role, e.to_string()))
+                .collect(),
+            PlayerKind::Random | PlayerKind::Scripted => Vec::new(),
+        }
     }
 }
 
