@@ -403,6 +403,31 @@ fn a_team_trains_resumes_exactly_and_exports_its_players() {
         let model = policy_core::model::Model::from_blob(&bytes).expect("loads");
         model.expect_sizes(10, actions).expect("the agent's shape");
     }
+
+    // firmware-sim plays the exported player as the trainer's learners act, bit for bit.
+    use firmware_sim::badminton::agent::Player;
+    use firmware_sim::badminton::blob_player::{BlobPlayer, PlayerFolder};
+    use firmware_sim::badminton::play::{play_match, Length};
+    use firmware_sim::badminton::reference::PlayerKind;
+    use firmware_sim::badminton::Role;
+    let path = whole.dir.path().join("players/p01");
+    let folder = PlayerFolder::load(&path).expect("the player folder loads");
+    let mut chip = BlobPlayer::boot(&folder);
+    let obs = [1.0, -0.5, 1.5, -3.0, 0.5, 2.0, -2.0, 0.3, 2.5, -0.4];
+    for (r, role) in Role::ALL.into_iter().enumerate() {
+        let mut action = vec![0.0f32; role.actions()];
+        chip.act(role, &obs, &mut action);
+        let host = whole.team.players[1].agents[r].get().greedy(&obs);
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&action), bits(&host), "{}", role.name());
+    }
+    let kinds = [
+        path.to_str().expect("utf-8").parse::<PlayerKind>().expect("a player folder"),
+        PlayerKind::Scripted,
+    ];
+    let config = firmware_sim::badminton::Config::builtin();
+    let report = play_match(&config, &kinds, Length::Points(5), 0, false, |_| {}).expect("match");
+    assert_eq!(report.points, 5);
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
 
