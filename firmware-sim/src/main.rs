@@ -66,9 +66,34 @@ enum Command {
     /// Navigation layouts as scenario files.
     #[command(subcommand)]
     Scenario(ScenarioCommand),
+    /// Play two badminton teams against each other: points between random pairings of their
+    /// players, each team serving half; the teams' scores and each player's contribution.
+    Teams(TeamsArgs),
     /// Draw a badminton critic's Q over the court as SVG: the catch critic over the targets it
     /// can ask for, the serve critic over the landing points of its serves.
     Heatmap(HeatmapArgs),
+}
+
+#[derive(Args, Debug)]
+struct TeamsArgs {
+    /// Team A: a trained team's folder (or its players/), a player folder, scripted or random.
+    #[arg(long)]
+    a: String,
+    /// Team B, named the same ways.
+    #[arg(long)]
+    b: String,
+    /// Points to play.
+    #[arg(long, default_value_t = 1000)]
+    points: u32,
+    /// Seed of the pairings and of the reference players' noise.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Badminton scenario: badminton or a scenario file.
+    #[arg(long, default_value = "badminton")]
+    scenario: String,
+    /// Write the result as JSON.
+    #[arg(long)]
+    json: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -298,6 +323,7 @@ fn main() -> ExitCode {
         Command::Match(args) => play(args),
         Command::Scenario(ScenarioCommand::Generate(args)) => generate_layout(args),
         Command::Heatmap(args) => heatmap(args),
+        Command::Teams(args) => teams(args),
     };
     match outcome {
         Ok(true) => ExitCode::SUCCESS,
@@ -748,6 +774,35 @@ fn generate_layout(args: &GenerateArgs) -> Result<bool> {
 /// The outputs of one command, checked together before any work (writable, two different
 /// files even when spelt differently), so a long run never ends in "cannot write" and never
 /// writes one report over the other.
+/// `teams`: both teams loaded and checked before the first point; exit 1 if a player's blob
+/// did not boot (it played in the safe state).
+fn teams(args: &TeamsArgs) -> Result<bool> {
+    use firmware_sim::badminton::teams::{team_match, team_of};
+    outputs_ok(args.json.as_deref(), None)?;
+    let config = badminton::Config::resolve(&args.scenario)?;
+    let teams = [team_of(&args.a)?, team_of(&args.b)?];
+    let score = team_match(&config, &teams, args.points, args.seed)?;
+    out!("{}", score.summary([&args.a, &args.b]));
+    let mut booted = true;
+    for (t, team) in teams.iter().enumerate() {
+        for kind in team {
+            for (role, e) in kind.boot_errors() {
+                booted = false;
+                outln!(
+                    "  {} {kind} {}: safe state (blob did not boot: {e})",
+                    ["A", "B"][t],
+                    role.name()
+                );
+            }
+        }
+    }
+    if let Some(path) = &args.json {
+        let text = serde_json::to_string_pretty(&score)? + "\n";
+        written(files::write_atomic(path, text.as_bytes()), path)?;
+    }
+    Ok(booted)
+}
+
 /// `heatmap`: every input checked before the map is computed; the SVG written atomically.
 fn heatmap(args: &HeatmapArgs) -> Result<bool> {
     use firmware_sim::badminton::heatmap;

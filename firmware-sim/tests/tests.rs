@@ -39,3 +39,5 @@ mod layouts;
 mod match_cli;
 /// Reference controllers: `straight` is caught stuck, `oracle` follows the gaps.
 mod reference;
+/// `firmware-sim teams`: team against team from player folders, and its bad input.
+mod teams_cli;

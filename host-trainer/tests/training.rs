@@ -422,7 +422,10 @@ fn a_team_trains_resumes_exactly_and_exports_its_players() {
         assert_eq!(bits(&action), bits(&host), "{}", role.name());
     }
     let kinds = [
-        path.to_str().expect("utf-8").parse::<PlayerKind>().expect("a player folder"),
+        path.to_str()
+            .expect("utf-8")
+            .parse::<PlayerKind>()
+            .expect("a player folder"),
         PlayerKind::Scripted,
     ];
     let config = firmware_sim::badminton::Config::builtin();

@@ -10,7 +10,8 @@
 //!   speed); [`agent`]: the [`agent::Player`] trait every seat plays through;
 //!   [`blob_player`]: players made of three blobs, loaded from a player folder; [`play`]:
 //!   matches and the paper's measures; [`figure`]: one rally drawn from above and from the
-//!   side; [`heatmap`]: a critic's Q over the court (catch targets, serve landing points).
+//!   side; [`heatmap`]: a critic's Q over the court (catch targets, serve landing points);
+//!   [`teams`]: team against team, and each player's contribution.
 
 pub mod agent;
 pub mod blob_player;
@@ -25,6 +26,7 @@ pub mod player;
 pub mod reference;
 pub mod rules;
 pub mod shuttle;
+pub mod teams;
 
 pub use config::Config;
 pub use game::{Badminton, Role};

@@ -1,0 +1,90 @@
+//! `firmware-sim teams`: team against team from trained player folders, and its bad input.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_firmware-sim");
+const EXAMPLE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/example-player");
+
+fn teams(args: &[&str]) -> Output {
+    Command::new(BIN)
+        .arg("teams")
+        .args(args)
+        .output()
+        .expect("spawn firmware-sim")
+}
+
+/// A team folder of two copies of the example player (under `players/`, as `host-trainer team`
+/// writes it).
+fn team_folder(dir: &Path) -> String {
+    for p in ["p00", "p01"] {
+        let to = dir.join("players").join(p);
+        std::fs::create_dir_all(&to).expect("dir");
+        for entry in std::fs::read_dir(EXAMPLE).expect("example") {
+            let from = entry.expect("entry").path();
+            std::fs::copy(&from, to.join(from.file_name().expect("name"))).expect("copy");
+        }
+    }
+    dir.display().to_string()
+}
+
+/// Every point is played by one player of each team; the scores add up; the same seed writes
+/// the same JSON bytes; scripted beats the untrained example team; bad input is one line, exit
+/// 2, nothing written.
+#[test]
+fn teams_play_pairings_and_refuse_bad_input() {
+    let dir = std::env::temp_dir().join(format!("teams-cli-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("dir");
+    let team = team_folder(&dir.join("team"));
+    let json = |name: &str| dir.join(name).display().to_string();
+    let (first, second) = (json("a.json"), json("b.json"));
+    for out in [&first, &second] {
+        let o = teams(&[
+            "--a", &team, "--b", "scripted", "--points", "30", "--json", out,
+        ]);
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    let (a, b) = (
+        std::fs::read(&first).expect("a"),
+        std::fs::read(&second).expect("b"),
+    );
+    assert_eq!(a, b, "same seed, same bytes");
+    let report: serde_json::Value = serde_json::from_slice(&a).expect("json");
+    assert_eq!(report["points"], 30);
+    let won = |t: usize| report["won"][t].as_u64().expect("won");
+    assert_eq!(won(0) + won(1) + report["lets"].as_u64().expect("lets"), 30);
+    assert!(won(1) > won(0), "scripted beats random weights: {report}");
+    let played: u64 = (report["players"][0].as_array().expect("team A").iter())
+        .map(|p| p["played"].as_u64().expect("played"))
+        .sum();
+    assert_eq!(played, 30);
+
+    let bad = json("bad.json");
+    let empty = dir.join("empty");
+    std::fs::create_dir_all(&empty).expect("dir");
+    let empty = empty.display().to_string();
+    for (args, needle) in [
+        (vec!["--a", &empty, "--b", "scripted"], "no player folder"),
+        (
+            vec!["--a", "scripted", "--b", "random", "--points", "0"],
+            "points",
+        ),
+        (vec!["--a", "nobody", "--b", "random"], "nobody"),
+    ] {
+        let mut all = args.clone();
+        all.extend(["--json", &bad]);
+        let o = teams(&all);
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert_eq!(o.status.code(), Some(2), "{all:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains(needle), "{needle}: {err}");
+        assert!(!Path::new(&bad).exists(), "{all:?} wrote its output");
+    }
+    std::fs::remove_dir_all(&dir).expect("cleanup");
+}
