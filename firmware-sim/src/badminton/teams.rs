@@ -142,8 +142,8 @@ pub fn team_match(
         let [a, b] = pair;
         (built[0][pick[0]], built[1][pick[1]]) = (Some(a), Some(b));
         score.points += 1;
-        for t in 0..2 {
-            score.players[t][pick[t]].played += 1;
+        for (team, &i) in score.players.iter_mut().zip(&pick) {
+            team[i].played += 1;
         }
         match end.winner {
             Some(t) => {
