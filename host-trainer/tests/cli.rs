@@ -1111,15 +1111,17 @@ fn more_threads_than_cores_is_said_once_and_not_recorded() {
 #[test]
 fn a_reader_that_goes_away_ends_inspect_quietly() {
     // `host-trainer inspect BLOB | head -1`: the pipe closes before the listing is written.
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_host-trainer"))
+    // The read end is closed before the process starts (closing it after the spawn raced with
+    // the listing, which a loaded machine let through into the pipe's buffer).
+    let (reader, writer) = std::io::pipe().expect("pipe");
+    drop(reader);
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_host-trainer"))
         .args(["inspect", "models/nav-walls__dcp-paper__0.postcard"])
         .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
-        .stdout(std::process::Stdio::piped())
+        .stdout(writer)
         .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("spawn");
-    drop(child.stdout.take());
-    let o = child.wait_with_output().expect("wait");
+        .output()
+        .expect("run");
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!err.contains("panicked"), "{err}");
     assert_eq!(o.status.code(), Some(141), "{err}");

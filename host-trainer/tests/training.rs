@@ -434,6 +434,40 @@ fn a_team_trains_resumes_exactly_and_exports_its_players() {
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
 
+/// DDPG, TD3 and PPO teams train too (their learners update) and export players that load.
+#[test]
+fn every_team_algorithm_trains_and_exports() {
+    use host_trainer::team::config::TeamConfig;
+    use host_trainer::team::folder::TeamRun;
+    let out = scratch("team-algos");
+    for algo in [Algo::Ddpg, Algo::Td3, Algo::Ppo] {
+        let smoke = TrainConfig::smoke(algo, 0);
+        let mut config = TeamConfig {
+            algo,
+            players: 2,
+            points: 40,
+            agent: smoke.agent,
+            ppo: smoke.ppo,
+            ..TeamConfig::default()
+        };
+        config.agent.warmup_steps = 8;
+        let mut run = TeamRun::create(config, &out).expect("team");
+        run.train(&mut |_| std::ops::ControlFlow::Continue(()))
+            .expect("train");
+        let csv = run.metrics_csv();
+        let header: Vec<&str> = csv.lines().next().expect("header").split(',').collect();
+        let last: Vec<&str> = csv.lines().last().expect("row").split(',').collect();
+        let updated = (header.iter().zip(&last))
+            .filter(|(h, _)| h.starts_with("serve_") && *h != &"serve_reward")
+            .any(|(_, v)| v.parse::<f64>().is_ok_and(f64::is_finite));
+        assert!(updated, "{algo}: the serve learners updated\n{csv}");
+        for folder in run.export().expect("export") {
+            firmware_sim::badminton::blob_player::PlayerFolder::load(&folder).expect("loads");
+        }
+    }
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
 /// Bad team settings are refused before anything is written: fewer than two players, a budget
 /// of 0 points, DQN, σ bounds the wrong way round.
 #[test]
