@@ -1,6 +1,6 @@
 //! Players made of blobs: a *player folder* (what host-trainer exports for a trained team
 //! member) and [`BlobPlayer`], which plays its three actor blobs through policy-core's runtime
-//! [`Model`](policy_core::model::Model), the exact bytes a chip would run.
+//! [`Model`], the exact bytes a chip would run.
 //!
 //! The folder holds `player.toml` and the blobs it names, by paths relative to the folder:
 //!

@@ -13,7 +13,7 @@
 //!
 //! Per point: two distinct players drawn uniformly from the team (the first serves or receives
 //! by a fair draw), one exploration σ from U[sigma_min, sigma_max] for all six learners of the
-//! game [paper], then the point played to its end. Every draw comes from the team's stream
+//! game \[paper\], then the point played to its end. Every draw comes from the team's stream
 //! `team` of the seed; learner k of player p seeds its own streams from stream `learner`
 //! index 3p + k, so teams of DCP with T = 1, 4 and 16 and the same seed start from the same
 //! weights.
