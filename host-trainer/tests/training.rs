@@ -123,7 +123,7 @@ fn td3_smoke_run_has_twin_critics_delayed_actor_updates_and_exports_q1() {
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
 
-/// A tiny run of the paper's DCP (every issue-13 option off).
+/// A tiny run of the paper's DCP (every DCP-variant option off).
 fn paper_smoke(seed: u64) -> TrainConfig {
     let mut c = TrainConfig::smoke(Algo::Dcp, seed);
     c.dcp = host_trainer::algorithms::dcp::Config {
