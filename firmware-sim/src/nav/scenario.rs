@@ -342,6 +342,7 @@ impl Scenario {
     /// std::fs::write(&path, "name = 3").unwrap();
     /// let err = Scenario::load(&path).unwrap_err().to_string();
     /// assert!(err.contains("firmware-sim-doc-load.toml:1:8"), "{err}");
+    /// # std::fs::remove_file(&path).unwrap();
     /// ```
     pub fn load(path: &Path) -> Result<Scenario, Error> {
         let text = crate::files::read_config_text(path).map_err(|e| Error::Io {
