@@ -97,10 +97,14 @@ struct TeamsArgs {
 }
 
 #[derive(Args, Debug)]
+#[command(group = clap::ArgGroup::new("source").required(true).args(["critic", "player"]))]
 struct HeatmapArgs {
     /// The critic blob (a player's catch-critic.postcard or serve-critic.postcard).
     #[arg(long)]
-    critic: PathBuf,
+    critic: Option<PathBuf>,
+    /// A player folder: its manifest's critic for --role.
+    #[arg(long)]
+    player: Option<PathBuf>,
     /// Which agent's critic it is.
     #[arg(long, value_parser = ["catch", "serve"])]
     role: String,
@@ -808,9 +812,26 @@ fn heatmap(args: &HeatmapArgs) -> Result<bool> {
     use firmware_sim::badminton::heatmap;
     outputs_ok(None, Some(&args.out))?;
     let config = badminton::Config::resolve(&args.scenario)?;
-    let path = args.critic.display();
-    let critic =
-        files::read_blob(&args.critic).with_context(|| format!("cannot read critic {path}"))?;
+    let (path, critic) = match (&args.critic, &args.player) {
+        (Some(file), _) => {
+            let bytes = files::read_blob(file)
+                .with_context(|| format!("cannot read critic {}", file.display()))?;
+            (file.clone(), bytes)
+        }
+        (None, Some(folder)) => {
+            let player = firmware_sim::badminton::blob_player::PlayerFolder::load(folder)?;
+            let role = if args.role == "catch" { 0 } else { 1 };
+            let Some(critics) = player.critics else {
+                anyhow::bail!(
+                    "{}: the player's manifest names no critics",
+                    folder.display()
+                );
+            };
+            critics[role].clone()
+        }
+        (None, None) => anyhow::bail!("--critic or --player is required"),
+    };
+    let path = path.display();
     let map = match args.role.as_str() {
         "catch" => heatmap::catch_map(&config, &critic, args.grid),
         _ => heatmap::serve_map(&config, &critic, args.grid),

@@ -9,6 +9,7 @@ use policy_core::{Activation, ModelKind, Shape};
 use crate::util::runtime_blob;
 
 const BIN: &str = env!("CARGO_BIN_EXE_firmware-sim");
+const EXAMPLE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/example-player");
 
 fn heatmap(args: &[&str]) -> Output {
     Command::new(BIN)
@@ -111,6 +112,11 @@ fn heatmap_writes_svg_and_refuses_bad_input() {
             "--grid",
         ),
         (vec!["--critic", &catch, "--role", "reset"], "reset"),
+        (vec!["--role", "catch"], "--critic"),
+        (
+            vec!["--player", EXAMPLE, "--role", "catch"],
+            "names no critics",
+        ),
     ] {
         let mut all = args.clone();
         all.extend(["--out", &bad]);
