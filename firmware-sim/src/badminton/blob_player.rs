@@ -32,7 +32,7 @@
 use std::path::{Component, Path, PathBuf};
 
 use policy_core::model::Model;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use super::agent::Player;
 use super::config::Config;
@@ -52,16 +52,21 @@ pub const FORMAT: u32 = 1;
 /// The longest label, in characters.
 pub const MAX_LABEL: usize = 64;
 
-/// `player.toml` as written.
-#[derive(Clone, Debug, Deserialize)]
+/// `player.toml`: what a player folder holds. host-trainer writes it with this type (and
+/// `toml`), this module reads it, so the two sides cannot drift apart.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct Manifest {
-    #[allow(dead_code)] // read first, on its own (`Version`)
-    format: u32,
-    label: String,
-    scenario: Option<String>,
-    actors: PerRole,
-    critics: Option<PerRole>,
+pub struct Manifest {
+    /// The manifest version, [`FORMAT`] (read first, on its own: `Version`).
+    pub format: u32,
+    /// Shown in reports (at most [`MAX_LABEL`] characters).
+    pub label: String,
+    /// The badminton scenario file the player trained on, if named.
+    pub scenario: Option<String>,
+    /// One actor blob per agent.
+    pub actors: PerRole,
+    /// One critic blob per agent, if named (heat maps read them; matches do not run them).
+    pub critics: Option<PerRole>,
 }
 
 /// Only the version, read before the rest so that a manifest of another version is refused
@@ -71,17 +76,21 @@ struct Version {
     format: u32,
 }
 
-/// One path per agent.
-#[derive(Clone, Debug, Deserialize)]
+/// One path per agent, relative to the player folder.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct PerRole {
-    catch: String,
-    serve: String,
-    reset: String,
+pub struct PerRole {
+    /// The catch agent's file.
+    pub catch: String,
+    /// The serve agent's file.
+    pub serve: String,
+    /// The reset agent's file.
+    pub reset: String,
 }
 
 impl PerRole {
-    fn of(&self, role: Role) -> &str {
+    /// The file of `role`'s agent.
+    pub fn of(&self, role: Role) -> &str {
         match role {
             Role::Catch => &self.catch,
             Role::Serve => &self.serve,

@@ -16,6 +16,7 @@ use std::ops::ControlFlow;
 
 use serde::{Deserialize, Serialize};
 
+use firmware_sim::badminton::blob_player::{Manifest, PerRole, FORMAT};
 use firmware_sim::badminton::game::{Badminton, Role};
 use firmware_sim::badminton::{self};
 
@@ -30,8 +31,7 @@ use crate::Error;
 pub const MAGIC: &[u8; 8] = b"DCPTEAM1";
 /// The folder of the exported players, inside the team folder.
 pub const PLAYERS: &str = "players";
-/// A player folder's manifest.
-pub const MANIFEST: &str = "player.toml";
+pub use firmware_sim::badminton::blob_player::MANIFEST;
 
 /// Everything needed to continue a team's training.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -305,30 +305,38 @@ impl TeamRun {
             let dir = players.join(&name);
             std::fs::create_dir_all(&dir).map_err(io(&dir))?;
             let dir = RunDir::open(&dir)?;
-            let mut actors = String::new();
-            let mut critics = String::new();
+            let file = |role: Role, suffix: &str| format!("{}{suffix}.postcard", role.name());
+            let per_role = |suffix: &str| PerRole {
+                catch: file(Role::Catch, suffix),
+                serve: file(Role::Serve, suffix),
+                reset: file(Role::Reset, suffix),
+            };
+            let mut critics = false;
             for (role, learner) in Role::ALL.iter().zip(&player.agents) {
                 let label = blob_label(&format!("{name}.{}", role.name()), algo, self.config.seed);
-                let file = format!("{}.postcard", role.name());
-                dir.write(&file, &learner.get().policy_blob(&label)?)?;
-                actors += &format!("{} = \"{file}\"\n", role.name());
+                dir.write(&file(*role, ""), &learner.get().policy_blob(&label)?)?;
                 if let Some(critic) = learner.get().critic_blob(&label) {
-                    let file = format!("{}-critic.postcard", role.name());
-                    dir.write(&file, &critic?)?;
-                    critics += &format!("{} = \"{file}\"\n", role.name());
+                    dir.write(&file(*role, "-critic"), &critic?)?;
+                    critics = true;
                 }
             }
             dir.write(folder::SCENARIO, self.plant.to_toml().as_bytes())?;
-            let label = blob_label(&name, algo, self.config.seed);
-            let mut manifest = format!(
-                "# A badminton player of three agents, written by host-trainer team; played by\n# firmware-sim match --p0 {}\nformat = 1\nlabel = \"{label}\"\nscenario = \"{}\"\n\n[actors]\n{actors}",
-                dir.path().display(),
-                folder::SCENARIO
+            let manifest = Manifest {
+                format: FORMAT,
+                label: blob_label(&name, algo, self.config.seed),
+                scenario: Some(folder::SCENARIO.into()),
+                actors: per_role(""),
+                critics: critics.then(|| per_role("-critic")),
+            };
+            let text = toml::to_string(&manifest).map_err(|e| Error::Io {
+                path: dir.file(MANIFEST),
+                source: std::io::Error::other(e),
+            })?;
+            let header = format!(
+                "# A badminton player of three agents, written by host-trainer team; played by\n# firmware-sim match --p0 {}\n",
+                dir.path().display()
             );
-            if !critics.is_empty() {
-                manifest += &format!("\n[critics]\n{critics}");
-            }
-            dir.write(MANIFEST, manifest.as_bytes())?;
+            dir.write(MANIFEST, (header + &text).as_bytes())?;
             folders.push(dir.path().to_path_buf());
         }
         Ok(folders)
