@@ -40,7 +40,16 @@ pub fn boot_or_safe_state<'a>(
     blob: &'a [u8],
     plant: &PlantSizes,
 ) -> (Box<dyn Controller + 'a>, Option<Error>) {
-    match boot(blob, plant) {
+    or_safe_state(boot(blob, plant), plant)
+}
+
+/// A booted controller, or, if booting failed, the safe state (zero action of the plant's
+/// size) and the reason: what every boot path falls back to.
+pub fn or_safe_state<'a, C: Controller + 'a>(
+    booted: Result<C, Error>,
+    plant: &PlantSizes,
+) -> (Box<dyn Controller + 'a>, Option<Error>) {
+    match booted {
         Ok(policy) => (Box::new(policy), None),
         Err(e) => {
             let safe = SafeState {
@@ -91,7 +100,7 @@ pub(crate) fn check_sizes(c: &dyn Controller, plant: &PlantSizes) -> Result<(), 
 
 /// The plant's sizes are what did not fit: said as firmware-sim says it for any controller,
 /// not as a blob rejected on its own.
-fn plant_error(e: policy_core::Error) -> Error {
+pub(crate) fn plant_error(e: policy_core::Error) -> Error {
     match e {
         policy_core::Error::SizeMismatch {
             what,

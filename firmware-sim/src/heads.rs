@@ -9,8 +9,8 @@ use policy_core::compare::choose_head;
 use policy_core::model::{Model, Scratch};
 use policy_core::ModelKind;
 
-use crate::boot::PlantSizes;
-use crate::controller::{Controller, SafeState, SCRATCH_WIDTH};
+use crate::boot::{or_safe_state, plant_error, PlantSizes};
+use crate::controller::{Controller, SCRATCH_WIDTH};
 use crate::error::Error;
 
 /// How often each head was chosen, shared so it stays readable after the policy is boxed.
@@ -90,14 +90,9 @@ impl<'a> HeadsPolicy<'a> {
                 ),
             });
         }
-        let observations = actor.header().shape.observations as usize;
-        if observations != plant.observations {
-            return Err(Error::SizeMismatch {
-                what: "observation size",
-                expected: plant.observations,
-                found: observations,
-            });
-        }
+        actor
+            .expect_sizes(plant.observations, outputs)
+            .map_err(plant_error)?;
         critic.expect_sizes(plant.observations, actions)?;
         let counts = HeadCounts(Rc::new(RefCell::new(vec![0; outputs / actions])));
         Ok(HeadsPolicy {
@@ -117,16 +112,7 @@ impl<'a> HeadsPolicy<'a> {
         critic: &'a [u8],
         plant: &PlantSizes,
     ) -> (Box<dyn Controller + 'a>, Option<Error>) {
-        match HeadsPolicy::boot(actor, critic, plant) {
-            Ok(policy) => (Box::new(policy), None),
-            Err(e) => {
-                let safe = SafeState {
-                    observations: plant.observations,
-                    actions: plant.actions,
-                };
-                (Box::new(safe), Some(e))
-            }
-        }
+        or_safe_state(HeadsPolicy::boot(actor, critic, plant), plant)
     }
 
     /// The actor's heads K.
