@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::algorithms::agent_config::AgentConfig;
 use crate::algorithms::{dcp, ddpg, ppo, Algo, Learner, Sections};
-use crate::run::config::read_text;
+use crate::run::config::{one_line, read_text};
 use crate::Error;
 
 /// The most players a team may have.
@@ -85,7 +85,7 @@ impl TeamConfig {
     pub fn parse(text: &str, path: &Path) -> Result<TeamConfig, Error> {
         toml::from_str(text).map_err(|e| Error::ConfigFile {
             path: path.to_path_buf(),
-            message: e.to_string().lines().collect::<Vec<_>>().join(" "),
+            message: one_line(&e.to_string()),
         })
     }
 

@@ -58,7 +58,7 @@ pub struct Tally {
     pub in_balls: u64,
     /// Of those, caught.
     pub caught: u64,
-    /// Reward and transitions per role.
+    /// Reward summed per role.
     pub reward: [f64; 3],
     /// Transitions per role.
     pub transitions: [u64; 3],
