@@ -2,74 +2,33 @@
 //! and every bad folder is one line, exit 2, nothing written; a blob that does not boot plays
 //! the safe state and the report says which agent and why.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Output;
 
 use firmware_sim::badminton::play::{play_match, Length, MatchReport, MeasuresReport};
 use firmware_sim::badminton::reference::PlayerKind;
 use firmware_sim::badminton::{Config, Role};
 use policy_core::Encoding;
 
-use crate::util::{badminton_actor, write_example_player, PLAYER_TOML};
-
-const BIN: &str = env!("CARGO_BIN_EXE_firmware-sim");
+use crate::util::{
+    badminton_actor, firmware_sim, stderr, stdout, write_example_player, Scratch, PLAYER_TOML,
+};
 
 /// The committed example folder the documentation plays.
 const EXAMPLE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/example-player");
 
-/// A fresh directory, removed when the test ends.
-struct Scratch(PathBuf);
-
-impl Scratch {
-    fn new(name: &str) -> Scratch {
-        let dir = std::env::temp_dir().join(format!("blob-players-{}-{name}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).expect("scratch dir");
-        Scratch(dir)
-    }
-
-    fn path(&self, name: &str) -> PathBuf {
-        self.0.join(name)
-    }
-
-    fn file(&self, name: &str) -> String {
-        self.path(name).display().to_string()
-    }
-
-    /// A player folder `name` like the example, with its manifest replaced by `manifest`.
-    fn player(&self, name: &str, manifest: &str) -> String {
-        let dir = self.path(name);
-        write_example_player(&dir);
-        std::fs::write(dir.join("player.toml"), manifest).expect("manifest");
-        dir.display().to_string()
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
+/// A scratch folder of this module's tests.
+fn scratch(name: &str) -> Scratch {
+    Scratch::new("blob-players", name)
 }
 
 fn play(args: &[&str]) -> Output {
-    Command::new(BIN)
-        .arg("match")
-        .args(args)
-        .output()
-        .expect("spawn firmware-sim")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
+    firmware_sim("match", args)
 }
 
 #[test]
 fn the_example_player_folder_is_what_the_builder_writes() {
-    let dir = Scratch::new("example");
+    let dir = scratch("example");
     let built = dir.path("example-player");
     write_example_player(&built);
     for name in [
@@ -89,7 +48,7 @@ fn the_example_player_folder_is_what_the_builder_writes() {
 
 #[test]
 fn a_blob_player_plays_scripted_end_to_end_and_the_same_folder_and_seed_give_the_same_bytes() {
-    let dir = Scratch::new("play");
+    let dir = scratch("play");
     let player = dir.player("p", PLAYER_TOML);
     let (one, two) = (dir.file("one.json"), dir.file("two.json"));
     let args = |json: &str| {
@@ -145,7 +104,7 @@ fn a_blob_player_plays_scripted_end_to_end_and_the_same_folder_and_seed_give_the
 /// The optional keys: critics are read (not run) and the scenario must load.
 #[test]
 fn a_folder_with_critics_and_its_scenario_loads() {
-    let dir = Scratch::new("full");
+    let dir = scratch("full");
     let manifest = PLAYER_TOML.replace(
         "label = \"example\"",
         "label = \"full\"\nscenario = \"badminton.toml\"",
@@ -176,7 +135,7 @@ fn a_folder_with_critics_and_its_scenario_loads() {
 
 #[test]
 fn measures_run_on_a_player_folder_as_the_library_gives_them() {
-    let dir = Scratch::new("measures");
+    let dir = scratch("measures");
     let player = dir.player("p", PLAYER_TOML);
     let json = dir.file("measures.json");
     let o = play(&[
@@ -245,7 +204,7 @@ fn assert_bad_input(o: &Output, needle: &str) {
 /// Every bad folder: one line naming the problem, exit 2, no output file.
 #[test]
 fn a_bad_player_folder_is_one_line_exit_2_and_nothing_written() {
-    let dir = Scratch::new("bad");
+    let dir = scratch("bad");
     let json = dir.file("out.json");
     let svg = dir.file("out.svg");
     let refused = |player: &str, needle: &str| {
@@ -374,21 +333,21 @@ fn a_bad_player_folder_is_one_line_exit_2_and_nothing_written() {
     // A symbolic link inside the folder to a blob outside it.
     #[cfg(unix)]
     {
+        // Moves `file` of `folder` out of it, to `outside`, and links it back in.
+        let link_from_outside = |folder: &str, file: &str, outside: &str| {
+            let (inside, outside) = (Path::new(folder).join(file), dir.path(outside));
+            std::fs::rename(&inside, &outside).expect("move");
+            std::os::unix::fs::symlink(&outside, &inside).expect("symlink");
+        };
         let linked = dir.player("linked", PLAYER_TOML);
-        let outside = dir.path("outside.postcard");
-        std::fs::rename(Path::new(&linked).join("serve.postcard"), &outside).expect("move");
-        std::os::unix::fs::symlink(&outside, Path::new(&linked).join("serve.postcard"))
-            .expect("symlink");
+        link_from_outside(&linked, "serve.postcard", "outside.postcard");
         refused(
             &linked,
             "actors.serve = \"serve.postcard\": resolves outside the folder",
         );
         // The manifest itself, linked from outside.
         let manifest_out = dir.player("manifest-link", PLAYER_TOML);
-        let outside = dir.path("outside.toml");
-        std::fs::rename(Path::new(&manifest_out).join("player.toml"), &outside).expect("mv");
-        std::os::unix::fs::symlink(&outside, Path::new(&manifest_out).join("player.toml"))
-            .expect("symlink");
+        link_from_outside(&manifest_out, "player.toml", "outside.toml");
         refused(
             &manifest_out,
             "player.toml = \"player.toml\": resolves outside the folder",
@@ -415,7 +374,7 @@ fn a_bad_player_folder_is_one_line_exit_2_and_nothing_written() {
 /// fails (exit 1), and the report and summary say which agent and why.
 #[test]
 fn a_corrupt_blob_plays_the_safe_state_and_the_report_says_so() {
-    let dir = Scratch::new("corrupt");
+    let dir = scratch("corrupt");
     let player = dir.player("p", PLAYER_TOML);
     let serve = Path::new(&player).join("serve.postcard");
     let mut bytes = std::fs::read(&serve).expect("blob");

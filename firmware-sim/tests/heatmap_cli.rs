@@ -1,33 +1,15 @@
 //! `firmware-sim heatmap`: a critic's Q over the court as SVG, and its bad input.
 
-use std::process::{Command, Output};
-
 use firmware_sim::badminton::heatmap::{catch_map, serve_map};
 use firmware_sim::badminton::Config;
-use policy_core::{Activation, ModelKind, Shape};
+use policy_core::ModelKind;
 
-use crate::util::runtime_blob;
+use crate::util::{badminton_blob, firmware_sim, stderr, Scratch};
 
-const BIN: &str = env!("CARGO_BIN_EXE_firmware-sim");
 const EXAMPLE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/example-player");
 
-fn heatmap(args: &[&str]) -> Output {
-    Command::new(BIN)
-        .arg("heatmap")
-        .args(args)
-        .output()
-        .expect("spawn firmware-sim")
-}
-
 fn critic(actions: u16, seed: u64) -> Vec<u8> {
-    let shape = Shape {
-        observations: 10,
-        actions,
-        width: 16,
-        depth: 2,
-        choices: 0,
-    };
-    runtime_blob(ModelKind::Critic, shape, Activation::Relu, seed, "critic")
+    badminton_blob(ModelKind::Critic, actions, seed, "critic")
 }
 
 /// The catch map holds every grid target on the own half and the incoming ball's landing point;
@@ -61,38 +43,24 @@ fn maps_cover_the_grid_and_follow_the_critic() {
 /// size, a grid of 0 and an output it cannot write, in one line, writing nothing.
 #[test]
 fn heatmap_writes_svg_and_refuses_bad_input() {
-    let dir = std::env::temp_dir().join(format!("heatmap-cli-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("dir");
+    let dir = Scratch::new("heatmap-cli", "svg");
     let write = |name: &str, bytes: &[u8]| {
-        let path = dir.join(name);
-        std::fs::write(&path, bytes).expect("write");
-        path.display().to_string()
+        std::fs::write(dir.path(name), bytes).expect("write");
+        dir.file(name)
     };
     let catch = write("catch-critic.postcard", &critic(2, 1));
-    let actor = {
-        let shape = Shape {
-            observations: 10,
-            actions: 2,
-            width: 16,
-            depth: 2,
-            choices: 0,
-        };
-        write(
-            "catch.postcard",
-            &runtime_blob(ModelKind::Actor, shape, Activation::Relu, 1, "a"),
-        )
-    };
-    let svg = dir.join("catch.svg").display().to_string();
-    let ok = heatmap(&[
-        "--critic", &catch, "--role", "catch", "--out", &svg, "--grid", "9",
-    ]);
-    assert_eq!(
-        ok.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&ok.stderr)
+    let actor = write(
+        "catch.postcard",
+        &badminton_blob(ModelKind::Actor, 2, 1, "a"),
     );
+    let svg = dir.file("catch.svg");
+    let ok = firmware_sim(
+        "heatmap",
+        &[
+            "--critic", &catch, "--role", "catch", "--out", &svg, "--grid", "9",
+        ],
+    );
+    assert_eq!(ok.status.code(), Some(0), "{}", stderr(&ok));
     let text = std::fs::read_to_string(&svg).expect("svg");
     assert!(
         text.starts_with("<svg") && text.contains("catch critic"),
@@ -100,7 +68,7 @@ fn heatmap_writes_svg_and_refuses_bad_input() {
         &text[..200]
     );
 
-    let bad = dir.join("bad.svg").display().to_string();
+    let bad = dir.file("bad.svg");
     for (args, needle) in [
         (
             vec!["--critic", &actor, "--role", "catch"],
@@ -120,15 +88,17 @@ fn heatmap_writes_svg_and_refuses_bad_input() {
     ] {
         let mut all = args.clone();
         all.extend(["--out", &bad]);
-        let out = heatmap(&all);
-        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        let out = firmware_sim("heatmap", &all);
+        let err = stderr(&out);
         assert_eq!(out.status.code(), Some(2), "{all:?}: {err}");
         assert_eq!(err.lines().count(), 1, "{err}");
         assert!(err.contains(needle), "{needle}: {err}");
-        assert!(!dir.join("bad.svg").exists(), "{all:?} wrote its output");
+        assert!(!dir.path("bad.svg").exists(), "{all:?} wrote its output");
     }
-    let nowhere = dir.join("missing/x.svg").display().to_string();
-    let out = heatmap(&["--critic", &catch, "--role", "catch", "--out", &nowhere]);
+    let nowhere = dir.file("missing/x.svg");
+    let out = firmware_sim(
+        "heatmap",
+        &["--critic", &catch, "--role", "catch", "--out", &nowhere],
+    );
     assert_eq!(out.status.code(), Some(2));
-    std::fs::remove_dir_all(&dir).expect("cleanup");
 }

@@ -1,55 +1,21 @@
 //! `firmware-sim match`: the summary, JSON and SVG outputs, exit codes, one-line errors.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Output;
 
 use firmware_sim::badminton::play::{play_match, Length, MatchReport};
 use firmware_sim::badminton::reference::PlayerKind;
 use firmware_sim::badminton::Config;
 
-const BIN: &str = env!("CARGO_BIN_EXE_firmware-sim");
+use crate::util::{firmware_sim, stderr, Scratch};
 
-/// A fresh directory, removed when the test ends.
-struct Scratch(PathBuf);
-
-impl Scratch {
-    fn new(name: &str) -> Scratch {
-        let dir = std::env::temp_dir().join(format!("match-cli-{}-{name}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).expect("scratch dir");
-        Scratch(dir)
-    }
-
-    fn file(&self, name: &str) -> String {
-        self.0.join(name).display().to_string()
-    }
-
-    fn names(&self) -> Vec<String> {
-        let mut names: Vec<String> = std::fs::read_dir(&self.0)
-            .expect("read dir")
-            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
-            .collect();
-        names.sort();
-        names
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
+/// A scratch folder of this module's tests.
+fn scratch(name: &str) -> Scratch {
+    Scratch::new("match-cli", name)
 }
 
 fn play(args: &[&str]) -> Output {
-    Command::new(BIN)
-        .arg("match")
-        .args(args)
-        .output()
-        .expect("spawn firmware-sim")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
+    firmware_sim("match", args)
 }
 
 fn assert_bad_input(o: &Output, needle: &str) {
@@ -64,7 +30,7 @@ fn assert_bad_input(o: &Output, needle: &str) {
 
 #[test]
 fn a_match_prints_the_score_and_writes_json_and_svg_equal_to_the_library() {
-    let dir = Scratch::new("ok");
+    let dir = scratch("ok");
     let (json, svg) = (dir.file("match.json"), dir.file("rally.svg"));
     let args = [
         "--p0", "scripted", "--p1", "random", "--games", "1", "--seed", "4", "--json", &json,
@@ -105,7 +71,7 @@ fn a_match_prints_the_score_and_writes_json_and_svg_equal_to_the_library() {
 
 #[test]
 fn failed_pass_criteria_exit_1() {
-    let dir = Scratch::new("fail");
+    let dir = scratch("fail");
     let strict = dir.file("strict.toml");
     let text = Config::BUILTIN.replace("max_serve_error_rate = 0.08", "max_serve_error_rate = 0.0");
     std::fs::write(&strict, text).expect("scenario");
@@ -129,7 +95,7 @@ fn failed_pass_criteria_exit_1() {
 
 #[test]
 fn bad_arguments_are_one_line_exit_2_and_leave_no_file() {
-    let dir = Scratch::new("bad");
+    let dir = scratch("bad");
     let json = dir.file("out.json");
     assert_bad_input(
         &play(&["--p0", "smash", "--p1", "random"]),

@@ -1,17 +1,14 @@
 //! `firmware-sim teams`: team against team from trained player folders, and its bad input.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
-const BIN: &str = env!("CARGO_BIN_EXE_firmware-sim");
+use crate::util::{firmware_sim, stderr, Scratch};
+
 const EXAMPLE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/example-player");
 
 fn teams(args: &[&str]) -> Output {
-    Command::new(BIN)
-        .arg("teams")
-        .args(args)
-        .output()
-        .expect("spawn firmware-sim")
+    firmware_sim("teams", args)
 }
 
 /// A team folder of two copies of the example player (under `players/`, as `host-trainer team`
@@ -33,12 +30,9 @@ fn team_folder(dir: &Path) -> String {
 /// 2, nothing written.
 #[test]
 fn teams_play_pairings_and_refuse_bad_input() {
-    let dir = std::env::temp_dir().join(format!("teams-cli-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("dir");
-    let team = team_folder(&dir.join("team"));
-    let json = |name: &str| dir.join(name).display().to_string();
-    let (first, second) = (json("a.json"), json("b.json"));
+    let dir = Scratch::new("teams-cli", "play");
+    let team = team_folder(&dir.path("team"));
+    let (first, second) = (dir.file("a.json"), dir.file("b.json"));
     for out in [&first, &second] {
         let o = teams(&[
             "--a", &team, "--b", "scripted", "--points", "30", "--json", out,
@@ -65,10 +59,9 @@ fn teams_play_pairings_and_refuse_bad_input() {
         .sum();
     assert_eq!(played, 30);
 
-    let bad = json("bad.json");
-    let empty = dir.join("empty");
-    std::fs::create_dir_all(&empty).expect("dir");
-    let empty = empty.display().to_string();
+    let bad = dir.file("bad.json");
+    std::fs::create_dir_all(dir.path("empty")).expect("dir");
+    let empty = dir.file("empty");
     for (args, needle) in [
         (vec!["--a", &empty, "--b", "scripted"], "no player folder"),
         (
@@ -80,11 +73,10 @@ fn teams_play_pairings_and_refuse_bad_input() {
         let mut all = args.clone();
         all.extend(["--json", &bad]);
         let o = teams(&all);
-        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        let err = stderr(&o);
         assert_eq!(o.status.code(), Some(2), "{all:?}: {err}");
         assert_eq!(err.lines().count(), 1, "{err}");
         assert!(err.contains(needle), "{needle}: {err}");
         assert!(!Path::new(&bad).exists(), "{all:?} wrote its output");
     }
-    std::fs::remove_dir_all(&dir).expect("cleanup");
 }

@@ -88,6 +88,13 @@ pub fn badminton_actor(
     encoding: policy_core::Encoding,
     label: &str,
 ) -> Vec<u8> {
+    let f32_blob = badminton_blob(ModelKind::Actor, actions, seed, label);
+    blob::encode(&f32_blob, encoding).expect("encode")
+}
+
+/// A badminton agent's f32 blob of `kind` (actor or critic): 10 observations, `actions`
+/// actions, 2×16 tanh, random weights from `seed`.
+pub fn badminton_blob(kind: ModelKind, actions: u16, seed: u64, label: &str) -> Vec<u8> {
     let shape = Shape {
         observations: 10,
         actions,
@@ -95,8 +102,7 @@ pub fn badminton_actor(
         depth: 2,
         choices: 0,
     };
-    let f32_blob = runtime_blob(ModelKind::Actor, shape, Activation::Tanh, seed, label);
-    blob::encode(&f32_blob, encoding).expect("encode")
+    runtime_blob(kind, shape, Activation::Tanh, seed, label)
 }
 
 /// The manifest of a player folder with the three actors (and critics, if `critics`) under
@@ -123,4 +129,70 @@ pub fn write_example_player(dir: &std::path::Path) {
         let blob = badminton_actor(actions, seed, encoding, &format!("example {name}"));
         std::fs::write(dir.join(format!("{name}.postcard")), blob).expect("blob");
     }
+}
+
+/// A fresh directory under the system's temporary folder, removed when the test ends.
+pub struct Scratch(pub std::path::PathBuf);
+
+impl Scratch {
+    /// `{prefix}-{pid}-{name}`, emptied first.
+    pub fn new(prefix: &str, name: &str) -> Scratch {
+        let dir = std::env::temp_dir().join(format!("{prefix}-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("scratch dir");
+        Scratch(dir)
+    }
+
+    /// A path inside.
+    pub fn path(&self, name: &str) -> std::path::PathBuf {
+        self.0.join(name)
+    }
+
+    /// A path inside, as a string for the command line.
+    pub fn file(&self, name: &str) -> String {
+        self.path(name).display().to_string()
+    }
+
+    /// The names of what it holds, sorted.
+    pub fn names(&self) -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(&self.0)
+            .expect("read dir")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+
+    /// A player folder `name` like the example, with its manifest replaced by `manifest`.
+    pub fn player(&self, name: &str, manifest: &str) -> String {
+        let dir = self.path(name);
+        write_example_player(&dir);
+        std::fs::write(dir.join("player.toml"), manifest).expect("manifest");
+        dir.display().to_string()
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Runs `firmware-sim SUBCOMMAND ARGS...` to its end.
+pub fn firmware_sim(subcommand: &str, args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_firmware-sim"))
+        .arg(subcommand)
+        .args(args)
+        .output()
+        .expect("spawn firmware-sim")
+}
+
+/// A process's standard error as text.
+pub fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A process's standard output as text.
+pub fn stdout(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
 }
