@@ -365,6 +365,22 @@ fn a_team_trains_resumes_exactly_and_exports_its_players() {
         }
     };
     assert_eq!(parts.train(&mut stop).expect("train"), Outcome::Stopped(30));
+    // A flipped bit, or a run's checkpoint in its place, is a clear error.
+    let file = parts.dir.file(folder::CHECKPOINT);
+    let good = std::fs::read(&file).expect("checkpoint");
+    let mut flipped = good.clone();
+    flipped[good.len() / 2] ^= 0x10;
+    std::fs::write(&file, &flipped).expect("write");
+    let err = TeamRun::resume(parts.dir.path(), None)
+        .expect_err("flipped")
+        .to_string();
+    assert!(err.contains("checksum mismatch"), "{err}");
+    std::fs::write(&file, b"DCPCKPT5 not a team").expect("write");
+    let err = TeamRun::resume(parts.dir.path(), None)
+        .expect_err("a run's")
+        .to_string();
+    assert!(err.contains("not a team checkpoint"), "{err}");
+    std::fs::write(&file, &good).expect("write");
     let mut resumed = TeamRun::resume(parts.dir.path(), None).expect("resume");
     resumed.train(&mut go.clone()).expect("train");
     assert!(blobs(&resumed) == blobs(&whole), "resume");
