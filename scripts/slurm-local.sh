@@ -208,7 +208,24 @@ stop_one() {
     rm -f "$pidfile"
 }
 
+# Jobs still running when slurmd stops would be left behind as orphans: cancel them first.
+cancel_jobs() {
+    local ids
+    alive_pid "$base/slurmctld.pid" >/dev/null || return 0
+    ids="$(squeue -h -o %A 2>/dev/null)" || return 0
+    [[ -n "$ids" ]] || return 0
+    echo "slurm-local: cancelling jobs $(echo "$ids" | tr '\n' ' ')"
+    # shellcheck disable=SC2086 # one job id per word
+    scancel $ids || true
+    for _ in $(seq 1 30); do
+        [[ -z "$(squeue -h -o %A 2>/dev/null)" ]] && return 0
+        sleep 0.5
+    done
+    echo "slurm-local: jobs still listed after 15 s; stopping anyway" >&2
+}
+
 stop_daemons() {
+    cancel_jobs
     stop_one slurmd "$base/slurmd.pid"
     stop_one slurmctld "$base/slurmctld.pid"
 }
