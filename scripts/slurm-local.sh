@@ -51,10 +51,16 @@ install_packages() {
     [[ $EUID -eq 0 ]] || die "Slurm is not installed and installing it needs root"
     echo "slurm-local: installing slurmctld, slurmd, slurm-client and munge from Debian"
     export DEBIAN_FRONTEND=noninteractive
-    # A fresh machine may have no package lists yet.
-    apt-get update -qq || die "apt-get update failed"
-    apt-get install -y -qq --no-install-recommends slurmctld slurmd slurm-client munge >/dev/null ||
-        die "apt-get install slurmctld slurmd slurm-client munge failed"
+    local log
+    log="$(mktemp)"
+    # A fresh machine may have no package lists yet. apt's chatter goes to a log, shown on failure.
+    if ! apt-get update -qq >"$log" 2>&1 ||
+        ! apt-get install -y -qq --no-install-recommends slurmctld slurmd slurm-client munge >>"$log" 2>&1; then
+        tail -n 20 "$log" >&2
+        rm -f "$log"
+        die "installing slurmctld, slurmd, slurm-client and munge with apt-get failed"
+    fi
+    rm -f "$log"
 }
 
 write_config() {
