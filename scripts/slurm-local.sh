@@ -70,7 +70,8 @@ write_config() {
     mkdir -p /etc/slurm "$base/ctld" "$base/d" "$base/log"
     tmp="$(mktemp)"
     # select/cons_tres with CR_Core: each array task takes one core, so a 2-core node runs two
-    # at once. No cgroups (containers rarely delegate them): processes are tracked through
+    # at once. The node line gives CPUs only, so Slurm counts each CPU as a core (slurmd logs
+    # the real sockets and cores and carries on): with hyperthreads, one task per thread. No cgroups (containers rarely delegate them): processes are tracked through
     # /proc and tasks are not confined. No accounting database, so no sacct.
     cat >"$tmp" <<EOF
 $marker for one node on this machine; rewritten by each start.
