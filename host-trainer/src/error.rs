@@ -80,6 +80,14 @@ pub enum Error {
         /// The first setting that differs, e.g. `episodes = 4 recorded, 6 in the sweep`.
         difference: String,
     },
+    /// A `reproduce` folder holds another grid (experiment, seeds or budget) than the command's,
+    /// or none to merge.
+    GridDiffers {
+        /// The `--out` folder.
+        path: PathBuf,
+        /// How, e.g. "it holds the grid `exp1 --seeds 5`, not `exp1 --seeds 6`".
+        difference: String,
+    },
     /// Another process writes into the folder (it holds the folder's lock).
     Locked {
         /// The run or sweep folder.
@@ -166,6 +174,11 @@ impl fmt::Display for Error {
             Error::RunDiffers { path, difference } => write!(
                 f,
                 "{} holds a run of other settings than this sweep's ({difference}); sweep into another --out, or move the folder away",
+                path.display()
+            ),
+            Error::GridDiffers { path, difference } => write!(
+                f,
+                "{}: {difference}; give the same experiment, --seeds and --quick as the runs there, or another --out",
                 path.display()
             ),
             Error::Locked { path, holder } => write!(

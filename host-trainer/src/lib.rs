@@ -11,6 +11,9 @@
 //!
 //! Imports flow one way, from the bottom of this list to its top; no two modules import each
 //! other.
+//! - [`reproduce`]: an experiment rebuilt by one command: its grid of runs (whole, or one slice
+//!   for a cluster array) run through `sweep`'s machinery, and the results page and figures
+//!   built from the run folders.
 //! - [`team`]: experiment 2's teams: badminton players of three learners each, trained on
 //!   random pairings within the team, checkpointed, exported as player folders.
 //! - [`sweep`]: many seeds and algorithms as parallel `train` processes: planning, supervising
@@ -45,6 +48,7 @@ pub mod blob;
 pub mod buffers;
 pub mod error;
 pub mod nn;
+pub mod reproduce;
 pub mod rng_state;
 pub mod run;
 pub mod sweep;

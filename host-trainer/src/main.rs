@@ -9,6 +9,8 @@
 //!                     [--image bin|hex --slot a|b --sequence N [--address ADDR] [--slot-size BYTES]]
 //! host-trainer inspect BLOB
 //! host-trainer sweep --seeds 0-4 [--algo dcp,ddpg] [--jobs N] --out DIR [--config FILE] [--quiet]
+//! host-trainer team [--algo dcp] [--t 16] [--players 16] [--points 20000] [--seed 0] [--out DIR]
+//! host-trainer reproduce exp1 --out DIR [--seeds 5] [--jobs N] [--slice I/N | --merge] [--quick]
 //! ```
 //! Errors are one line on stderr and a non-zero exit.
 
@@ -35,6 +37,10 @@ use host_trainer::blob::export::{self, ImageFormat, SlotTarget};
 use host_trainer::blob::inspect;
 use host_trainer::nn::hidden::Hidden;
 use host_trainer::nn::workers::Workers;
+use host_trainer::reproduce::{
+    self,
+    grid::{self, Experiment, Grid, Slice},
+};
 use host_trainer::run::checkpoint::Checkpoint;
 use host_trainer::run::config::{RewardKind, TrainConfig};
 use host_trainer::run::folder::{self, RunDir};
@@ -80,6 +86,40 @@ enum Command {
     /// one point per episode; writes OUT/{scenario}__{algo}__{seed}/ and exports every player
     /// into its players/ folder.
     Team(TeamArgs),
+    /// Rebuild an experiment of the paper: plan its grid of runs, run them (or one --slice of
+    /// them) as sweep does, and build the results page and figures from the run folders
+    /// (OUT/exp1.md, OUT/figures/).
+    Reproduce(ReproduceArgs),
+}
+
+#[derive(Debug, Args)]
+struct ReproduceArgs {
+    /// The experiment: exp1 (navigation among walls: tables 1–3, figures 4–7).
+    #[arg(value_enum)]
+    experiment: Experiment,
+    /// Existing output folder: the grid's runs, its page and figures go there.
+    #[arg(long)]
+    out: PathBuf,
+    /// Seeds 0..N of every cell (at least 5 unless --quick).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    seeds: u64,
+    /// Most runs at once [default: the number of cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    jobs: Option<u32>,
+    /// Run only part I of N (from 0) of the grid, e.g. a Slurm array task's
+    /// $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT; the page is built by --merge.
+    #[arg(long, conflicts_with = "merge")]
+    slice: Option<Slice>,
+    /// A few episodes per run: a test of the machinery, not a result.
+    #[arg(long)]
+    quick: bool,
+    /// Run nothing: build the page from the run folders of every part, and say which runs
+    /// are missing (exit 1 if any).
+    #[arg(long)]
+    merge: bool,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
 }
 
 /// Flags override the config file, which overrides the defaults (the paper's values).
@@ -311,6 +351,7 @@ fn main() -> ExitCode {
         Some(Command::Inspect(args)) => inspect_command(&args).map(|()| ExitCode::SUCCESS),
         Some(Command::Sweep(args)) => sweep_command(args),
         Some(Command::Team(args)) => team_command(args),
+        Some(Command::Reproduce(args)) => reproduce_command(args),
         None => {
             eprintln!(
                 "host-trainer: missing a subcommand: train, eval, export, inspect, sweep or team (see --help)"
@@ -682,10 +723,10 @@ fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
     install_sweep_ctrl_c_handler();
     let runner = supervise::Runner {
         exe: std::env::current_exe().context("cannot find the host-trainer binary")?,
-        out: args.out.clone(),
         jobs,
         threads,
         quiet: args.quiet,
+        announce: false,
         interrupts: &INTERRUPTS,
     };
     let records = supervise::execute(&plan, &runner)?;
@@ -705,6 +746,123 @@ fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
             records.len(),
             args.out.join(report::SUMMARY_MD).display(),
             args.out.join(supervise::LOGS).display()
+        );
+        return Ok(ExitCode::FAILURE);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Checks everything (the grid against the folder, every run folder) before the first run; runs
+/// the slice; records the part; builds the page when the whole grid ran here.
+fn reproduce_command(args: ReproduceArgs) -> Result<ExitCode> {
+    let grid = Grid {
+        experiment: args.experiment,
+        seeds: args.seeds,
+        quick: args.quick,
+    };
+    if !grid.quick && grid.seeds < grid::MIN_SEEDS {
+        anyhow::bail!(
+            "--seeds {}: a grid's cells need at least {} seeds (docs/design.md §7); --quick runs fewer",
+            grid.seeds,
+            grid::MIN_SEEDS
+        );
+    }
+    if args.merge {
+        reproduce::folder::check(&args.out, &grid)?;
+        return merge(&args.out, &grid);
+    }
+    let slice = args.slice.unwrap_or(Slice::WHOLE);
+    if let Some(found) = reproduce::folder::recorded(&args.out)? {
+        if found != grid {
+            reproduce::folder::check(&args.out, &grid)?;
+        }
+    }
+    let plan = reproduce::folder::plan(&args.out, &grid, slice)?;
+    reproduce::folder::claim(&args.out, &grid)?;
+    let part_dir = reproduce::Part::path(&args.out, slice).with_extension("");
+    std::fs::create_dir_all(&part_dir)
+        .with_context(|| format!("cannot create {}", part_dir.display()))?;
+    // One process per part: a second one would run the same runs beside the first.
+    let _lock = lock::acquire(&part_dir)?;
+    reproduce::folder::create_cells(&plan)?;
+    let jobs = args.jobs.map_or_else(cores, |n| n as usize);
+    let to_run = plan.iter().filter(|r| r.start != plan::Start::Skip).count();
+    let threads = (cores() / jobs.min(to_run).max(1)).max(1);
+    install_sweep_ctrl_c_handler();
+    let runner = supervise::Runner {
+        exe: std::env::current_exe().context("cannot find the host-trainer binary")?,
+        jobs,
+        threads,
+        quiet: args.quiet,
+        announce: true,
+        interrupts: &INTERRUPTS,
+    };
+    let started = Instant::now();
+    let records = supervise::execute(&plan, &runner)?;
+    reproduce::folder::mark(&plan, &records)?;
+    let count = |s: Status| records.iter().filter(|r| r.status == s).count();
+    let part = reproduce::Part {
+        slice: slice.to_string(),
+        commit: reproduce::COMMIT.into(),
+        runs: plan.len(),
+        finished: count(Status::Finished),
+        skipped: count(Status::Skipped),
+        failed: count(Status::Failed),
+        wall_seconds: started.elapsed().as_secs_f64(),
+        total_wall_seconds: 0.0,
+    }
+    .write(&args.out, slice)?;
+    if INTERRUPTS.load(Ordering::SeqCst) > 0 {
+        eprintln!("host-trainer: reproduce interrupted; the stopped runs kept a checkpoint. Re-run the same command to continue (finished runs are skipped)");
+        return Ok(ExitCode::from(INTERRUPTED));
+    }
+    outln!(
+        "part {slice} of {}: {} runs, {} trained, {} already finished, {} failed, {:.0} s",
+        grid.describe(),
+        part.runs,
+        part.finished,
+        part.skipped,
+        part.failed,
+        part.wall_seconds
+    );
+    if slice != Slice::WHOLE {
+        outln!(
+            "when every part has run: host-trainer reproduce {} --out {} --merge",
+            grid.describe(),
+            args.out.display()
+        );
+        return Ok(if part.failed > 0 {
+            ExitCode::FAILURE
+        } else {
+            ExitCode::SUCCESS
+        });
+    }
+    let code = merge(&args.out, &grid)?;
+    Ok(if part.failed > 0 {
+        ExitCode::FAILURE
+    } else {
+        code
+    })
+}
+
+/// Builds the page; exit 1 when runs are missing.
+fn merge(out: &Path, grid: &Grid) -> Result<ExitCode> {
+    let built = reproduce::build_page(out, grid)?;
+    let page = out.join(reproduce::page_file(grid));
+    outln!(
+        "wrote {} and {}/: {} runs, {} failed, {} missing",
+        page.display(),
+        out.join(reproduce::FIGURES).display(),
+        built.runs,
+        built.failed,
+        built.missing
+    );
+    if built.missing > 0 {
+        eprintln!(
+            "host-trainer: {} of {} runs are missing (listed at the end of {}); run the missing parts, then merge again",
+            built.missing,
+            built.runs,
+            page.display()
         );
         return Ok(ExitCode::FAILURE);
     }

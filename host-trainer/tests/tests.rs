@@ -7,6 +7,8 @@ mod cli;
 mod crash;
 /// Ctrl-C during training: a checkpoint, a clean exit, a hint how to resume.
 mod interrupt;
+/// `host-trainer reproduce`: an experiment's grid in slices, merged into its page.
+mod reproduce;
 /// Shared helpers: scratch folders, running the binary, tiny configs.
 mod support;
 /// `host-trainer sweep`: parallel runs, summary, and re-running after a kill, failure or Ctrl-C.

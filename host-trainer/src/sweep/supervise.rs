@@ -25,14 +25,15 @@ pub const LOGS: &str = "sweep-logs";
 pub struct Runner<'a> {
     /// The `host-trainer` binary (the running one).
     pub exe: PathBuf,
-    /// The output folder.
-    pub out: PathBuf,
     /// Most runs at once.
     pub jobs: usize,
     /// Each run's `--threads` (the cores shared out between the runs at once).
     pub threads: usize,
     /// No progress bar.
     pub quiet: bool,
+    /// A line on stdout for every run that ends, above the bar (failures get theirs on stderr
+    /// either way).
+    pub announce: bool,
     /// Ctrl-C presses so far (the caller's handler counts them).
     pub interrupts: &'a AtomicU32,
 }
@@ -58,13 +59,12 @@ struct Running {
 /// SIGINT (they checkpoint and exit 130; a terminal's Ctrl-C reaches them directly too, and
 /// `train` takes the two deliveries as one press), and this returns once all have exited.
 pub fn execute(plan: &[PlannedRun], runner: &Runner<'_>) -> Result<Vec<RunRecord>, Error> {
-    let logs = runner.out.join(LOGS);
-    fs::create_dir_all(&logs).map_err(|source| Error::Io {
-        path: logs.clone(),
-        source,
-    })?;
     let mut queue = (0..plan.len()).filter(|&i| plan[i].start != Start::Skip);
-    let mut sweep = Supervisor::new(plan, runner, logs, queue.clone().count());
+    for index in queue.clone() {
+        let logs = logs_of(&plan[index]);
+        fs::create_dir_all(&logs).map_err(|source| Error::Io { path: logs, source })?;
+    }
+    let mut sweep = Supervisor::new(plan, runner, queue.clone().count());
     let mut forwarded = 0;
     loop {
         let interrupts = runner.interrupts.load(Ordering::SeqCst);
@@ -91,7 +91,6 @@ pub fn execute(plan: &[PlannedRun], runner: &Runner<'_>) -> Result<Vec<RunRecord
 struct Supervisor<'a> {
     plan: &'a [PlannedRun],
     runner: &'a Runner<'a>,
-    logs: PathBuf,
     records: Vec<RunRecord>,
     running: Vec<Running>,
     bar: ProgressBar,
@@ -99,7 +98,7 @@ struct Supervisor<'a> {
 
 impl<'a> Supervisor<'a> {
     /// Skipped runs are recorded at once (with their result); the bar counts the others.
-    fn new(plan: &'a [PlannedRun], runner: &'a Runner<'a>, logs: PathBuf, todo: usize) -> Self {
+    fn new(plan: &'a [PlannedRun], runner: &'a Runner<'a>, todo: usize) -> Self {
         let records = plan
             .iter()
             .map(|run| match run.start {
@@ -113,7 +112,6 @@ impl<'a> Supervisor<'a> {
         Supervisor {
             plan,
             runner,
-            logs,
             records,
             running: Vec::new(),
             bar: progress_bar(todo as u64, runner.quiet),
@@ -123,7 +121,7 @@ impl<'a> Supervisor<'a> {
     /// A run that cannot start is a failed row like any other: giving up on the sweep here
     /// would leave the running children unwatched.
     fn start(&mut self, index: usize) {
-        match spawn(self.runner, &self.plan[index], index, &self.logs) {
+        match spawn(self.runner, &self.plan[index], index) {
             Ok(child) => self.running.push(child),
             Err(e) => self.fail(index, format!("could not start: {e}")),
         }
@@ -160,6 +158,9 @@ impl<'a> Supervisor<'a> {
 
     fn ended(&mut self, index: usize) {
         report(&self.bar, &self.records[index], &self.plan[index]);
+        if self.runner.announce {
+            announce(&self.bar, &self.records[index], &self.plan[index]);
+        }
         self.bar.inc(1);
         self.show();
     }
@@ -174,13 +175,15 @@ impl<'a> Supervisor<'a> {
     }
 }
 
+/// The folder of a run's log: `sweep-logs/` beside the run's folder (the sweep's `--out` for a
+/// sweep; a grid of several sweeps has one per folder of runs).
+pub fn logs_of(run: &PlannedRun) -> PathBuf {
+    run.dir.parent().unwrap_or(Path::new(".")).join(LOGS)
+}
+
 /// Starts one run's `train` child, its output appended to its log.
-fn spawn(
-    runner: &Runner<'_>,
-    run: &PlannedRun,
-    index: usize,
-    logs: &Path,
-) -> Result<Running, Error> {
+fn spawn(runner: &Runner<'_>, run: &PlannedRun, index: usize) -> Result<Running, Error> {
+    let logs = logs_of(run);
     let log = logs.join(format!("{}.log", run.name()));
     // A fresh run starts from its own config file beside its log: the sweep's config with the
     // run's algorithm and seed, and the settings that algorithm does not read at their defaults
@@ -300,6 +303,22 @@ fn report(bar: &ProgressBar, record: &RunRecord, run: &PlannedRun) {
             );
         });
     }
+}
+
+/// A finished run's line: where it is, how long it took, its headline numbers.
+fn announce(bar: &ProgressBar, record: &RunRecord, run: &PlannedRun) {
+    let (Status::Finished, Some(eval)) = (record.status, &record.eval) else {
+        return;
+    };
+    let line = format!(
+        "finished {} in {:.0} s: success {:.2}, settled error {:.3}, stuck {:.2}",
+        run.dir.display(),
+        record.wall_seconds.unwrap_or(0.0),
+        eval.success_rate,
+        eval.mean_error,
+        eval.stuck_rate
+    );
+    bar.suspend(|| firmware_sim::outln!("{line}"));
 }
 
 /// `kill SIGNAL PID` through the `kill` command (the crate forbids `unsafe`, so no libc).

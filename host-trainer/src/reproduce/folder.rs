@@ -1,0 +1,271 @@
+//! A grid's output folder: which grid it holds, the runs of every cell, and what became of them.
+//!
+//! ```text
+//! OUT/grid.json                           the grid (experiment, seeds, budget): written once
+//! OUT/runs/{cell}/{task}__{algo}__{seed}/ the runs, as `train` writes them
+//! OUT/runs/{cell}/sweep-logs/             each run's log, and `{run}.failed` for a failed run
+//! OUT/exp1.md, OUT/figures/               the page and its figures, built from the above alone
+//! ```
+//! Every part of a grid (each `--slice`, on any machine sharing the folder) writes disjoint run
+//! folders, so the parts never write the same file; `grid.json` is created once, by whichever
+//! part comes first, and every later part checks it holds the same grid.
+
+use std::fs;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+use firmware_sim::files;
+use firmware_sim::nav::test_protocol::Report;
+
+use super::grid::{Cell, Grid, GridRun, Slice};
+use crate::run::config::TrainConfig;
+use crate::run::folder;
+use crate::sweep::plan::{self, PlannedRun};
+use crate::sweep::record::{RunRecord, Status};
+use crate::sweep::supervise::logs_of;
+use crate::Error;
+
+/// The grid's record in its folder.
+pub const GRID_FILE: &str = "grid.json";
+
+/// The grid `out` holds, if any.
+pub fn recorded(out: &Path) -> Result<Option<Grid>, Error> {
+    let path = out.join(GRID_FILE);
+    match fs::read_to_string(&path) {
+        Ok(text) => serde_json::from_str(&text)
+            .map(Some)
+            .map_err(|e| Error::ConfigFile {
+                path,
+                message: format!("not a grid record: {e}"),
+            }),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(source) => Err(Error::Io { path, source }),
+    }
+}
+
+/// Records `grid` in `out` (the first part to come), or checks that `out` holds this grid: a
+/// folder of another grid is refused before anything is written, whatever its runs.
+pub fn claim(out: &Path, grid: &Grid) -> Result<(), Error> {
+    if !out.is_dir() {
+        return Err(Error::Io {
+            path: out.to_path_buf(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                "output folder does not exist (create it first)",
+            ),
+        });
+    }
+    let path = out.join(GRID_FILE);
+    let text = serde_json::to_string_pretty(grid).unwrap_or_default() + "\n";
+    // `create_new` makes the first part the only writer: two parts starting together cannot
+    // both write, and the second reads what the first wrote.
+    match fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&path)
+    {
+        Ok(mut file) => {
+            let io = |source| Error::Io {
+                path: path.clone(),
+                source,
+            };
+            file.write_all(text.as_bytes()).map_err(io)?;
+            file.sync_all().map_err(io)
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => check(out, grid),
+        Err(source) => Err(Error::Io { path, source }),
+    }
+}
+
+/// Checks that `out` holds `grid`.
+pub fn check(out: &Path, grid: &Grid) -> Result<(), Error> {
+    let path = out.join(GRID_FILE);
+    // A part that lost the race to create the file may read it before its first byte lands.
+    for _ in 0..50 {
+        match recorded(out) {
+            Ok(Some(found)) if found == *grid => return Ok(()),
+            Ok(Some(found)) => {
+                return Err(Error::GridDiffers {
+                    path: out.to_path_buf(),
+                    difference: format!(
+                        "it holds the grid `{}`, not `{}`",
+                        found.describe(),
+                        grid.describe()
+                    ),
+                })
+            }
+            Ok(None) => {
+                return Err(Error::GridDiffers {
+                    path: out.to_path_buf(),
+                    difference: format!(
+                        "it holds no grid ({GRID_FILE} is missing): nothing to merge"
+                    ),
+                })
+            }
+            Err(_) if fs::metadata(&path).is_ok_and(|m| m.len() == 0) => {
+                std::thread::sleep(std::time::Duration::from_millis(100));
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    recorded(out).map(|_| ())
+}
+
+/// Plans the slice's runs, cell by cell through `sweep`'s planner (a folder holding a run of
+/// other settings is refused). Writes nothing: a cell whose folder does not exist yet has
+/// only fresh runs ([`create_cells`] makes the folders once everything is checked).
+pub fn plan(out: &Path, grid: &Grid, slice: Slice) -> Result<Vec<PlannedRun>, Error> {
+    let runs = grid.slice(slice);
+    let mut planned = Vec::new();
+    for cell in grid.cells() {
+        let seeds: Vec<u64> = runs
+            .iter()
+            .filter(|r| r.cell == cell)
+            .map(|r| r.seed)
+            .collect();
+        if seeds.is_empty() {
+            continue;
+        }
+        let dir = Grid::cell_dir(out, &cell);
+        let base = cell.config(grid.quick);
+        if dir.is_dir() {
+            planned.extend(plan::runs(&base, &[cell.agent.algo], &seeds, &dir)?);
+            continue;
+        }
+        let config = base.for_algo(cell.agent.algo)?;
+        planned.extend(seeds.into_iter().map(|seed| {
+            let config = TrainConfig {
+                seed,
+                ..config.clone()
+            };
+            PlannedRun {
+                dir: dir.join(config.run_name()),
+                config,
+                start: plan::Start::Fresh,
+            }
+        }));
+    }
+    Ok(planned)
+}
+
+/// Creates the folders of the cells the plan's runs go in.
+pub fn create_cells(plan: &[PlannedRun]) -> Result<(), Error> {
+    for run in plan {
+        if let Some(cell) = run.dir.parent() {
+            fs::create_dir_all(cell).map_err(|source| Error::Io {
+                path: cell.to_path_buf(),
+                source,
+            })?;
+        }
+    }
+    Ok(())
+}
+
+/// The file that marks a failed run, beside its log.
+fn failed_mark(run: &PlannedRun) -> PathBuf {
+    logs_of(run).join(format!("{}.failed", run.name()))
+}
+
+/// Marks the runs that failed (their record, as JSON, beside their log) and clears the mark
+/// of those that finished: the page counts a failed run as failed, never drops it.
+pub fn mark(plan: &[PlannedRun], records: &[RunRecord]) -> Result<(), Error> {
+    for (run, record) in plan.iter().zip(records) {
+        let path = failed_mark(run);
+        let io = |source| Error::Io {
+            path: path.clone(),
+            source,
+        };
+        match record.status {
+            Status::Failed => {
+                let text = serde_json::to_string_pretty(record).unwrap_or_default() + "\n";
+                files::write_atomic(&path, text.as_bytes()).map_err(io)?;
+            }
+            Status::Finished | Status::Skipped if path.exists() => {
+                fs::remove_file(&path).map_err(io)?;
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// What a run's folder says became of it.
+#[derive(Debug)]
+pub enum Outcome {
+    /// Finished: its evaluation (firmware-sim's report on the exported blob) and its config.
+    Finished(Box<Finished>),
+    /// Failed: the last line its process printed.
+    Failed(String),
+    /// Not run, running, or stopped before its end.
+    Missing,
+}
+
+/// A finished run.
+#[derive(Debug)]
+pub struct Finished {
+    /// The run's folder.
+    pub dir: PathBuf,
+    /// Its recorded settings.
+    pub config: TrainConfig,
+    /// Its evaluation.
+    pub report: Report,
+}
+
+/// The outcome of one run of the grid, read from its folder alone.
+pub fn outcome(out: &Path, grid: &Grid, run: &GridRun) -> Result<Outcome, Error> {
+    let cell_dir = Grid::cell_dir(out, &run.cell);
+    let mut config = run.cell.config(grid.quick).for_algo(run.cell.agent.algo)?;
+    config.seed = run.seed;
+    let dir = cell_dir.join(config.run_name());
+    let eval = dir.join(folder::EVAL);
+    if eval.exists() {
+        let text = fs::read_to_string(&eval).map_err(|source| Error::Io {
+            path: eval.clone(),
+            source,
+        })?;
+        let report: Report = serde_json::from_str(&text).map_err(|e| Error::ConfigFile {
+            path: eval.clone(),
+            message: format!("not a firmware-sim report: {e}"),
+        })?;
+        let recorded = TrainConfig::from_file(&dir.join(folder::CONFIG))?;
+        let recorded = recorded.for_algo(recorded.algo)?;
+        if recorded != config {
+            // The merge refuses runs of other settings as the planner does.
+            return Err(Error::RunDiffers {
+                path: dir,
+                difference: "its config.toml is not the grid's setting for it".into(),
+            });
+        }
+        return Ok(Outcome::Finished(Box::new(Finished {
+            dir,
+            config,
+            report,
+        })));
+    }
+    let mark = cell_dir
+        .join(crate::sweep::supervise::LOGS)
+        .join(format!("{}.failed", config.run_name()));
+    match fs::read_to_string(&mark) {
+        Ok(text) => {
+            let record: Option<RunRecord> = serde_json::from_str(&text).ok();
+            let line = record
+                .and_then(|r| r.last_line)
+                .unwrap_or_else(|| "failed".into());
+            Ok(Outcome::Failed(line))
+        }
+        Err(_) => Ok(Outcome::Missing),
+    }
+}
+
+/// Every run's outcome, in grid order.
+pub fn outcomes(out: &Path, grid: &Grid) -> Result<Vec<(GridRun, Outcome)>, Error> {
+    grid.runs()
+        .into_iter()
+        .map(|run| outcome(out, grid, &run).map(|o| (run, o)))
+        .collect()
+}
+
+/// The cell's finished runs' outcomes, looked up in `all`.
+pub fn of_cell<'a>(all: &'a [(GridRun, Outcome)], cell: &Cell) -> Vec<&'a (GridRun, Outcome)> {
+    all.iter().filter(|(run, _)| run.cell == *cell).collect()
+}

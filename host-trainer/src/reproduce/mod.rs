@@ -1,0 +1,166 @@
+//! `host-trainer reproduce`: an experiment of the paper rebuilt by one command, on one machine
+//! or as the parts of a cluster job array.
+//!
+//! 1. [`grid`] lists every run the experiment's tables and figures need (cells of settings ×
+//!    seeds), each once, and cuts it into disjoint slices (`--slice I/N`).
+//! 2. [`folder`] plans a slice through `sweep`'s planner, one sweep folder per cell (finished
+//!    runs skipped, stopped ones resumed, a folder of other settings refused), and reads back
+//!    what became of every run from the run folders alone.
+//! 3. The runs go through `sweep`'s supervisor: every run its own `train` process.
+//! 4. [`page`] and [`figures`] build the results page from the run folders: tables with
+//!    intervals and per-seed values, the verdicts on the claims, the figures, and the runs that
+//!    are missing. [`Part`] records what each part ran, with which commit and how long.
+
+pub mod figures;
+pub mod folder;
+pub mod grid;
+pub mod page;
+
+use std::fmt::Write as _;
+use std::fs;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::Error;
+use firmware_sim::files;
+use grid::{Grid, Slice};
+
+/// The commit the running binary was built from (`git describe`-like: the short hash, with
+/// `+changes` when files tracked by git differed from it), or `unknown` outside a checkout.
+pub const COMMIT: &str = env!("HOST_TRAINER_COMMIT");
+
+/// The folder of the parts' records under `--out`.
+pub const PARTS: &str = "parts";
+/// The folder of the figures under `--out`.
+pub const FIGURES: &str = "figures";
+
+/// What one part of a grid ran: `parts/{i}-of-{n}.json`, rewritten at the end of each
+/// invocation of that part.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Part {
+    /// `I/N`.
+    pub slice: String,
+    /// The commit of the binary that ran it ([`COMMIT`]).
+    pub commit: String,
+    /// Runs in the part.
+    pub runs: usize,
+    /// Trained to the end by this invocation.
+    pub finished: usize,
+    /// Already finished before it.
+    pub skipped: usize,
+    /// Failed.
+    pub failed: usize,
+    /// Wall-clock seconds of this invocation.
+    pub wall_seconds: f64,
+    /// Wall-clock seconds of every invocation of this part so far.
+    pub total_wall_seconds: f64,
+}
+
+impl Part {
+    /// The part's record file.
+    pub fn path(out: &Path, slice: Slice) -> std::path::PathBuf {
+        out.join(PARTS)
+            .join(format!("{}-of-{}.json", slice.index, slice.count))
+    }
+
+    /// Writes the record, adding the earlier invocations' wall time.
+    pub fn write(mut self, out: &Path, slice: Slice) -> Result<Part, Error> {
+        let path = Part::path(out, slice);
+        let earlier: Option<Part> = fs::read_to_string(&path)
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok());
+        self.total_wall_seconds = self.wall_seconds + earlier.map_or(0.0, |p| p.total_wall_seconds);
+        let text = serde_json::to_string_pretty(&self).unwrap_or_default() + "\n";
+        files::write_atomic(&path, text.as_bytes()).map_err(|source| Error::Io { path, source })?;
+        Ok(self)
+    }
+
+    /// Every part's record in `out`, in file-name order.
+    pub fn all(out: &Path) -> Vec<Part> {
+        let mut paths: Vec<_> = fs::read_dir(out.join(PARTS))
+            .into_iter()
+            .flatten()
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.extension().is_some_and(|e| e == "json"))
+            .collect();
+        paths.sort();
+        paths
+            .iter()
+            .filter_map(|p| fs::read_to_string(p).ok())
+            .filter_map(|t| serde_json::from_str(&t).ok())
+            .collect()
+    }
+}
+
+/// The page's file under `--out`, e.g. `exp1.md`.
+pub fn page_file(grid: &Grid) -> String {
+    format!("{}.md", grid.experiment)
+}
+
+/// What building the page found.
+#[derive(Debug)]
+pub struct Built {
+    /// Runs of the grid.
+    pub runs: usize,
+    /// Runs not finished (and not failed): the page lists them.
+    pub missing: usize,
+    /// Runs that failed (they count in the tables).
+    pub failed: usize,
+}
+
+/// Builds the page and its figures from the run folders of `out` alone.
+pub fn build_page(out: &Path, grid: &Grid) -> Result<Built, Error> {
+    let outcomes = folder::outcomes(out, grid)?;
+    let figures = figures::write_all(&out.join(FIGURES), &outcomes)?;
+    let missing = page::missing(&outcomes);
+    let failed = outcomes
+        .iter()
+        .filter(|(_, o)| matches!(o, folder::Outcome::Failed(_)))
+        .count();
+    let mut text = format!(
+        "# Experiment 1 rebuilt: blind navigation among walls\n\n\
+         Built by `host-trainer reproduce {} --out DIR` from the run folders in DIR: {} runs, \
+         {} finished, {failed} failed, {} missing.\n\n",
+        grid.describe(),
+        outcomes.len(),
+        outcomes.len() - missing.len() - failed,
+        missing.len(),
+    );
+    text.push_str("| part | commit | runs | trained | already finished | failed | wall time (all invocations) |\n|---|---|---|---|---|---|---|\n");
+    for part in Part::all(out) {
+        let _ = writeln!(
+            text,
+            "| {} | {} | {} | {} | {} | {} | {:.0} s |",
+            part.slice,
+            part.commit,
+            part.runs,
+            part.finished,
+            part.skipped,
+            part.failed,
+            part.total_wall_seconds
+        );
+    }
+    text.push('\n');
+    text.push_str(&page::body(grid, &outcomes));
+    text.push_str("## Figures\n\n");
+    for name in figures {
+        let _ = writeln!(text, "![{name}]({FIGURES}/{name})\n");
+    }
+    let _ = writeln!(text, "## Missing runs\n");
+    if missing.is_empty() {
+        text.push_str("None.\n");
+    } else {
+        for line in &missing {
+            let _ = writeln!(text, "- {line}");
+        }
+    }
+    let path = out.join(page_file(grid));
+    files::write_atomic(&path, text.as_bytes()).map_err(|source| Error::Io { path, source })?;
+    Ok(Built {
+        runs: outcomes.len(),
+        missing: missing.len(),
+        failed,
+    })
+}

@@ -1,0 +1,421 @@
+//! Experiment 1's results page, built from the run folders alone: tables 1–3 with the mean,
+//! 95 % interval and per-seed values of every cell, the verdicts on claims 1–3 by the rules of
+//! `docs/results/reproduction.md`, and the runs that are missing.
+//!
+//! A failed run counts: its success is 0 in every success column and in the verdicts, it is a
+//! training failure in table 3, and the other columns, which need a finished evaluation, say how
+//! many runs they average.
+
+use std::fmt::Write as _;
+
+use super::folder::{Finished, Outcome};
+use super::grid::{
+    Agent, Cell, Grid, GridRun, Walls, AGENTS, LARGE_SIGMAS, NOISE_AGENTS, REWARDS, SIZES,
+};
+use crate::run::config::RewardKind;
+use crate::sweep::stats::{mean_interval, MeanInterval};
+
+/// A run whose test success is below this failed to train (table 3) [design §2].
+pub const TRAINING_FAILURE: f64 = 0.5;
+
+/// The outcomes of one cell, seed by seed.
+struct CellRuns<'a> {
+    runs: Vec<(u64, &'a Outcome)>,
+}
+
+impl<'a> CellRuns<'a> {
+    fn of(all: &'a [(GridRun, Outcome)], cell: &Cell) -> Self {
+        CellRuns {
+            runs: all
+                .iter()
+                .filter(|(run, _)| run.cell == *cell)
+                .map(|(run, o)| (run.seed, o))
+                .collect(),
+        }
+    }
+
+    fn finished(&self) -> impl Iterator<Item = (u64, &'a Finished)> + '_ {
+        self.runs.iter().filter_map(|&(seed, o)| match o {
+            Outcome::Finished(f) => Some((seed, &**f)),
+            _ => None,
+        })
+    }
+
+    /// Success per seed, a failed run as 0; missing runs absent.
+    fn success(&self) -> Vec<(u64, f64)> {
+        self.runs
+            .iter()
+            .filter_map(|&(seed, o)| match o {
+                Outcome::Finished(f) => Some((seed, f.report.success_rate)),
+                Outcome::Failed(_) => Some((seed, 0.0)),
+                Outcome::Missing => None,
+            })
+            .collect()
+    }
+
+    fn count(&self, what: fn(&Outcome) -> bool) -> usize {
+        self.runs.iter().filter(|(_, o)| what(o)).count()
+    }
+
+    fn metric(&self, get: fn(&Finished) -> f64) -> Vec<f64> {
+        self.finished().map(|(_, f)| get(f)).collect()
+    }
+}
+
+fn interval_text(values: &[f64]) -> String {
+    match mean_interval(values) {
+        None => "–".into(),
+        Some(MeanInterval {
+            mean,
+            half_width: Some(h),
+            ..
+        }) => format!("{mean:.2} ± {h:.2}"),
+        Some(m) => format!("{:.2}", m.mean),
+    }
+}
+
+fn per_seed(values: &[(u64, f64)]) -> String {
+    values
+        .iter()
+        .map(|(_, v)| format!("{v:.2}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+const HEADER: &str = "| runs (done / failed / missing) | success | settled error | strict reach | pass within 0.25 | stuck at margin | success per seed | settled error per seed |\n";
+
+fn metrics_row(cells: &CellRuns<'_>) -> String {
+    let done = cells.count(|o| matches!(o, Outcome::Finished(_)));
+    let failed = cells.count(|o| matches!(o, Outcome::Failed(_)));
+    let missing = cells.count(|o| matches!(o, Outcome::Missing));
+    let success: Vec<f64> = cells.success().iter().map(|s| s.1).collect();
+    let errors: Vec<(u64, f64)> = cells
+        .finished()
+        .map(|(seed, f)| (seed, f.report.mean_error))
+        .collect();
+    format!(
+        "| {done} / {failed} / {missing} | {} | {} | {} | {} | {} | {} | {} |",
+        interval_text(&success),
+        interval_text(&cells.metric(|f| f.report.mean_error)),
+        interval_text(&cells.metric(|f| f.report.strict_reach_rate)),
+        interval_text(&cells.metric(|f| f.report.near_pass_rate)),
+        interval_text(&cells.metric(|f| f.report.stuck_rate)),
+        per_seed(&cells.success()),
+        per_seed(&errors),
+    )
+}
+
+fn reward_name(r: RewardKind) -> &'static str {
+    match r {
+        RewardKind::Lr => "LR",
+        RewardKind::Gr => "GR",
+        RewardKind::Lrgr => "LR+GR",
+    }
+}
+
+/// Table 1: every agent at every network size on the pinwheel.
+pub fn table1(all: &[(GridRun, Outcome)]) -> String {
+    let mut t = format!("| agent | hidden {}", HEADER);
+    t.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
+    for agent in AGENTS {
+        for size in SIZES {
+            let cell = Cell {
+                size,
+                ..Cell::headline(agent)
+            };
+            let row = metrics_row(&CellRuns::of(all, &cell));
+            let _ = writeln!(t, "| {} | {}×{} {row}", agent.name, size.0, size.1);
+        }
+    }
+    t
+}
+
+/// Table 2: every agent under the three rewards (4×48, the pinwheel).
+pub fn table2(all: &[(GridRun, Outcome)]) -> String {
+    let mut t = format!("| agent | reward {}", HEADER);
+    t.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
+    for agent in AGENTS {
+        for reward in REWARDS {
+            let cell = Cell {
+                reward,
+                ..Cell::headline(agent)
+            };
+            let row = metrics_row(&CellRuns::of(all, &cell));
+            let _ = writeln!(t, "| {} | {} {row}", agent.name, reward_name(reward));
+        }
+    }
+    t
+}
+
+/// Training failures (success below [`TRAINING_FAILURE`], or a failed run) per seed: 1 or 0.
+fn failures(all: &[(GridRun, Outcome)], cell: &Cell) -> Vec<(u64, f64)> {
+    CellRuns::of(all, cell)
+        .success()
+        .into_iter()
+        .map(|(seed, s)| (seed, f64::from(u8::from(s < TRAINING_FAILURE))))
+        .collect()
+}
+
+fn noise_cell(name: &str, sigma: f32) -> Cell {
+    Cell {
+        sigma: Some(sigma),
+        ..Cell::headline(Agent::named(name).expect("table 3's agents are agents"))
+    }
+}
+
+/// Table 3: training failure rate under large exploration noise.
+pub fn table3(all: &[(GridRun, Outcome)]) -> String {
+    let mut t = String::from(
+        "| agent | exploration σ | failed trainings | failure rate | success | success per seed |\n|---|---|---|---|---|---|\n",
+    );
+    for name in NOISE_AGENTS {
+        for sigma in LARGE_SIGMAS {
+            let cell = noise_cell(name, sigma);
+            let fails = failures(all, &cell);
+            let k = fails.iter().filter(|f| f.1 > 0.0).count();
+            let success = CellRuns::of(all, &cell).success();
+            let values: Vec<f64> = success.iter().map(|s| s.1).collect();
+            let _ = writeln!(
+                t,
+                "| {name} | {sigma} | {k} of {} | {} | {} | {} |",
+                fails.len(),
+                interval_text(&fails.iter().map(|f| f.1).collect::<Vec<_>>()),
+                interval_text(&values),
+                per_seed(&success),
+            );
+        }
+    }
+    t
+}
+
+/// Where a paired difference's 95 % interval lies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Side {
+    /// Entirely above 0.
+    Above,
+    /// Entirely below 0.
+    Below,
+    /// Holds 0, or too few pairs for an interval.
+    Spans,
+}
+
+/// The side of 0 the interval of `values` lies on.
+pub fn side(values: &[f64]) -> Side {
+    match mean_interval(values) {
+        Some(MeanInterval {
+            mean,
+            half_width: Some(h),
+            ..
+        }) if mean - h > 0.0 => Side::Above,
+        Some(MeanInterval {
+            mean,
+            half_width: Some(h),
+            ..
+        }) if mean + h < 0.0 => Side::Below,
+        _ => Side::Spans,
+    }
+}
+
+/// `a − b` for the seeds both have.
+fn paired(a: &[(u64, f64)], b: &[(u64, f64)]) -> Vec<f64> {
+    a.iter()
+        .filter_map(|&(seed, x)| b.iter().find(|p| p.0 == seed).map(|p| x - p.1))
+        .collect()
+}
+
+fn difference_text(values: &[f64]) -> String {
+    format!("{} over {} seeds", interval_text(values), values.len())
+}
+
+/// Success per seed of `agent` in `cell`'s other settings.
+fn success_of(
+    all: &[(GridRun, Outcome)],
+    agent: &str,
+    cell: impl Fn(Agent) -> Cell,
+) -> Vec<(u64, f64)> {
+    CellRuns::of(
+        all,
+        &cell(Agent::named(agent).expect("a claim's agents are agents")),
+    )
+    .success()
+}
+
+/// The verdicts on claims 1–3, one paragraph each, by the rules written before the runs.
+pub fn verdicts(all: &[(GridRun, Outcome)]) -> String {
+    let word = |reproduced: bool, contradicted: bool| {
+        if contradicted {
+            "contradicted"
+        } else if reproduced {
+            "reproduced"
+        } else {
+            "not reproduced"
+        }
+    };
+    let mut text = String::new();
+    let walls = |a| Cell::headline(a);
+    let open = |a| Cell {
+        walls: Walls::Without,
+        ..Cell::headline(a)
+    };
+
+    // Claim 1, first half: the paper's DCP against DDPG on the pinwheel, success paired by seed.
+    let d = paired(
+        &success_of(all, "dcp-paper", walls),
+        &success_of(all, "ddpg", walls),
+    );
+    let s = side(&d);
+    let adopted = paired(
+        &success_of(all, "dcp", walls),
+        &success_of(all, "ddpg", walls),
+    );
+    let _ = writeln!(
+        text,
+        "- **Claim 1, first half** (with walls, DCP reaches the goal more often than DDPG): \
+         **{}**. Success of the paper's DCP minus DDPG's, paired by seed: {}. (DCP as adopted \
+         minus DDPG: {}.)",
+        word(s == Side::Above, s == Side::Below),
+        difference_text(&d),
+        difference_text(&adopted)
+    );
+
+    // Claim 1, second half: the drop from open to walls, DDPG and DQN against DCP and PPO.
+    let per_seed_drop = |agent: &str| -> Vec<(u64, f64)> {
+        let o = success_of(all, agent, open);
+        let w = success_of(all, agent, walls);
+        o.iter()
+            .filter_map(|&(seed, x)| w.iter().find(|p| p.0 == seed).map(|p| (seed, x - p.1)))
+            .collect()
+    };
+    let mut sides = Vec::new();
+    let mut parts = Vec::new();
+    for hurt in ["ddpg", "dqn"] {
+        for spared in ["dcp-paper", "ppo"] {
+            let diff = paired(&per_seed_drop(hurt), &per_seed_drop(spared));
+            sides.push(side(&diff));
+            parts.push(format!("{hurt} − {spared} {}", difference_text(&diff)));
+        }
+    }
+    let _ = writeln!(
+        text,
+        "- **Claim 1, second half** (walls hurt DDPG and DQN more than DCP and PPO): **{}**. \
+         The drop of success from open arena to pinwheel, paired by seed: {}; the drops \
+         themselves: {}.",
+        word(
+            sides.iter().all(|s| *s == Side::Above),
+            sides.contains(&Side::Below)
+        ),
+        parts.join("; "),
+        ["dcp-paper", "ddpg", "ppo", "dqn"]
+            .map(|a| {
+                let drop: Vec<f64> = per_seed_drop(a).iter().map(|d| d.1).collect();
+                format!("{a} {}", difference_text(&drop))
+            })
+            .join(", ")
+    );
+
+    // Claim 2: LR against GR, DDPG and the paper's DCP.
+    let lr = |a| Cell {
+        reward: RewardKind::Lr,
+        ..Cell::headline(a)
+    };
+    let lr_minus_gr =
+        |agent: &str| paired(&success_of(all, agent, lr), &success_of(all, agent, walls));
+    let (dcp2, ddpg2) = (lr_minus_gr("dcp-paper"), lr_minus_gr("ddpg"));
+    let (sd, sg) = (side(&dcp2), side(&ddpg2));
+    let _ = writeln!(
+        text,
+        "- **Claim 2** (DCP's success is robust to the reward form; DDPG's drops with LR): \
+         **{}**. Success under LR minus under GR, paired by seed: the paper's DCP {}, DDPG {}.",
+        word(
+            sg == Side::Below && sd != Side::Below,
+            sd == Side::Below && sg != Side::Below
+        ),
+        difference_text(&dcp2),
+        difference_text(&ddpg2)
+    );
+
+    // Claim 3: training failures under large noise, DDPG minus the paper's DCP, paired by σ and seed.
+    let mut diff = Vec::new();
+    for sigma in LARGE_SIGMAS {
+        let (g, c) = (
+            failures(all, &noise_cell("ddpg", sigma)),
+            failures(all, &noise_cell("dcp-paper", sigma)),
+        );
+        diff.extend(paired(&g, &c));
+    }
+    let s = side(&diff);
+    let _ = writeln!(
+        text,
+        "- **Claim 3** (under large exploration noise DDPG's training fails far more often than \
+         DCP's): **{}**. Failed trainings of DDPG minus the paper's DCP, paired by σ and seed: {} \
+         pairs, mean {}.",
+        word(s == Side::Above, s == Side::Below),
+        diff.len(),
+        interval_text(&diff)
+    );
+    text
+}
+
+/// The runs not finished, as `cell seed` lines.
+pub fn missing(all: &[(GridRun, Outcome)]) -> Vec<String> {
+    all.iter()
+        .filter(|(_, o)| matches!(o, Outcome::Missing))
+        .map(|(run, _)| format!("{} seed {}", run.cell.name(), run.seed))
+        .collect()
+}
+
+/// The page's tables and verdicts (the caller adds the header, figures and missing runs).
+pub fn body(grid: &Grid, all: &[(GridRun, Outcome)]) -> String {
+    let mut page = String::new();
+    let _ = writeln!(
+        page,
+        "## Table 1: network sizes (pinwheel, GR)\n\nMean ± 95 % interval (Student t) over seeds \
+         0–{}; success counts a failed run as 0.\n\n{}",
+        grid.seeds.saturating_sub(1),
+        table1(all)
+    );
+    let _ = writeln!(
+        page,
+        "## Table 2: reward forms (pinwheel, 4×48)\n\n{}",
+        table2(all)
+    );
+    let _ = writeln!(
+        page,
+        "## Table 3: training failure under large exploration noise (pinwheel, 4×48, GR)\n\nA \
+         failed training: success on fewer than half the test starts (or a run that failed).\n\n{}",
+        table3(all)
+    );
+    let _ = writeln!(page, "## Claims 1–3\n");
+    if grid.quick {
+        let _ = writeln!(
+            page,
+            "No verdict: a quick grid trains a few episodes per run, a test of the machinery, \
+             not a result.\n"
+        );
+    } else {
+        page.push_str(&verdicts(all));
+        page.push('\n');
+    }
+    page
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_side_of_an_interval() {
+        assert_eq!(side(&[0.5, 0.6, 0.7]), Side::Above);
+        assert_eq!(side(&[-0.5, -0.6, -0.7]), Side::Below);
+        assert_eq!(side(&[-0.5, 0.6, 0.1]), Side::Spans);
+        assert_eq!(side(&[0.5]), Side::Spans); // one pair has no interval
+        assert_eq!(side(&[]), Side::Spans);
+    }
+
+    #[test]
+    fn pairs_are_by_seed() {
+        let a = [(0, 1.0), (1, 0.5), (3, 0.2)];
+        let b = [(1, 0.25), (0, 0.5), (2, 9.0)];
+        assert_eq!(paired(&a, &b), [0.5, 0.25]);
+    }
+}

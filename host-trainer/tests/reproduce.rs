@@ -1,0 +1,227 @@
+//! `host-trainer reproduce`: the quick grid of experiment 1 in two slices, merged; re-running
+//! skips what finished; a failed run counts; bad input is one line and writes nothing.
+
+use std::path::Path;
+
+use host_trainer::reproduce::grid::{Experiment, Grid, Slice};
+use host_trainer::reproduce::{folder, Part};
+
+use crate::support::{assert_ok, assert_one_line_error, command, entries, s, scratch};
+
+fn reproduce(out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut c = command(&[
+        "reproduce",
+        "exp1",
+        "--quick",
+        "--seeds",
+        "1",
+        "--out",
+        s(out),
+        "--quiet",
+    ]);
+    c.args(extra).output().expect("reproduce runs")
+}
+
+fn stdout(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+const GRID: Grid = Grid {
+    experiment: Experiment::Exp1,
+    seeds: 1,
+    quick: true,
+};
+
+#[test]
+fn two_slices_merge_into_the_page_and_a_rerun_skips_what_finished() {
+    let out = scratch("reproduce-slices");
+    let total = GRID.runs().len();
+    let first = reproduce(&out, &["--slice", "0/2", "--jobs", "2"]);
+    assert_ok(&first);
+    let half = GRID.slice(Slice { index: 0, count: 2 }).len();
+    assert!(
+        stdout(&first).contains(&format!(
+            "part 0/2 of exp1 --seeds 1 --quick: {half} runs, {half} trained"
+        )),
+        "{}",
+        stdout(&first)
+    );
+    assert_eq!(
+        stdout(&first).matches("finished ").count(),
+        half,
+        "a line per run"
+    );
+    // Half the grid: the merge writes the page, lists the other half, and exits 1.
+    let early = reproduce(&out, &["--merge"]);
+    assert_eq!(early.status.code(), Some(1));
+    assert_one_line_error(
+        &early,
+        &[&format!("{} of {total} runs are missing", total - half)],
+    );
+    let page = std::fs::read_to_string(out.join("exp1.md")).expect("page");
+    assert_eq!(page.matches(" seed 0\n").count(), total - half);
+
+    assert_ok(&reproduce(&out, &["--slice", "1/2", "--jobs", "2"]));
+    let merged = reproduce(&out, &["--merge"]);
+    assert_ok(&merged);
+    let page = std::fs::read_to_string(out.join("exp1.md")).expect("page");
+    for needle in [
+        "## Table 1",
+        "| dcp-paper | 6×64 | 1 / 0 / 0 |",
+        "## Table 2",
+        "| ddpg | LR+GR | 1 / 0 / 0 |",
+        "## Table 3",
+        "| td3 | 0.5 | ",
+        "No verdict: a quick grid",
+        "figures/fig7-steps-to-goal.svg",
+        "## Missing runs\n\nNone.",
+        "| 0/2 | ",
+        "| 1/2 | ",
+    ] {
+        assert!(page.contains(needle), "{needle:?} not in the page:\n{page}");
+    }
+    for figure in [
+        "fig4-trajectories-walls.svg",
+        "fig5-trajectories-open.svg",
+        "fig6-settled-error.svg",
+        "fig7-steps-to-goal.svg",
+    ] {
+        let svg = std::fs::read_to_string(out.join("figures").join(figure)).expect("figure");
+        assert!(svg.starts_with("<svg"), "{figure}");
+    }
+
+    // The whole grid again: every run is skipped, the page is rebuilt.
+    let again = reproduce(&out, &[]);
+    assert_ok(&again);
+    assert!(
+        stdout(&again).contains(&format!(
+            "{total} runs, 0 trained, {total} already finished, 0 failed"
+        )),
+        "{}",
+        stdout(&again)
+    );
+    let parts = Part::all(&out);
+    assert_eq!(parts.len(), 3, "parts 0/1, 0/2 and 1/2");
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+#[test]
+fn a_failed_run_counts_as_failed_in_the_tables() {
+    let out = scratch("reproduce-failed");
+    // A file where a run's folder goes: that run cannot start.
+    let grid = Grid { seeds: 1, ..GRID };
+    let victim = &grid.runs()[0];
+    let cell = Grid::cell_dir(&out, &victim.cell);
+    std::fs::create_dir_all(&cell).expect("cell");
+    std::fs::write(cell.join("nav-walls__dcp__0"), "in the way").expect("write");
+    let run = reproduce(&out, &["--jobs", "2"]);
+    assert_eq!(
+        run.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let page = std::fs::read_to_string(out.join("exp1.md")).expect("page");
+    assert!(
+        page.contains("| dcp | 2×32 | 0 / 1 / 0 | 0.00 |"),
+        "the failed run's row:\n{page}"
+    );
+    let outcome = folder::outcome(&out, &grid, victim).expect("reads");
+    assert!(matches!(outcome, folder::Outcome::Failed(_)), "{outcome:?}");
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+#[test]
+fn bad_input_is_one_line_and_writes_nothing() {
+    let base = scratch("reproduce-bad");
+    let out = base.join("out");
+    std::fs::create_dir_all(&out).expect("dir");
+    let o = s(&out);
+    let missing = base.join("missing");
+    for (args, needle, code) in [
+        (vec!["exp3", "--out", o], "exp3", 2),
+        (
+            vec!["exp1", "--quick", "--out", o, "--jobs", "0"],
+            "--jobs",
+            2,
+        ),
+        (
+            vec!["exp1", "--quick", "--out", o, "--slice", "2/2"],
+            "slice 2 of 2",
+            2,
+        ),
+        (
+            vec!["exp1", "--quick", "--out", o, "--slice", "1-2"],
+            "I/N",
+            2,
+        ),
+        (
+            vec!["exp1", "--quick", "--out", o, "--slice", "0/2", "--merge"],
+            "--merge",
+            2,
+        ),
+        (
+            vec!["exp1", "--quick", "--out", o, "--seeds", "0"],
+            "--seeds",
+            2,
+        ),
+        (
+            vec!["exp1", "--out", o, "--seeds", "3"],
+            "at least 5 seeds",
+            1,
+        ),
+        (
+            vec!["exp1", "--quick", "--out", s(&missing)],
+            "does not exist",
+            1,
+        ),
+        (
+            vec!["exp1", "--quick", "--out", o, "--merge"],
+            "holds no grid",
+            1,
+        ),
+    ] {
+        let mut full = vec!["reproduce"];
+        full.extend(args);
+        let result = command(&full).output().expect("runs");
+        assert_one_line_error(&result, &[needle]);
+        assert_eq!(result.status.code(), Some(code), "{full:?}");
+        assert!(
+            entries(&out).is_empty(),
+            "{full:?} left {:?}",
+            entries(&out)
+        );
+    }
+    assert!(!missing.exists());
+
+    // A folder of another grid, and a run folder of other settings under a grid's name: refused
+    // before anything is written.
+    let grid_file = out.join(folder::GRID_FILE);
+    std::fs::write(
+        &grid_file,
+        r#"{"experiment":"exp1","seeds":2,"quick":true}"#,
+    )
+    .expect("write");
+    for extra in [vec![], vec!["--merge"]] {
+        let mut full = vec!["reproduce", "exp1", "--quick", "--seeds", "1", "--out", o];
+        full.extend(extra);
+        let result = command(&full).output().expect("runs");
+        assert_one_line_error(
+            &result,
+            &["exp1 --seeds 2 --quick", "not `exp1 --seeds 1 --quick`"],
+        );
+        assert_eq!(entries(&out), [folder::GRID_FILE]);
+    }
+    std::fs::remove_file(&grid_file).expect("remove");
+    let cell = Grid::cell_dir(&out, &GRID.runs()[0].cell);
+    let run = cell.join("nav-walls__dcp__0");
+    std::fs::create_dir_all(&run).expect("run dir");
+    let mut other = GRID.runs()[0].cell.config(true);
+    other.episodes += 1;
+    std::fs::write(run.join("config.toml"), other.to_toml()).expect("config");
+    std::fs::write(run.join("checkpoint.postcard"), "x").expect("checkpoint");
+    let result = reproduce(&out, &[]);
+    assert_one_line_error(&result, &["episodes = 4 recorded, 3 in the sweep"]);
+    assert_eq!(entries(&out), ["runs"], "no grid recorded, nothing run");
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
