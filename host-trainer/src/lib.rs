@@ -11,13 +11,13 @@
 //!
 //! Imports flow one way, from the bottom of this list to its top; no two modules import each
 //! other.
-//! - [`reproduce`]: an experiment rebuilt by one command: its grid of runs (whole, or one slice
-//!   for a cluster array) run through `sweep`'s machinery, and the results page and figures
-//!   built from the run folders.
+//! - [`reproduce`]: an experiment rebuilt by one command: its grid of runs or teams (whole, or
+//!   one slice for a cluster array) run through `sweep`'s machinery, and the results page and
+//!   figures built from the run folders.
+//! - [`sweep`]: many seeds and algorithms as parallel `train` processes: planning, supervising
+//!   the processes, and the summary with its intervals; a planned run is a `train` run or a team.
 //! - [`team`]: experiment 2's teams: badminton players of three learners each, trained on
 //!   random pairings within the team, checkpointed, exported as player folders.
-//! - [`sweep`]: many seeds and algorithms as parallel `train` processes: planning, supervising
-//!   the processes, and the summary with its intervals.
 //! - [`run`]: one training run: its configuration (which composes the algorithms' sections),
 //!   the episode loop, checkpoints, the run folder `{task}__{algo}__{seed}/`, metrics, plots and
 //!   the progress bar.

@@ -10,7 +10,7 @@
 //! host-trainer inspect BLOB
 //! host-trainer sweep --seeds 0-4 [--algo dcp,ddpg] [--jobs N] --out DIR [--config FILE] [--quiet]
 //! host-trainer team [--algo dcp] [--t 16] [--players 16] [--points 20000] [--seed 0] [--out DIR]
-//! host-trainer reproduce exp1 --out DIR [--seeds 5] [--jobs N] [--slice I/N | --merge] [--quick]
+//! host-trainer reproduce exp1|exp2 --out DIR [--seeds 5] [--jobs N] [--slice I/N | --merge] [--quick]
 //! ```
 //! Errors are one line on stderr and a non-zero exit.
 
@@ -88,13 +88,14 @@ enum Command {
     Team(TeamArgs),
     /// Rebuild an experiment of the paper: plan its grid of runs, run them (or one --slice of
     /// them) as sweep does, and build the results page and figures from the run folders
-    /// (OUT/exp1.md, OUT/figures/).
+    /// (OUT/exp1.md or OUT/exp2.md, OUT/figures/).
     Reproduce(ReproduceArgs),
 }
 
 #[derive(Debug, Args)]
 struct ReproduceArgs {
-    /// The experiment: exp1 (navigation among walls: tables 1–3, figures 4–7).
+    /// The experiment: exp1 (navigation among walls: tables 1–3, figures 4–7) or exp2
+    /// (badminton teams: tables 5–7, team scores, influence of T, heat maps).
     #[arg(value_enum)]
     experiment: Experiment,
     /// Existing output folder: the grid's runs, its page and figures go there.
@@ -152,6 +153,10 @@ struct TeamArgs {
     /// Continue the team in this folder from its checkpoint.
     #[arg(long)]
     resume: Option<PathBuf>,
+    /// Stop as on Ctrl-C (checkpoint, exit 130) when standard input reaches its end: how
+    /// `reproduce exp2` makes its teams stop with it, however it dies.
+    #[arg(long, hide = true)]
+    stop_when_stdin_closes: bool,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
@@ -431,7 +436,7 @@ fn stop_when_parent_goes() {
             }
         }
         if INTERRUPTS.fetch_add(1, Ordering::SeqCst) == 0 {
-            eprintln!("host-trainer: the sweep that started this run has gone; stopping after this episode and writing a checkpoint");
+            eprintln!("host-trainer: the sweep that started this run has gone; stopping and writing a checkpoint");
         }
     });
 }
@@ -777,7 +782,7 @@ fn reproduce_command(args: ReproduceArgs) -> Result<ExitCode> {
             reproduce::folder::check(&args.out, &grid)?;
         }
     }
-    let plan = reproduce::folder::plan(&args.out, &grid, slice)?;
+    let plan = reproduce::plan(&args.out, &grid, slice)?;
     reproduce::folder::claim(&args.out, &grid)?;
     let part_dir = reproduce::Part::path(&args.out, slice).with_extension("");
     std::fs::create_dir_all(&part_dir)
@@ -894,6 +899,9 @@ fn team_command(args: TeamArgs) -> Result<ExitCode> {
         }
     };
     install_ctrl_c_handler();
+    if args.stop_when_stdin_closes {
+        stop_when_parent_goes();
+    }
     let bar = progress::bar(team.config.points as u64, "point", args.quiet);
     bar.set_position(team.team.points as u64);
     let started = Instant::now();

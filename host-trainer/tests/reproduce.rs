@@ -225,3 +225,62 @@ fn bad_input_is_one_line_and_writes_nothing() {
     assert_eq!(entries(&out), ["runs"], "no grid recorded, nothing run");
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+#[test]
+fn experiment_two_trains_its_teams_in_slices_and_measures_them() {
+    let out = scratch("reproduce-exp2");
+    let run = |extra: &[&str]| {
+        let mut c = command(&[
+            "reproduce",
+            "exp2",
+            "--quick",
+            "--seeds",
+            "1",
+            "--out",
+            s(&out),
+            "--quiet",
+        ]);
+        c.args(extra).output().expect("reproduce runs")
+    };
+    assert_ok(&run(&["--slice", "1/2"]));
+    let early = run(&["--merge"]);
+    assert_one_line_error(&early, &["3 of 5 runs are missing"]);
+    assert_ok(&run(&["--slice", "0/2"]));
+    assert_ok(&run(&["--merge"]));
+    let page = std::fs::read_to_string(out.join("exp2.md")).expect("page");
+    for needle in [
+        "## Table 5: catch success",
+        "| dcp-t16 | 1 of 1 |",
+        "| scripted (reference) | – | 1.000 |",
+        "## Table 6: serve error",
+        "## Table 7",
+        "| ddpg | dcp-t16 | 1 |",
+        "## Influence of T",
+        "No verdict: a quick grid",
+        "## Missing runs\n\nNone.",
+    ] {
+        assert!(page.contains(needle), "{needle:?} not in the page:\n{page}");
+    }
+    for figure in [
+        "fig10-13-contributions.svg",
+        "fig14-influence-of-t.svg",
+        "fig15-catch-q-ddpg.svg",
+        "fig16-serve-q-dcp-t16.svg",
+    ] {
+        assert!(out.join("figures").join(figure).is_file(), "{figure}");
+    }
+    let again = run(&[]);
+    assert_ok(&again);
+    assert!(
+        stdout(&again).contains("5 runs, 0 trained, 5 already finished"),
+        "{}",
+        stdout(&again)
+    );
+    // A team folder of other settings under a grid team's name is refused.
+    let team = out.join("teams").join("badminton__ppo__0");
+    let config = team.join("config.toml");
+    let text = std::fs::read_to_string(&config).expect("config");
+    std::fs::write(&config, text.replace("points = 40", "points = 41")).expect("write");
+    assert_one_line_error(&run(&[]), &[s(&team), "not the grid's setting"]);
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}

@@ -483,7 +483,10 @@ mod tests {
             .map(|(run, _)| (run, Outcome::Missing))
             .collect();
         assert_eq!(
-            settled_error_boxes(&none).expect("in the test").matches("<rect").count(),
+            settled_error_boxes(&none)
+                .expect("in the test")
+                .matches("<rect")
+                .count(),
             1
         );
         assert!(trajectories(&none, Walls::With)

@@ -140,7 +140,7 @@ pub fn plan(out: &Path, grid: &Grid, slice: Slice) -> Result<Vec<PlannedRun>, Er
             };
             PlannedRun {
                 dir: dir.join(config.run_name()),
-                config,
+                job: plan::Job::Train(config),
                 start: plan::Start::Fresh,
             }
         }));

@@ -22,12 +22,15 @@ use crate::run::config::{RewardKind, TrainConfig};
 pub enum Experiment {
     /// Blind navigation among walls: tables 1–3 and figures 4–7.
     Exp1,
+    /// Badminton teams: tables 5–7, team scores, the influence of T, heat maps (claim 4).
+    Exp2,
 }
 
 impl fmt::Display for Experiment {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
             Experiment::Exp1 => "exp1",
+            Experiment::Exp2 => "exp2",
         })
     }
 }
@@ -245,10 +248,12 @@ pub struct Grid {
 }
 
 impl Grid {
-    /// The experiment's cells.
+    /// The experiment's navigation cells (none for experiment 2, whose runs are teams:
+    /// [`teams`](super::teams)).
     pub fn cells(&self) -> Vec<Cell> {
         match self.experiment {
             Experiment::Exp1 => exp1_cells(),
+            Experiment::Exp2 => Vec::new(),
         }
     }
 

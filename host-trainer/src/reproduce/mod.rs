@@ -1,20 +1,23 @@
 //! `host-trainer reproduce`: an experiment of the paper rebuilt by one command, on one machine
 //! or as the parts of a cluster job array.
 //!
-//! 1. [`grid`] lists every run the experiment's tables and figures need (cells of settings ×
-//!    seeds), each once, and cuts it into disjoint slices (`--slice I/N`).
+//! 1. [`grid`] lists every run experiment 1's tables and figures need (cells of settings ×
+//!    seeds), each once, and cuts it into disjoint slices (`--slice I/N`); [`teams`] does the
+//!    same for experiment 2's badminton teams.
 //! 2. [`folder`] plans a slice through `sweep`'s planner, one sweep folder per cell (finished
 //!    runs skipped, stopped ones resumed, a folder of other settings refused), and reads back
 //!    what became of every run from the run folders alone.
 //! 3. The runs go through `sweep`'s supervisor: every run its own `train` process.
-//! 4. [`page`] and [`figures`] build the results page from the run folders: tables with
-//!    intervals and per-seed values, the verdicts on the claims, the figures, and the runs that
-//!    are missing. [`Part`] records what each part ran, with which commit and how long.
+//! 4. [`page`] and [`figures`] build experiment 1's results page from the run folders, and
+//!    [`badminton`] experiment 2's from the team folders: tables with intervals and per-seed
+//!    values, the verdicts on the claims, the figures, and the runs that are missing. [`Part`] records what each part ran, with which commit and how long.
 
+pub mod badminton;
 pub mod figures;
 pub mod folder;
 pub mod grid;
 pub mod page;
+pub mod teams;
 
 use std::fmt::Write as _;
 use std::fs;
@@ -22,9 +25,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::sweep::plan::PlannedRun;
 use crate::Error;
 use firmware_sim::files;
-use grid::{Grid, Slice};
+use grid::{Experiment, Grid, Slice};
 
 /// The commit the running binary was built from (`git describe`-like: the short hash, with
 /// `+changes` when files tracked by git differed from it), or `unknown` outside a checkout.
@@ -110,22 +114,58 @@ pub struct Built {
     pub failed: usize,
 }
 
+/// Plans a slice of the grid (writes nothing).
+pub fn plan(out: &Path, grid: &Grid, slice: Slice) -> Result<Vec<PlannedRun>, Error> {
+    match grid.experiment {
+        Experiment::Exp1 => folder::plan(out, grid, slice),
+        Experiment::Exp2 => teams::plan(out, grid, slice),
+    }
+}
+
 /// Builds the page and its figures from the run folders of `out` alone.
 pub fn build_page(out: &Path, grid: &Grid) -> Result<Built, Error> {
-    let outcomes = folder::outcomes(out, grid)?;
-    let figures = figures::write_all(&out.join(FIGURES), &outcomes)?;
-    let missing = page::missing(&outcomes);
-    let failed = outcomes
-        .iter()
-        .filter(|(_, o)| matches!(o, folder::Outcome::Failed(_)))
-        .count();
+    let (title, runs, failed, body, missing) = match grid.experiment {
+        Experiment::Exp1 => {
+            let outcomes = folder::outcomes(out, grid)?;
+            let names = figures::write_all(&out.join(FIGURES), &outcomes)?;
+            let failed = outcomes
+                .iter()
+                .filter(|(_, o)| matches!(o, folder::Outcome::Failed(_)))
+                .count();
+            let mut body = page::body(grid, &outcomes);
+            body.push_str("## Figures\n\n");
+            for name in names {
+                let _ = writeln!(body, "![{name}]({FIGURES}/{name})\n");
+            }
+            let title = "Experiment 1 rebuilt: blind navigation among walls";
+            (
+                title,
+                outcomes.len(),
+                failed,
+                body,
+                page::missing(&outcomes),
+            )
+        }
+        Experiment::Exp2 => {
+            let all = teams::runs(grid);
+            let failed = all
+                .iter()
+                .map(|run| teams::outcome(out, grid, run))
+                .collect::<Result<Vec<_>, _>>()?
+                .iter()
+                .filter(|o| matches!(o, teams::TeamOutcome::Failed(_)))
+                .count();
+            let (body, missing) = badminton::body(out, grid, &out.join(FIGURES))?;
+            let title = "Experiment 2 rebuilt: badminton teams";
+            (title, all.len(), failed, body, missing)
+        }
+    };
     let mut text = format!(
-        "# Experiment 1 rebuilt: blind navigation among walls\n\n\
-         Built by `host-trainer reproduce {} --out DIR` from the run folders in DIR: {} runs, \
+        "# {title}\n\n\
+         Built by `host-trainer reproduce {} --out DIR` from the run folders in DIR: {runs} runs, \
          {} finished, {failed} failed, {} missing.\n\n",
         grid.describe(),
-        outcomes.len(),
-        outcomes.len() - missing.len() - failed,
+        runs - missing.len() - failed,
         missing.len(),
     );
     text.push_str("| part | commit | runs | trained | already finished | failed | wall time (all invocations) |\n|---|---|---|---|---|---|---|\n");
@@ -143,11 +183,7 @@ pub fn build_page(out: &Path, grid: &Grid) -> Result<Built, Error> {
         );
     }
     text.push('\n');
-    text.push_str(&page::body(grid, &outcomes));
-    text.push_str("## Figures\n\n");
-    for name in figures {
-        let _ = writeln!(text, "![{name}]({FIGURES}/{name})\n");
-    }
+    text.push_str(&body);
     let _ = writeln!(text, "## Missing runs\n");
     if missing.is_empty() {
         text.push_str("None.\n");
@@ -159,7 +195,7 @@ pub fn build_page(out: &Path, grid: &Grid) -> Result<Built, Error> {
     let path = out.join(page_file(grid));
     files::write_atomic(&path, text.as_bytes()).map_err(|source| Error::Io { path, source })?;
     Ok(Built {
-        runs: outcomes.len(),
+        runs,
         missing: missing.len(),
         failed,
     })

@@ -16,6 +16,7 @@ use crate::algorithms::Algo;
 use crate::run::config::TrainConfig;
 use crate::run::folder;
 use crate::run::trainer::Trainer;
+use crate::team::config::TeamConfig;
 use crate::Error;
 
 /// The most runs one sweep may ask for: a seed range this long is a typo, not a plan.
@@ -77,11 +78,67 @@ pub enum Start {
     Skip,
 }
 
+/// What a planned run trains: a `train` run, or a badminton team (`team`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Job {
+    /// One agent on a navigation task: the run's full configuration.
+    Train(TrainConfig),
+    /// A badminton team: its full configuration.
+    Team(TeamConfig),
+}
+
+impl Job {
+    /// The run's folder name.
+    pub fn name(&self) -> String {
+        match self {
+            Job::Train(c) => c.run_name(),
+            Job::Team(c) => c.team_name(),
+        }
+    }
+
+    /// The task as the folder names it.
+    pub fn task(&self) -> String {
+        match self {
+            Job::Train(c) => c.task_name(),
+            Job::Team(c) => c
+                .team_name()
+                .split("__")
+                .next()
+                .unwrap_or("badminton")
+                .into(),
+        }
+    }
+
+    /// The algorithm.
+    pub fn algo(&self) -> Algo {
+        match self {
+            Job::Train(c) => c.algo,
+            Job::Team(c) => c.algo,
+        }
+    }
+
+    /// The seed.
+    pub fn seed(&self) -> u64 {
+        match self {
+            Job::Train(c) => c.seed,
+            Job::Team(c) => c.seed,
+        }
+    }
+
+    /// The config file a fresh run starts from.
+    pub fn to_toml(&self) -> String {
+        match self {
+            Job::Train(c) => c.to_toml(),
+            Job::Team(c) => c.to_toml(),
+        }
+    }
+}
+
 /// One run of the sweep, before it runs.
 #[derive(Clone, Debug)]
 pub struct PlannedRun {
-    /// The run's full configuration (the sweep's base with this algo and seed).
-    pub config: TrainConfig,
+    /// What it trains (for a sweep, the sweep's base config with this algo and seed).
+    pub job: Job,
     /// Its folder, `OUT/{task}__{algo}__{seed}`.
     pub dir: PathBuf,
     /// What to do with it.
@@ -91,7 +148,7 @@ pub struct PlannedRun {
 impl PlannedRun {
     /// The run's folder name.
     pub fn name(&self) -> String {
-        self.config.run_name()
+        self.job.name()
     }
 }
 
@@ -146,7 +203,7 @@ pub fn runs(
             let dir = out.join(config.run_name());
             let start = start_of(&dir, &config)?;
             runs.push(PlannedRun {
-                config: config.clone(),
+                job: Job::Train(config.clone()),
                 dir,
                 start,
             });

@@ -13,8 +13,9 @@ use std::time::{Duration, Instant};
 
 use indicatif::ProgressBar;
 
-use super::plan::{PlannedRun, Start};
-use super::record::{exit_text, read_eval, RunRecord, Status};
+use super::plan::{Job, PlannedRun, Start};
+use super::record::{exit_text, read_eval, EvalSummary, RunRecord, Status};
+use crate::team;
 use crate::Error;
 use firmware_sim::files;
 
@@ -103,7 +104,7 @@ impl<'a> Supervisor<'a> {
             .iter()
             .map(|run| match run.start {
                 Start::Skip => RunRecord {
-                    eval: read_eval(&run.dir).ok(),
+                    eval: finished(run).ok().flatten(),
                     ..record_of(run, Status::Skipped)
                 },
                 _ => record_of(run, Status::Pending),
@@ -190,11 +191,9 @@ fn spawn(runner: &Runner<'_>, run: &PlannedRun, index: usize) -> Result<Running,
     // (`train` refuses those, and the sweep's config may hold them for its other algorithms).
     let config = logs.join(format!("{}.toml", run.name()));
     if run.start == Start::Fresh {
-        files::write_atomic(&config, run.config.to_toml().as_bytes()).map_err(|source| {
-            Error::Io {
-                path: config.clone(),
-                source,
-            }
+        files::write_atomic(&config, run.job.to_toml().as_bytes()).map_err(|source| Error::Io {
+            path: config.clone(),
+            source,
         })?;
     }
     let args = child_args(runner, run, &config);
@@ -234,17 +233,24 @@ fn spawn(runner: &Runner<'_>, run: &PlannedRun, index: usize) -> Result<Running,
 }
 
 /// `train --config CONFIG --out OUT --threads T --quiet --stop-when-stdin-closes`, or `train
-/// --resume DIR --threads T --quiet --stop-when-stdin-closes`.
+/// --resume DIR --threads T --quiet --stop-when-stdin-closes`; `team` likewise, without
+/// `--threads` (a team trains on one thread).
 fn child_args(runner: &Runner<'_>, run: &PlannedRun, config: &Path) -> Vec<String> {
     let path = |p: &Path| p.to_string_lossy().into_owned();
-    let mut args = vec!["train".to_string()];
+    let command = match run.job {
+        Job::Train(_) => "train",
+        Job::Team(_) => "team",
+    };
+    let mut args = vec![command.to_string()];
     if run.start == Start::Resume {
         args.extend(["--resume".into(), path(&run.dir)]);
     } else {
         let out = run.dir.parent().unwrap_or(Path::new("."));
         args.extend(["--config".into(), path(config), "--out".into(), path(out)]);
     }
-    args.extend(["--threads".into(), runner.threads.to_string()]);
+    if let Job::Train(_) = run.job {
+        args.extend(["--threads".into(), runner.threads.to_string()]);
+    }
     args.extend(["--quiet".into(), "--stop-when-stdin-closes".into()]);
     args
 }
@@ -263,9 +269,9 @@ fn finish(
     record.signal = status.signal();
     record.last_line = last_line(&done.log, done.log_from);
     record.status = if status.success() {
-        match read_eval(&run.dir) {
+        match finished(run) {
             Ok(eval) => {
-                record.eval = Some(eval);
+                record.eval = eval;
                 Status::Finished
             }
             Err(e) => {
@@ -278,6 +284,22 @@ fn finish(
     } else {
         Status::Failed
     };
+}
+
+/// What a run that exited 0 left: a `train` run's evaluation (an error if it has none); a
+/// team's exported players (an error if they are not all there).
+fn finished(run: &PlannedRun) -> Result<Option<EvalSummary>, Error> {
+    match &run.job {
+        Job::Train(_) => read_eval(&run.dir).map(Some),
+        Job::Team(config) if team::folder::exported(&run.dir, config) => Ok(None),
+        Job::Team(_) => Err(Error::Io {
+            path: run.dir.join(team::folder::PLAYERS),
+            source: std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                "the team's players were not all exported",
+            ),
+        }),
+    }
 }
 
 /// The last non-empty line of a log from byte `from` on.
@@ -338,9 +360,9 @@ fn progress_bar(len: u64, quiet: bool) -> ProgressBar {
 
 fn record_of(run: &PlannedRun, status: Status) -> RunRecord {
     RunRecord {
-        task: run.config.task_name(),
-        algo: run.config.algo,
-        seed: run.config.seed,
+        task: run.job.task(),
+        algo: run.job.algo(),
+        seed: run.job.seed(),
         status,
         wall_seconds: None,
         exit_code: None,

@@ -27,6 +27,19 @@ use crate::run::folder::{self, blob_label, RunDir};
 use crate::run::plot::{self, Panel, Series};
 use crate::Error;
 
+/// Player `p`'s folder name in a team of `players`: `p00`, `p01`, ... (wider for teams over 100).
+pub fn player_name(p: usize, players: usize) -> String {
+    let width = players.saturating_sub(1).to_string().len().max(2);
+    format!("p{p:0width$}")
+}
+
+/// Whether the team folder `dir` holds every player of `config` exported: the export writes
+/// the players in order, each manifest last, so the last player's manifest is the mark.
+pub fn exported(dir: &std::path::Path, config: &TeamConfig) -> bool {
+    let last = player_name(config.players.saturating_sub(1), config.players);
+    dir.join(PLAYERS).join(last).join(MANIFEST).is_file()
+}
+
 /// Magic and format version of a team checkpoint.
 pub const MAGIC: &[u8; 8] = b"DCPTEAM1";
 /// The folder of the exported players, inside the team folder.
@@ -291,17 +304,9 @@ impl TeamRun {
             move |source| Error::Io { path, source }
         };
         std::fs::create_dir_all(&players).map_err(io(&players))?;
-        let width = self
-            .team
-            .players
-            .len()
-            .saturating_sub(1)
-            .to_string()
-            .len()
-            .max(2);
         let mut folders = Vec::new();
         for (p, player) in self.team.players.iter().enumerate() {
-            let name = format!("p{p:0width$}");
+            let name = player_name(p, self.team.players.len());
             let dir = players.join(&name);
             std::fs::create_dir_all(&dir).map_err(io(&dir))?;
             let dir = RunDir::open(&dir)?;
