@@ -782,13 +782,17 @@ fn reproduce_command(args: ReproduceArgs) -> Result<ExitCode> {
             reproduce::folder::check(&args.out, &grid)?;
         }
     }
-    let plan = reproduce::plan(&args.out, &grid, slice)?;
+    // Every check first (nothing is written if one fails), then the grid's record and the
+    // part's lock, then the plan again: another process of this part may have moved its runs
+    // on before the lock was ours.
+    reproduce::plan(&args.out, &grid, slice)?;
     reproduce::folder::claim(&args.out, &grid)?;
     let part_dir = reproduce::Part::path(&args.out, slice).with_extension("");
     std::fs::create_dir_all(&part_dir)
         .with_context(|| format!("cannot create {}", part_dir.display()))?;
     // One process per part: a second one would run the same runs beside the first.
     let _lock = lock::acquire(&part_dir)?;
+    let plan = reproduce::plan(&args.out, &grid, slice)?;
     reproduce::folder::create_cells(&plan)?;
     let jobs = args.jobs.map_or_else(cores, |n| n as usize);
     let to_run = plan.iter().filter(|r| r.start != plan::Start::Skip).count();

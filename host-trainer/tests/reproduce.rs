@@ -284,3 +284,16 @@ fn experiment_two_trains_its_teams_in_slices_and_measures_them() {
     assert_one_line_error(&run(&[]), &[s(&team), "not the grid's setting"]);
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
+
+#[test]
+fn a_second_process_of_the_same_part_is_refused() {
+    let out = scratch("reproduce-lock");
+    let part = out.join("parts").join("0-of-1");
+    std::fs::create_dir_all(&part).expect("part dir");
+    let held = host_trainer::run::lock::acquire(&part).expect("the lock");
+    let refused = reproduce(&out, &[]);
+    assert_one_line_error(&refused, &["is in use by"]);
+    assert!(!out.join("runs").exists(), "no run started");
+    drop(held);
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
