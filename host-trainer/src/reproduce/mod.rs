@@ -80,21 +80,27 @@ impl Part {
         Ok(self)
     }
 
-    /// Every part's record in `out`, in file-name order.
+    /// Every part's record in `out`, by slice count, then index.
     pub fn all(out: &Path) -> Vec<Part> {
-        let mut paths: Vec<_> = fs::read_dir(out.join(PARTS))
+        let paths: Vec<_> = fs::read_dir(out.join(PARTS))
             .into_iter()
             .flatten()
             .flatten()
             .map(|e| e.path())
             .filter(|p| p.extension().is_some_and(|e| e == "json"))
             .collect();
-        paths.sort();
-        paths
+        let mut parts: Vec<Part> = paths
             .iter()
             .filter_map(|p| fs::read_to_string(p).ok())
             .filter_map(|t| serde_json::from_str(&t).ok())
-            .collect()
+            .collect();
+        let key = |p: &Part| {
+            p.slice
+                .parse::<Slice>()
+                .map_or((u64::MAX, u64::MAX), |s| (s.count, s.index))
+        };
+        parts.sort_by_key(key);
+        parts
     }
 }
 
