@@ -464,13 +464,7 @@ pub fn body(out: &Path, grid: &Grid, figures: &Path) -> Result<(String, Vec<Stri
                 .find(|(k, _)| *k == kind)
                 .map(|(_, v)| versus(v, 0.5))
         };
-        use std::cmp::Ordering::{Equal, Greater, Less};
-        let verdict = match (t("dcp-t16"), t("dcp-t1"), versus(&e, 0.0)) {
-            (Some(Greater), Some(t1), Less) if t1 != Greater => "reproduced",
-            (Some(Greater), _, _) => "reproduced in part",
-            (Some(Less), _, _) => "contradicted",
-            (Some(Equal), _, _) | (None, _, _) => "not reproduced",
-        };
+        let verdict = claim4(t("dcp-t16"), t("dcp-t1"), versus(&e, 0.0));
         let _ = writeln!(
             page,
             "**Claim 4** (DCP beats DDPG once T > 4, mostly through fewer serve errors): \
@@ -485,6 +479,23 @@ pub fn body(out: &Path, grid: &Grid, figures: &Path) -> Result<(String, Vec<Stri
         let _ = writeln!(page, "![{name}](figures/{name})\n");
     }
     Ok((page, missing))
+}
+
+/// The verdict on claim 4 by the protocol's rule, from where DCP T = 16's and T = 1's scores
+/// against DDPG lie against 0.5 (none: no team pair finished) and where E, the paired serve
+/// error difference of T = 16 minus DDPG, lies against 0.
+pub fn claim4(
+    t16: Option<std::cmp::Ordering>,
+    t1: Option<std::cmp::Ordering>,
+    e: std::cmp::Ordering,
+) -> &'static str {
+    use std::cmp::Ordering::{Equal, Greater, Less};
+    match (t16, t1, e) {
+        (Some(Greater), Some(t1), Less) if t1 != Greater => "reproduced",
+        (Some(Greater), _, _) => "reproduced in part",
+        (Some(Less), _, _) => "contradicted",
+        (Some(Equal), _, _) | (None, _, _) => "not reproduced",
+    }
 }
 
 /// Figures 10–13's file: each player's contribution, seed 0.
@@ -635,4 +646,36 @@ fn influence_of_t(rows: &[(&str, Vec<f64>)]) -> Result<String, Error> {
         root.present().map_err(drawing)?;
     }
     Ok(text)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::cmp::Ordering::{Equal, Greater, Less};
+
+    #[test]
+    fn claim_four_follows_the_protocol() {
+        assert_eq!(claim4(Some(Greater), Some(Equal), Less), "reproduced");
+        assert_eq!(claim4(Some(Greater), Some(Less), Less), "reproduced");
+        // No threshold in T, or not through the serve: in part.
+        assert_eq!(
+            claim4(Some(Greater), Some(Greater), Less),
+            "reproduced in part"
+        );
+        assert_eq!(
+            claim4(Some(Greater), Some(Equal), Equal),
+            "reproduced in part"
+        );
+        assert_eq!(claim4(Some(Equal), Some(Less), Less), "not reproduced");
+        assert_eq!(claim4(None, None, Equal), "not reproduced");
+        assert_eq!(claim4(Some(Less), Some(Greater), Less), "contradicted");
+    }
+
+    #[test]
+    fn an_interval_is_judged_against_its_line() {
+        assert_eq!(versus(&[0.6, 0.7, 0.65], 0.5), Greater);
+        assert_eq!(versus(&[0.3, 0.35, 0.4], 0.5), Less);
+        assert_eq!(versus(&[0.3, 0.7, 0.5], 0.5), Equal);
+        assert_eq!(versus(&[0.9], 0.5), Equal); // one seed has no interval
+    }
 }

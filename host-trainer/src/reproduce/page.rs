@@ -402,6 +402,102 @@ pub fn body(grid: &Grid, all: &[(GridRun, Outcome)]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::reproduce::folder::Finished;
+    use crate::reproduce::grid::Experiment;
+    use firmware_sim::nav::reference::reference;
+    use firmware_sim::nav::scenario::Scenario;
+    use firmware_sim::nav::test_protocol::{evaluate_controller, EvalConfig};
+
+    /// A five-seed grid whose every run finished with success `success(cell, seed)`.
+    fn grid_with(success: impl Fn(&Cell, u64) -> f64) -> Vec<(GridRun, Outcome)> {
+        let s = Scenario::builtin("nav-walls").expect("built in");
+        let mut oracle = reference("oracle", &s).expect("the oracle");
+        let cfg = EvalConfig {
+            episodes: 2,
+            ..EvalConfig::default()
+        };
+        let report = evaluate_controller(oracle.as_mut(), &s, &cfg).expect("runs");
+        let grid = Grid {
+            experiment: Experiment::Exp1,
+            seeds: 5,
+            quick: false,
+        };
+        grid.runs()
+            .into_iter()
+            .map(|run| {
+                let mut report = report.clone();
+                report.success_rate = success(&run.cell, run.seed);
+                let finished = Finished {
+                    dir: "unused".into(),
+                    config: run.cell.config(false),
+                    report,
+                };
+                (run, Outcome::Finished(Box::new(finished)))
+            })
+            .collect()
+    }
+
+    fn verdict_of<'a>(text: &'a str, claim: &str) -> &'a str {
+        let line = text
+            .lines()
+            .find(|l| l.contains(claim))
+            .expect("the claim's line");
+        let from = line.find("): **").expect("a verdict") + 5;
+        &line[from..from + line[from..].find("**").expect("bold")]
+    }
+
+    #[test]
+    fn the_claims_follow_their_rules() {
+        let jitter = |seed: u64| 0.01 * seed as f64;
+        // The paper's story: DCP ahead with walls, DDPG hurt by walls, by LR and by noise.
+        let story = grid_with(|cell, seed| {
+            let agent = cell.agent.name;
+            match (cell.walls, cell.reward, cell.sigma) {
+                (Walls::Without, _, _) => 1.0,
+                (_, _, Some(_)) if agent == "ddpg" => 0.1,
+                (_, RewardKind::Lr, _) if agent == "ddpg" => 0.2 + jitter(seed),
+                _ if agent == "ddpg" || agent == "dqn" => 0.5 + jitter(seed),
+                _ => 0.9 + jitter(seed),
+            }
+        });
+        let text = verdicts(&story);
+        assert_eq!(
+            verdict_of(&text, "Claim 1, first half"),
+            "reproduced",
+            "{text}"
+        );
+        assert_eq!(
+            verdict_of(&text, "Claim 1, second half"),
+            "reproduced",
+            "{text}"
+        );
+        assert_eq!(verdict_of(&text, "Claim 2"), "reproduced", "{text}");
+        assert_eq!(verdict_of(&text, "Claim 3"), "reproduced", "{text}");
+        // The other way round, and a tie.
+        let reversed = grid_with(|cell, seed| {
+            let agent = cell.agent.name;
+            match (cell.walls, cell.sigma) {
+                (Walls::Without, _) => 1.0,
+                (_, Some(_)) if agent == "dcp-paper" => 0.1,
+                _ if agent == "dcp-paper" || agent == "ppo" => 0.3 + jitter(seed),
+                (_, Some(_)) => 0.9,
+                _ => 0.8 + jitter(seed % 2),
+            }
+        });
+        let text = verdicts(&reversed);
+        assert_eq!(
+            verdict_of(&text, "Claim 1, first half"),
+            "contradicted",
+            "{text}"
+        );
+        assert_eq!(
+            verdict_of(&text, "Claim 1, second half"),
+            "contradicted",
+            "{text}"
+        );
+        assert_eq!(verdict_of(&text, "Claim 2"), "not reproduced", "{text}");
+        assert_eq!(verdict_of(&text, "Claim 3"), "contradicted", "{text}");
+    }
 
     #[test]
     fn the_side_of_an_interval() {
