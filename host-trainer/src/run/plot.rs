@@ -39,10 +39,10 @@ type Drawn = Result<(), DrawingAreaErrorKind<std::io::Error>>;
 
 /// Renders panels stacked vertically into an SVG document.
 ///
-/// Each series is one polyline plus a legend entry; an empty panel list, an empty series, a
-/// single point and an all-equal y range all draw (the range is padded). Drawing into a string
-/// cannot fail in practice; if plotters reports an error anyway, the document says so instead
-/// of the chart.
+/// Each series is one polyline plus a legend entry (and a dot when it has a single point); an
+/// empty panel list, an empty series, a single point and an all-equal y range all draw (the
+/// range is padded). Drawing into a string cannot fail in practice; if plotters reports an
+/// error anyway, the document says so instead of the chart.
 ///
 /// ```
 /// use host_trainer::run::plot::{svg, Panel, Series};
@@ -146,6 +146,10 @@ fn draw_panel(
             .filter(|p| p.0.is_finite() && p.1.is_finite())
             .map(|&(px, py)| (px, py.clamp(y.0, y.1)))
             .collect();
+        // A line through one point draws nothing: mark it.
+        if let [point] = points[..] {
+            chart.draw_series(std::iter::once(Circle::new(point, 3, style.filled())))?;
+        }
         chart
             .draw_series(std::iter::once(PathElement::new(points, style)))?
             .label(series.name.as_str())
@@ -390,6 +394,12 @@ mod tests {
             assert!(doc.starts_with("<svg") && doc.trim_end().ends_with("</svg>"));
             assert!(doc.contains(">\nline\n</text>"), "legend for {points:?}");
             assert_eq!(polyline(&doc, "#123456").len(), drawn, "{points:?}");
+            let dot = usize::from(drawn == 1);
+            assert_eq!(
+                doc.matches("<circle").count(),
+                dot,
+                "a lone point is marked"
+            );
         }
         let none = svg("nothing", "x", &[]);
         assert!(none.contains(">\nnothing\n</text>") && !none.contains("<polyline"));
