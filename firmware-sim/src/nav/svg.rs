@@ -4,6 +4,13 @@
 //!
 //! [`render`] draws a whole report; [`SvgWriter`] draws the same document one episode at a
 //! time, for evaluations too large to keep (every trajectory is drawn either way).
+//!
+//! Written by hand rather than with plotters, which draws the other figures: plotters' SVG
+//! backend builds the whole document in one `String` (its file target writes that string only
+//! when the drawing is presented) and has no `io::Write` target, so a long `firmware-sim run
+//! --svg` would hold every episode's path until the end. Here each path goes to the writer as
+//! its episode ends. [`render`] is the same writer run over a finished report, so both give the
+//! same bytes; it stays with the writer rather than becoming a second, different drawing.
 
 use std::fmt::Write;
 use std::io;

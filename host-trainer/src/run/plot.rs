@@ -1,18 +1,19 @@
-//! A hand-written SVG line chart for learning curves (no plotting dependency needed).
+//! Learning curves as SVG line charts, drawn with plotters.
 //!
 //! The chart stacks panels that share the x axis (episodes): return per episode with its moving
 //! average, and the success rate over a trailing window.
 
-use std::fmt::Write;
+use plotters::coord::Shift;
+use plotters::prelude::*;
 
 /// One line of a panel.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Series {
     /// Legend text.
     pub name: String,
-    /// CSS colour.
+    /// Colour as `#rrggbb` (anything else draws black).
     pub color: &'static str,
-    /// Stroke opacity (a faint raw curve under a bold average).
+    /// Stroke opacity: a faint raw curve (below 1, drawn thin) under a bold average (1).
     pub opacity: f32,
     /// `(x, y)` points in data units; non-finite points are skipped.
     pub points: Vec<(f64, f64)>,
@@ -29,42 +30,41 @@ pub struct Panel {
     pub y_range: Option<(f64, f64)>,
 }
 
-const WIDTH: f64 = 720.0;
-const PANEL_HEIGHT: f64 = 220.0;
-const LEFT: f64 = 70.0;
-const RIGHT: f64 = 20.0;
-const TOP: f64 = 36.0;
-const GAP: f64 = 40.0;
+const WIDTH: u32 = 720;
+const PANEL_HEIGHT: u32 = 260;
+/// Room for the title and the bottom border, pixels.
+const FRAME: u32 = 46;
+
+type Drawn = Result<(), DrawingAreaErrorKind<std::io::Error>>;
 
 /// Renders panels stacked vertically into an SVG document.
+///
+/// Each series is one polyline plus a legend entry (and a dot when it has a single point); an
+/// empty panel list, an empty series, a single point and an all-equal y range all draw (the
+/// range is padded). Drawing into a string cannot fail in practice; if plotters reports an
+/// error anyway, the document says so instead of the chart.
 ///
 /// ```
 /// use host_trainer::run::plot::{svg, Panel, Series};
 /// let line = Series { name: "return".into(), color: "#1f77b4", opacity: 1.0, points: vec![(1.0, -3.0), (2.0, -1.0)] };
 /// let doc = svg("run", "episode", &[Panel { y_label: "return".into(), series: vec![line], y_range: None }]);
-/// assert!(doc.starts_with("<svg") && doc.contains("<polyline") && doc.ends_with("</svg>\n"));
+/// assert!(doc.starts_with("<svg") && doc.trim_end().ends_with("</svg>"));
+/// // The series' polyline and its legend sample, both in the series' colour.
+/// assert_eq!(doc.matches(r##"<polyline fill="none" opacity="1" stroke="#1F77B4""##).count(), 2);
+/// assert!(doc.contains(">\nreturn\n</text>") && doc.contains(">\nepisode\n</text>"));
 /// ```
 pub fn svg(title: &str, x_label: &str, panels: &[Panel]) -> String {
-    let height = TOP + panels.len() as f64 * (PANEL_HEIGHT + GAP) + 10.0;
-    let mut out = String::new();
-    let _ = writeln!(
-        out,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{height}" viewBox="0 0 {WIDTH} {height}" font-family="sans-serif" font-size="11">"#
-    );
-    let _ = writeln!(out, r#"<rect width="100%" height="100%" fill="white"/>"#);
-    let _ = writeln!(
-        out,
-        r#"<text x="{}" y="20" font-size="14" text-anchor="middle">{}</text>"#,
-        WIDTH / 2.0,
-        escape(title)
-    );
-    let x_range = x_extent(panels);
-    for (i, panel) in panels.iter().enumerate() {
-        let top = TOP + i as f64 * (PANEL_HEIGHT + GAP);
-        draw_panel(&mut out, panel, top, x_range, x_label);
+    let rows = u32::try_from(panels.len()).unwrap_or(u32::MAX);
+    let height = rows.saturating_mul(PANEL_HEIGHT).saturating_add(FRAME);
+    let mut text = String::new();
+    let drawn = {
+        let root = SVGBackend::with_string(&mut text, (WIDTH, height)).into_drawing_area();
+        draw(&root, title, x_label, panels)
+    };
+    match drawn {
+        Ok(()) => text,
+        Err(e) => failed(&e),
     }
-    out.push_str("</svg>\n");
-    out
 }
 
 /// Trailing moving average over `window` points (shorter at the start).
@@ -86,117 +86,117 @@ pub fn moving_average(values: &[f64], window: usize) -> Vec<f64> {
     out
 }
 
-/// A data-to-pixel mapping for one panel.
-#[derive(Clone, Copy)]
-struct Frame {
+fn draw(
+    root: &DrawingArea<SVGBackend<'_>, Shift>,
+    title: &str,
+    x_label: &str,
+    panels: &[Panel],
+) -> Drawn {
+    root.fill(&WHITE)?;
+    let body = root.titled(title, ("sans-serif", 17))?;
+    if !panels.is_empty() {
+        let x = x_extent(panels);
+        for (area, panel) in body.split_evenly((panels.len(), 1)).iter().zip(panels) {
+            draw_panel(area, panel, x, x_label)?;
+        }
+    }
+    root.present()
+}
+
+fn draw_panel(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    panel: &Panel,
     x: (f64, f64),
-    y: (f64, f64),
-    top: f64,
+    x_label: &str,
+) -> Drawn {
+    let y = match panel.y_range {
+        Some((lo, hi)) if lo.is_finite() && hi.is_finite() && hi > lo => (lo, hi),
+        Some((lo, hi)) if lo.is_finite() && hi.is_finite() => padded((lo.min(hi), lo.max(hi))),
+        _ => padded(extent(panel.series.iter().flat_map(|s| {
+            s.points.iter().filter(|p| p.0.is_finite()).map(|p| p.1)
+        }))),
+    };
+    let mut chart = ChartBuilder::on(area)
+        .margin(8)
+        .margin_right(20)
+        .x_label_area_size(36)
+        .y_label_area_size(60)
+        .build_cartesian_2d(x.0..x.1, y.0..y.1)?;
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .bold_line_style(RGBColor(221, 221, 221))
+        .light_line_style(TRANSPARENT)
+        .x_labels(8)
+        .y_labels(6)
+        .x_label_formatter(&|v| label(*v))
+        .y_label_formatter(&|v| label(*v))
+        .x_desc(x_label)
+        .y_desc(panel.y_label.as_str())
+        .label_style(("sans-serif", 13))
+        .axis_desc_style(("sans-serif", 14))
+        .draw()?;
+    for series in &panel.series {
+        let opacity = f64::from(series.opacity).clamp(0.0, 1.0);
+        let width = if opacity < 1.0 { 1 } else { 2 };
+        let style = rgb(series.color).mix(opacity).stroke_width(width);
+        let points: Vec<(f64, f64)> = series
+            .points
+            .iter()
+            .filter(|p| p.0.is_finite() && p.1.is_finite())
+            .map(|&(px, py)| (px, py.clamp(y.0, y.1)))
+            .collect();
+        // A line through one point draws nothing: mark it.
+        if let [point] = points[..] {
+            chart.draw_series(std::iter::once(Circle::new(point, 3, style.filled())))?;
+        }
+        chart
+            .draw_series(std::iter::once(PathElement::new(points, style)))?
+            .label(series.name.as_str())
+            .legend(move |(lx, ly)| PathElement::new([(lx, ly), (lx + 20, ly)], style));
+    }
+    if !panel.series.is_empty() {
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.8))
+            .border_style(RGBColor(200, 200, 200))
+            .label_font(("sans-serif", 13))
+            .draw()?;
+    }
+    Ok(())
 }
 
-impl Frame {
-    fn px(&self, x: f64) -> f64 {
-        LEFT + (x - self.x.0) / (self.x.1 - self.x.0) * (WIDTH - LEFT - RIGHT)
-    }
-    fn py(&self, y: f64) -> f64 {
-        self.top + PANEL_HEIGHT - (y - self.y.0) / (self.y.1 - self.y.0) * PANEL_HEIGHT
-    }
-}
-
-fn draw_panel(out: &mut String, panel: &Panel, top: f64, x: (f64, f64), x_label: &str) {
-    let y = panel.y_range.unwrap_or_else(|| {
-        padded(extent(
-            panel
-                .series
-                .iter()
-                .flat_map(|s| s.points.iter().map(|p| p.1)),
-        ))
-    });
-    let frame = Frame { x, y, top };
-    draw_axes(out, &frame, &panel.y_label, x_label);
-    for (k, series) in panel.series.iter().enumerate() {
-        draw_series(out, &frame, series);
-        let ly = top + 14.0 + 14.0 * k as f64;
-        let _ = writeln!(
-            out,
-            r#"<line x1="{}" y1="{ly}" x2="{}" y2="{ly}" stroke="{}" stroke-opacity="{}" stroke-width="2"/><text x="{}" y="{}">{}</text>"#,
-            WIDTH - 170.0,
-            WIDTH - 150.0,
-            series.color,
-            series.opacity,
-            WIDTH - 145.0,
-            ly + 4.0,
-            escape(&series.name)
-        );
-    }
-}
-
-fn draw_axes(out: &mut String, f: &Frame, y_label: &str, x_label: &str) {
-    let (x0, x1, y0, y1) = (LEFT, WIDTH - RIGHT, f.top, f.top + PANEL_HEIGHT);
-    let _ = writeln!(
-        out,
-        r##"<rect x="{x0}" y="{y0}" width="{}" height="{PANEL_HEIGHT}" fill="none" stroke="#444"/>"##,
-        x1 - x0
-    );
-    for tick in ticks(f.y) {
-        let py = f.py(tick);
-        let _ = writeln!(
-            out,
-            r##"<line x1="{x0}" y1="{py:.1}" x2="{x1}" y2="{py:.1}" stroke="#ddd"/><text x="{}" y="{:.1}" text-anchor="end">{}</text>"##,
-            x0 - 4.0,
-            py + 4.0,
-            label(tick)
-        );
-    }
-    for tick in ticks(f.x) {
-        let px = f.px(tick);
-        let _ = writeln!(
-            out,
-            r#"<text x="{px:.1}" y="{}" text-anchor="middle">{}</text>"#,
-            y1 + 14.0,
-            label(tick)
-        );
-    }
-    let _ = writeln!(
-        out,
-        r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
-        (x0 + x1) / 2.0,
-        y1 + 28.0,
-        escape(x_label)
-    );
-    let mid = (y0 + y1) / 2.0;
-    let _ = writeln!(
-        out,
-        r#"<text x="16" y="{mid}" text-anchor="middle" transform="rotate(-90 16 {mid})">{}</text>"#,
-        escape(y_label)
-    );
-}
-
-fn draw_series(out: &mut String, f: &Frame, s: &Series) {
-    let mut pts = String::new();
-    for &(x, y) in s
-        .points
-        .iter()
-        .filter(|p| p.0.is_finite() && p.1.is_finite())
+/// A document saying the chart could not be drawn (best effort: it is what is left to say).
+fn failed(e: &DrawingAreaErrorKind<std::io::Error>) -> String {
+    let mut text = String::new();
     {
-        let y = y.clamp(f.y.0, f.y.1);
-        let _ = write!(pts, "{:.1},{:.1} ", f.px(x), f.py(y));
+        let root = SVGBackend::with_string(&mut text, (WIDTH, 40)).into_drawing_area();
+        let message = format!("the chart could not be drawn: {e}");
+        let _ = root.draw(&Text::new(message, (10, 20), ("sans-serif", 14)));
     }
-    let _ = writeln!(
-        out,
-        r#"<polyline fill="none" stroke="{}" stroke-opacity="{}" stroke-width="1.5" points="{}"/>"#,
-        s.color,
-        s.opacity,
-        pts.trim_end()
-    );
+    text
+}
+
+/// `#rrggbb` as a colour; black for anything else.
+fn rgb(css: &str) -> RGBColor {
+    let hex = css.strip_prefix('#').unwrap_or("");
+    let channel = |i: usize| {
+        hex.get(i..i + 2)
+            .and_then(|h| u8::from_str_radix(h, 16).ok())
+    };
+    match (hex.len(), channel(0), channel(2), channel(4)) {
+        (6, Some(r), Some(g), Some(b)) => RGBColor(r, g, b),
+        _ => BLACK,
+    }
 }
 
 fn x_extent(panels: &[Panel]) -> (f64, f64) {
-    let e = extent(
-        panels
+    let e = extent(panels.iter().flat_map(|p| {
+        p.series
             .iter()
-            .flat_map(|p| p.series.iter().flat_map(|s| s.points.iter().map(|q| q.0))),
-    );
+            .flat_map(|s| s.points.iter().filter(|q| q.1.is_finite()).map(|q| q.0))
+    }));
     if e.1 > e.0 {
         e
     } else {
@@ -217,28 +217,13 @@ fn extent(values: impl Iterator<Item = f64>) -> (f64, f64) {
     }
 }
 
+/// 5 % of room above and below; one unit each way when the range is a single value.
 fn padded((lo, hi): (f64, f64)) -> (f64, f64) {
     let pad = if hi > lo { (hi - lo) * 0.05 } else { 1.0 };
     (lo - pad, hi + pad)
 }
 
-/// About five round tick values inside the range.
-fn ticks((lo, hi): (f64, f64)) -> Vec<f64> {
-    let raw = (hi - lo) / 5.0;
-    if raw <= 0.0 || !raw.is_finite() {
-        return vec![lo];
-    }
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0]
-        .iter()
-        .map(|m| m * mag)
-        .find(|s| *s >= raw)
-        .unwrap_or(10.0 * mag);
-    let first = (lo / step).ceil() as i64;
-    let last = (hi / step).floor() as i64;
-    (first..=last).map(|k| k as f64 * step).collect()
-}
-
+/// Whole numbers without decimals, others with two.
 fn label(v: f64) -> String {
     if v.abs() >= 1000.0 || v == v.trunc() {
         format!("{v:.0}")
@@ -247,31 +232,124 @@ fn label(v: f64) -> String {
     }
 }
 
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn series(color: &'static str, points: Vec<(f64, f64)>) -> Series {
+        Series {
+            name: "line".into(),
+            color,
+            opacity: 1.0,
+            points,
+        }
+    }
+
+    fn one_panel(series: Vec<Series>, y_range: Option<(f64, f64)>) -> String {
+        svg(
+            "t",
+            "x",
+            &[Panel {
+                y_label: "y".into(),
+                series,
+                y_range,
+            }],
+        )
+    }
+
+    /// The `points` of the first polyline stroked in `stroke` (`#RRGGBB`), as pixel pairs.
+    fn polyline(doc: &str, stroke: &str) -> Vec<(i32, i32)> {
+        let tag = format!(r#"stroke="{stroke}""#);
+        let start = doc.find(&tag).expect("a polyline in that colour");
+        let rest = &doc[start..];
+        let points = rest
+            .split("points=\"")
+            .nth(1)
+            .and_then(|p| p.split('"').next())
+            .expect("a points attribute");
+        points
+            .split_whitespace()
+            .map(|xy| {
+                let (x, y) = xy.split_once(',').expect("x,y");
+                (
+                    x.parse().expect("an integer x"),
+                    y.parse().expect("an integer y"),
+                )
+            })
+            .collect()
+    }
+
     #[test]
-    fn ticks_are_round_and_inside_the_range() {
-        let t = ticks((0.0, 3000.0));
-        assert_eq!(t, vec![0.0, 1000.0, 2000.0, 3000.0]);
-        assert_eq!(ticks((-0.05, 1.05)), vec![0.0, 0.5, 1.0]);
-        assert_eq!(ticks((-180.0, -40.0)), vec![-150.0, -100.0, -50.0]);
+    fn every_series_is_a_polyline_in_its_colour_with_a_legend_entry() {
+        let doc = svg(
+            "run",
+            "episode",
+            &[
+                Panel {
+                    y_label: "return".into(),
+                    series: vec![
+                        Series {
+                            name: "raw".into(),
+                            opacity: 0.25,
+                            ..series("#1f77b4", vec![(0.0, 1.0), (1.0, 3.0), (2.0, 2.0)])
+                        },
+                        Series {
+                            name: "mean of 100".into(),
+                            ..series("#1f77b4", vec![(0.0, 1.0), (1.0, 2.0), (2.0, 2.0)])
+                        },
+                    ],
+                    y_range: None,
+                },
+                Panel {
+                    y_label: "success rate".into(),
+                    series: vec![series("#2ca02c", vec![(0.0, 0.0), (2.0, 1.0)])],
+                    y_range: Some((0.0, 1.0)),
+                },
+            ],
+        );
+        // Each series once in the chart and once as its legend sample.
+        assert_eq!(
+            doc.matches(r##"opacity="0.25" stroke="#1F77B4""##).count(),
+            2
+        );
+        assert_eq!(doc.matches(r##"opacity="1" stroke="#1F77B4""##).count(), 2);
+        assert_eq!(doc.matches(r##"opacity="1" stroke="#2CA02C""##).count(), 2);
+        for text in [
+            "raw",
+            "mean of 100",
+            "line",
+            "return",
+            "success rate",
+            "episode",
+        ] {
+            assert!(
+                doc.contains(&format!(">\n{text}\n</text>")),
+                "{text} missing"
+            );
+        }
+        // The panels share the x axis: the first and last points line up across panels.
+        let top = polyline(&doc, "#1F77B4");
+        let bottom = polyline(&doc, "#2CA02C");
+        assert_eq!((top[0].0, top[2].0), (bottom[0].0, bottom[1].0));
+        assert!(
+            bottom[0].1 > top[0].1,
+            "the second panel is below the first"
+        );
     }
 
     #[test]
     fn non_finite_points_are_skipped_and_markup_is_escaped() {
         let s = Series {
             name: "a<b".into(),
-            color: "red",
-            opacity: 1.0,
-            points: vec![(0.0, 1.0), (1.0, f64::NAN), (2.0, 2.0)],
+            ..series(
+                "#ff0000",
+                vec![
+                    (0.0, 1.0),
+                    (1.0, f64::NAN),
+                    (f64::INFINITY, 5.0),
+                    (2.0, 2.0),
+                ],
+            )
         };
         let doc = svg(
             "t&t",
@@ -283,6 +361,55 @@ mod tests {
             }],
         );
         assert!(doc.contains("a&lt;b") && doc.contains("t&amp;t"));
-        assert!(!doc.contains("NaN"));
+        assert!(!doc.contains("NaN") && !doc.contains("inf"));
+        let line = polyline(&doc, "#FF0000");
+        assert_eq!(line.len(), 2, "only the two finite points: {line:?}");
+        // The y range fits the finite points: 1 is low in the panel, 2 high.
+        assert!(line[0].1 > line[1].1);
+    }
+
+    #[test]
+    fn an_all_equal_range_is_padded_so_the_line_sits_inside_the_panel() {
+        let flat = one_panel(vec![series("#00aa00", vec![(0.0, 3.0), (5.0, 3.0)])], None);
+        let line = polyline(&flat, "#00AA00");
+        assert_eq!(line.len(), 2);
+        assert_eq!(line[0].1, line[1].1);
+        // Mid-panel: the panel spans about 36..296 pixels (title, then one 260-pixel panel).
+        assert!((100..240).contains(&line[0].1), "{line:?}");
+        let fixed = one_panel(
+            vec![series("#00aa00", vec![(0.0, 3.0), (5.0, 3.0)])],
+            Some((3.0, 3.0)),
+        );
+        assert_eq!(polyline(&fixed, "#00AA00")[0].1, line[0].1);
+    }
+
+    #[test]
+    fn empty_and_single_point_series_still_draw_a_document() {
+        for (points, drawn) in [
+            (vec![], 0),
+            (vec![(1.0, 1.0)], 1),
+            (vec![(f64::NAN, f64::NAN)], 0),
+        ] {
+            let doc = one_panel(vec![series("#123456", points.clone())], None);
+            assert!(doc.starts_with("<svg") && doc.trim_end().ends_with("</svg>"));
+            assert!(doc.contains(">\nline\n</text>"), "legend for {points:?}");
+            assert_eq!(polyline(&doc, "#123456").len(), drawn, "{points:?}");
+            let dot = usize::from(drawn == 1);
+            assert_eq!(
+                doc.matches("<circle").count(),
+                dot,
+                "a lone point is marked"
+            );
+        }
+        let none = svg("nothing", "x", &[]);
+        assert!(none.contains(">\nnothing\n</text>") && !none.contains("<polyline"));
+    }
+
+    #[test]
+    fn colours_other_than_hex_draw_black() {
+        assert_eq!(rgb("#2ca02c"), RGBColor(44, 160, 44));
+        assert_eq!(rgb("red"), BLACK);
+        assert_eq!(rgb("#12345"), BLACK);
+        assert_eq!(rgb("#12345g"), BLACK);
     }
 }
