@@ -1,0 +1,120 @@
+//! `host-trainer eval`: a blob (or an actor of several heads with its critic) run through
+//! firmware-sim's test protocol.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::Args;
+use firmware_sim::boot::{self, PlantSizes};
+use firmware_sim::controller::Controller;
+use firmware_sim::files;
+use firmware_sim::heads::HeadsPolicy;
+use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::test_protocol::{self, EvalConfig, Report};
+use firmware_sim::outln;
+use host_trainer::run::trainer;
+
+#[derive(Debug, Args)]
+pub(crate) struct EvalArgs {
+    /// The policy blob (policy.postcard).
+    #[arg(long)]
+    blob: PathBuf,
+    /// The critic blob of an actor of several heads (DCP's `heads`): it chooses the head.
+    #[arg(long)]
+    critic: Option<PathBuf>,
+    /// Built-in scenario or scenario file.
+    #[arg(long, default_value = "nav-walls")]
+    task: String,
+    /// Test starts.
+    #[arg(long, default_value_t = 100)]
+    episodes: usize,
+    /// Seed of the test starts.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Also write the report as JSON here.
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+pub(crate) fn eval_command(args: EvalArgs) -> Result<()> {
+    // Everything that can be checked is checked before the evaluation runs.
+    if let Some(path) = &args.json {
+        files::check_output(path).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    let scenario = trainer::scenario(&args.task)?;
+    let blob = files::read_blob(&args.blob)
+        .with_context(|| format!("cannot read blob {}", args.blob.display()))?;
+    let critic = match &args.critic {
+        Some(path) => Some(
+            files::read_blob(path)
+                .with_context(|| format!("cannot read critic {}", path.display()))?,
+        ),
+        None => None,
+    };
+    let report = evaluate(
+        &blob,
+        critic.as_deref(),
+        &args.blob,
+        &scenario,
+        args.episodes,
+        args.seed,
+    )?;
+    print_summary(&report);
+    if let Some(path) = &args.json {
+        files::write_atomic(path, report_json(&report)?.as_bytes())
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(())
+}
+
+/// firmware-sim's test protocol on the blob; a blob that does not boot is an error here.
+/// Boots the blob as firmware-sim's loop does and runs its test protocol. Where the loop would run
+/// a blob that does not boot in the safe state (what a chip does), a user asking to evaluate a
+/// file gets an error naming `source`, before any episode runs.
+/// With `critic`, the blob is an actor of several heads and the critic chooses among them.
+pub(crate) fn evaluate(
+    blob: &[u8],
+    critic: Option<&[u8]>,
+    source: &Path,
+    scenario: &Scenario,
+    episodes: usize,
+    seed: u64,
+) -> Result<Report> {
+    let plant = PlantSizes::of(scenario)?;
+    let does_not_boot = || format!("{} does not boot", source.display());
+    let mut policy: Box<dyn Controller> = match critic {
+        None => Box::new(boot::boot(blob, &plant).with_context(does_not_boot)?),
+        Some(critic) => {
+            Box::new(HeadsPolicy::boot(blob, critic, &plant).with_context(does_not_boot)?)
+        }
+    };
+    let config = EvalConfig {
+        episodes,
+        seed,
+        ..EvalConfig::default()
+    };
+    test_protocol::evaluate_controller(policy.as_mut(), scenario, &config)
+        .with_context(|| format!("evaluating the policy on {}", scenario.name))
+}
+
+pub(crate) fn report_json(report: &Report) -> Result<String> {
+    Ok(serde_json::to_string_pretty(report)? + "\n")
+}
+
+pub(crate) fn print_summary(report: &Report) {
+    let steps = report
+        .mean_steps_to_goal
+        .map_or_else(|| "-".to_string(), |s| format!("{s:.1}"));
+    outln!(
+        "{} on {}, {} test starts: success {:.1}%  mean settled error {:.3}  strict reach {:.1}%  pass within 0.25 {:.1}%  steps to goal {steps}  stuck at margin {:.1}%  left arena {:.1}%",
+        report.controller,
+        report.scenario,
+        report.episodes.len(),
+        100.0 * report.success_rate,
+        report.mean_error,
+        100.0 * report.strict_reach_rate,
+        100.0 * report.near_pass_rate,
+        100.0 * report.stuck_rate,
+        100.0 * report.left_arena_rate,
+    );
+}

@@ -1,0 +1,162 @@
+//! `host-trainer reproduce`: an experiment's grid, or one slice of it, run through `sweep`'s
+//! supervisor, and its page built from the run folders.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use firmware_sim::outln;
+use host_trainer::reproduce::{
+    self,
+    grid::{self, Experiment, Grid, Slice},
+};
+use host_trainer::run::lock;
+use host_trainer::sweep::record::Status;
+use host_trainer::sweep::supervise;
+
+use super::signals::{INTERRUPTED, INTERRUPTS};
+use super::sweep::runner;
+
+#[derive(Debug, Args)]
+pub(crate) struct ReproduceArgs {
+    /// The experiment: exp1 (navigation among walls: tables 1–3, figures 4–7) or exp2
+    /// (badminton teams: tables 5–7, team scores, influence of T, heat maps).
+    #[arg(value_enum)]
+    experiment: Experiment,
+    /// Existing output folder: the grid's runs, its page and figures go there.
+    #[arg(long)]
+    out: PathBuf,
+    /// Seeds 0..N of every cell (at least 5 unless --quick).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    seeds: u64,
+    /// Most runs at once [default: the number of cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    jobs: Option<u32>,
+    /// Run only part I of N (from 0) of the grid, e.g. a Slurm array task's
+    /// $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT; the page is built by --merge.
+    #[arg(long, conflicts_with = "merge")]
+    slice: Option<Slice>,
+    /// A few episodes per run: a test of the machinery, not a result.
+    #[arg(long)]
+    quick: bool,
+    /// Run nothing: build the page from the run folders of every part, and say which runs
+    /// are missing (exit 1 if any).
+    #[arg(long)]
+    merge: bool,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+/// Checks everything (the grid against the folder, every run folder) before the first run; runs
+/// the slice; records the part; builds the page when the whole grid ran here.
+pub(crate) fn reproduce_command(args: ReproduceArgs) -> Result<ExitCode> {
+    let grid = Grid {
+        experiment: args.experiment,
+        seeds: args.seeds,
+        quick: args.quick,
+    };
+    if !grid.quick && grid.seeds < grid::MIN_SEEDS {
+        anyhow::bail!(
+            "--seeds {}: a grid's cells need at least {} seeds (docs/design.md §7); --quick runs fewer",
+            grid.seeds,
+            grid::MIN_SEEDS
+        );
+    }
+    if args.merge {
+        reproduce::folder::check(&args.out, &grid)?;
+        return merge(&args.out, &grid);
+    }
+    let slice = args.slice.unwrap_or(Slice::WHOLE);
+    if let Some(found) = reproduce::folder::recorded(&args.out)? {
+        if found != grid {
+            reproduce::folder::check(&args.out, &grid)?;
+        }
+    }
+    // Every check first (nothing is written if one fails), then the grid's record and the
+    // part's lock, then the plan again: another process of this part may have moved its runs
+    // on before the lock was ours.
+    reproduce::plan(&args.out, &grid, slice)?;
+    reproduce::folder::claim(&args.out, &grid)?;
+    let part_dir = reproduce::Part::path(&args.out, slice).with_extension("");
+    std::fs::create_dir_all(&part_dir)
+        .with_context(|| format!("cannot create {}", part_dir.display()))?;
+    // One process per part: a second one would run the same runs beside the first.
+    let _lock = lock::acquire(&part_dir)?;
+    let plan = reproduce::plan(&args.out, &grid, slice)?;
+    reproduce::folder::create_cells(&plan)?;
+    let runner = runner(&plan, args.jobs, args.quiet, true)?;
+    let started = Instant::now();
+    let records = supervise::execute(&plan, &runner)?;
+    reproduce::folder::mark(&plan, &records)?;
+    let count = |s: Status| records.iter().filter(|r| r.status == s).count();
+    let part = reproduce::Part {
+        slice: slice.to_string(),
+        commit: reproduce::COMMIT.into(),
+        runs: plan.len(),
+        finished: count(Status::Finished),
+        skipped: count(Status::Skipped),
+        failed: count(Status::Failed),
+        wall_seconds: started.elapsed().as_secs_f64(),
+        total_wall_seconds: 0.0,
+    }
+    .write(&args.out, slice)?;
+    if INTERRUPTS.load(Ordering::SeqCst) > 0 {
+        eprintln!("host-trainer: reproduce interrupted; the stopped runs kept a checkpoint. Re-run the same command to continue (finished runs are skipped)");
+        return Ok(ExitCode::from(INTERRUPTED));
+    }
+    outln!(
+        "part {slice} of {}: {} runs, {} trained, {} already finished, {} failed, {:.0} s",
+        grid.describe(),
+        part.runs,
+        part.finished,
+        part.skipped,
+        part.failed,
+        part.wall_seconds
+    );
+    if slice != Slice::WHOLE {
+        outln!(
+            "when every part has run: host-trainer reproduce {} --out {} --merge",
+            grid.describe(),
+            args.out.display()
+        );
+        return Ok(if part.failed > 0 {
+            ExitCode::FAILURE
+        } else {
+            ExitCode::SUCCESS
+        });
+    }
+    let code = merge(&args.out, &grid)?;
+    Ok(if part.failed > 0 {
+        ExitCode::FAILURE
+    } else {
+        code
+    })
+}
+
+/// Builds the page; exit 1 when runs are missing.
+pub(crate) fn merge(out: &Path, grid: &Grid) -> Result<ExitCode> {
+    let built = reproduce::build_page(out, grid)?;
+    let page = out.join(reproduce::page_file(grid));
+    outln!(
+        "wrote {} and {}/: {} runs, {} failed, {} missing",
+        page.display(),
+        out.join(reproduce::FIGURES).display(),
+        built.runs,
+        built.failed,
+        built.missing
+    );
+    if built.missing > 0 {
+        eprintln!(
+            "host-trainer: {} of {} runs are missing (listed at the end of {}); run the missing parts, then merge again",
+            built.missing,
+            built.runs,
+            page.display()
+        );
+        return Ok(ExitCode::FAILURE);
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,323 @@
+//! `host-trainer train`: a new run from the defaults, a config file and flags, or a run
+//! continued from its checkpoint; trained, exported and evaluated.
+
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use firmware_sim::files;
+use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::outln;
+use host_trainer::algorithms::noise::Noise;
+use host_trainer::algorithms::{self, Algo};
+use host_trainer::nn::hidden::Hidden;
+use host_trainer::nn::workers::Workers;
+use host_trainer::run::checkpoint::Checkpoint;
+use host_trainer::run::config::{RewardKind, TrainConfig};
+use host_trainer::run::folder::{self, RunDir};
+use host_trainer::run::lock::{self, FolderLock};
+use host_trainer::run::progress;
+use host_trainer::run::trainer::{self, Outcome, Trainer};
+
+use super::cores;
+use super::eval::{evaluate, print_summary, report_json};
+use super::signals::{install_ctrl_c_handler, stop_when_parent_goes, INTERRUPTED, INTERRUPTS};
+
+/// Flags override the config file, which overrides the defaults (the paper's values).
+#[derive(Debug, Args)]
+pub(crate) struct TrainArgs {
+    /// Built-in scenario (nav-walls, nav-open) or a scenario TOML file [default: nav-walls].
+    #[arg(long)]
+    task: Option<String>,
+    /// Learning algorithm [default: dcp].
+    #[arg(long, value_enum)]
+    algo: Option<Algo>,
+    /// Hidden layers DEPTHxWIDTH of every network [default: 4x48].
+    #[arg(long)]
+    hidden: Option<Hidden>,
+    /// Reward: gr, lr or lrgr [default: gr].
+    #[arg(long, value_enum)]
+    reward: Option<RewardKind>,
+    /// Training episodes [default: 3000].
+    #[arg(long)]
+    episodes: Option<usize>,
+    /// DCP proposals per state T [default: 16].
+    #[arg(long = "t")]
+    t: Option<usize>,
+    /// Exploration noise σ in the unit action box (also DCP's σc unless set) [default: 0.2].
+    #[arg(long)]
+    sigma: Option<f32>,
+    /// Exploration process: independent Gaussian or Ornstein-Uhlenbeck [default: gaussian].
+    #[arg(long, value_enum)]
+    noise: Option<Noise>,
+    /// Dropout probability while training [default: see README "Dropout"].
+    #[arg(long)]
+    dropout: Option<f32>,
+    /// Multiply rewards by this before storing them [default: see README "Reward scale"].
+    #[arg(long)]
+    reward_scale: Option<f32>,
+    /// The run's seed [default: 0].
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Existing output folder [default: ./runs, created if missing].
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Config file (TOML, or JSON if it ends in .json); see config.toml in any run folder.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Continue the run in this folder from its checkpoint (--episodes may raise the budget).
+    #[arg(long, conflicts_with_all = ["task", "algo", "hidden", "reward", "t", "sigma", "noise", "dropout", "reward_scale", "seed", "out", "config"])]
+    resume: Option<PathBuf>,
+    /// Worker threads of the updates; any count trains to the same bytes [default: the cores
+    /// available].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    threads: Option<u32>,
+    /// Also keep a copy of every checkpoint in RUN/checkpoints/ (to study how the run
+    /// learned; each holds the whole replay buffer, tens of MB).
+    #[arg(long)]
+    keep_checkpoints: bool,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+    /// Stop as on Ctrl-C (checkpoint, exit 130) when standard input reaches its end. A sweep
+    /// starts its runs with this and holds their standard input open, so a sweep that dies by
+    /// any signal, SIGKILL included, takes its runs with it instead of leaving them training.
+    #[arg(long, hide = true)]
+    stop_when_stdin_closes: bool,
+}
+
+pub(crate) fn train_command(args: TrainArgs) -> Result<ExitCode> {
+    let quiet = args.quiet;
+    let stop_when_stdin_closes = args.stop_when_stdin_closes;
+    let keep_checkpoints = args.keep_checkpoints;
+    let workers = workers(args.threads)?;
+    let (mut trainer, run, _lock) = match &args.resume {
+        Some(dir) => resume(dir, args.episodes)?,
+        None => fresh(args)?,
+    };
+    trainer.set_workers(workers);
+    trainer.keep_checkpoints = keep_checkpoints;
+    install_ctrl_c_handler();
+    if stop_when_stdin_closes {
+        stop_when_parent_goes();
+    }
+    let bar = progress::bar(trainer.config.episodes as u64, "episode", quiet);
+    bar.set_position(trainer.episode as u64);
+    let started = Instant::now();
+    let steps_before = trainer.total_steps;
+    let outcome = trainer::run(&mut trainer, &run, &mut |row, t| {
+        bar.set_position(row.episode as u64);
+        bar.set_message(format!(
+            "success(100) {:>3.0}%  {:>6.0} steps/s",
+            100.0 * t.recent_success(100),
+            row.steps_per_s
+        ));
+        if INTERRUPTS.load(Ordering::SeqCst) > 0 {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    });
+    bar.finish_and_clear();
+    if let Outcome::Stopped { episode } = outcome? {
+        eprintln!(
+            "host-trainer: interrupted after episode {episode} of {}; checkpoint written. Continue with: host-trainer train --resume {}",
+            trainer.config.episodes,
+            run.path().display()
+        );
+        return Ok(ExitCode::from(INTERRUPTED));
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    let steps = trainer.total_steps - steps_before;
+    // Every file first, then the report: a reader of standard output that goes away (which
+    // ends the program) cannot cost the run its blobs or its evaluation.
+    let blob = trainer.export(&run)?;
+    // An actor of several heads runs with its critic choosing the head, as on the chip.
+    let heads = trainer.config.algo == Algo::Dcp && trainer.config.dcp.heads > 1;
+    let critic = if heads {
+        Some(files::read_blob(&run.file(folder::CRITIC))?)
+    } else {
+        None
+    };
+    let report = evaluate(
+        &blob,
+        critic.as_deref(),
+        &run.file(folder::POLICY),
+        &trainer.scenario,
+        trainer.config.eval_episodes,
+        0,
+    )?;
+    run.write(folder::EVAL, report_json(&report)?.as_bytes())?;
+    outln!("trained {} ({} episodes, {steps} env steps in {seconds:.1} s, {:.0} steps/s incl. updates)", run.path().display(), trainer.episode, steps as f64 / seconds.max(1e-9));
+    print_summary(&report);
+    outln!("wrote {}", run.path().display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `--threads`: the worker threads of the updates, all cores by default. A count above the
+/// cores is allowed (it trains to the same bytes, only slower) and said once.
+pub(crate) fn workers(threads: Option<u32>) -> Result<Workers> {
+    let cores = cores();
+    let threads = threads.map_or(cores, |n| n as usize);
+    if threads > cores {
+        eprintln!("host-trainer: note: --threads {threads} is more than the {cores} cores available; the run trains to the same bytes, probably slower");
+    }
+    Workers::new(threads).with_context(|| format!("cannot start {threads} worker threads"))
+}
+
+/// A new run: defaults, then the config file, then flags; nothing is written until the
+/// configuration is valid and the trainer is built.
+pub(crate) fn fresh(args: TrainArgs) -> Result<(Trainer, RunDir, FolderLock)> {
+    let mut config = match &args.config {
+        Some(path) => TrainConfig::from_file(path)?,
+        None => TrainConfig::default(),
+    };
+    apply_flags(&mut config, &args);
+    check_flags_used(config.algo, &args)?;
+    config.check_read(&[config.algo])?;
+    let trainer = Trainer::new(config)?;
+    let out = match args.out {
+        Some(out) => out,
+        None => {
+            let out = PathBuf::from("runs");
+            std::fs::create_dir_all(&out)
+                .with_context(|| format!("cannot create output folder {}", out.display()))?;
+            out
+        }
+    };
+    let run = RunDir::create(&out, &trainer.config.run_name())?;
+    let lock = lock::acquire(run.path())?;
+    Ok((trainer, run, lock))
+}
+
+pub(crate) fn apply_flags(config: &mut TrainConfig, args: &TrainArgs) {
+    if let Some(v) = &args.task {
+        config.task = v.clone();
+    }
+    if let Some(v) = args.algo {
+        config.algo = v;
+    }
+    if let Some(v) = args.hidden {
+        config.agent.hidden = v;
+    }
+    if let Some(v) = args.reward {
+        config.reward = v;
+    }
+    if let Some(v) = args.episodes {
+        config.episodes = v;
+    }
+    if let Some(v) = args.t {
+        config.dcp.t = v;
+    }
+    if let Some(v) = args.sigma {
+        config.agent.sigma = v;
+    }
+    if let Some(v) = args.noise {
+        config.agent.noise = v;
+    }
+    if let Some(v) = args.dropout {
+        config.agent.dropout = v;
+    }
+    if let Some(v) = args.reward_scale {
+        config.agent.reward_scale = v;
+    }
+    if let Some(v) = args.seed {
+        config.seed = v;
+    }
+}
+
+/// A flag the run's algorithm does not read would be recorded in `config.toml` and change
+/// nothing: it is refused, naming the algorithms that use it (even at its default value; a
+/// config file's setting is refused only away from its default, see
+/// [`TrainConfig::check_read`]).
+pub(crate) fn check_flags_used(algo: Algo, args: &TrainArgs) -> Result<()> {
+    let flags = [
+        ("--t", args.t.is_some(), ("dcp", "t")),
+        ("--sigma", args.sigma.is_some(), ("agent", "sigma")),
+        ("--noise", args.noise.is_some(), ("agent", "noise")),
+        ("--dropout", args.dropout.is_some(), ("agent", "dropout")),
+    ];
+    for (flag, given, (section, key)) in flags {
+        let readers = algorithms::readers(section, key);
+        if given && !readers.contains(&algo) {
+            return Err(host_trainer::Error::UnreadSetting {
+                key: flag.into(),
+                value: String::new(),
+                algos: algo.to_string(),
+                readers: algorithms::names(readers),
+            }
+            .into());
+        }
+    }
+    Ok(())
+}
+
+/// Continues a run from its folder alone. A run killed before its first checkpoint starts
+/// again from its recorded config and plant (the result is the same: one seed drives it all).
+pub(crate) fn resume(dir: &Path, episodes: Option<usize>) -> Result<(Trainer, RunDir, FolderLock)> {
+    let run = RunDir::open(dir)?;
+    // Held until the command ends: a second trainer, export or sweep child is refused.
+    let lock = lock::acquire(run.path())?;
+    let path = run.file(folder::CHECKPOINT);
+    let trainer = if path.exists() {
+        let trainer = Trainer::resume(Checkpoint::load(&path)?, episodes, &path)?;
+        if episodes.is_some() {
+            // The new budget is the run's: recorded in its checkpoint and its config.toml, so a
+            // sweep sees the run's real budget and a later --resume keeps it.
+            trainer.save(&run)?;
+            run.write(folder::CONFIG, trainer.config.to_toml().as_bytes())?;
+        }
+        trainer
+    } else {
+        restart(&run, episodes)?
+    };
+    note_changed_plant(&trainer);
+    Ok((trainer, run, lock))
+}
+
+pub(crate) fn restart(run: &RunDir, episodes: Option<usize>) -> Result<Trainer> {
+    let config_path = run.file(folder::CONFIG);
+    if !config_path.exists() {
+        anyhow::bail!(
+            "{} holds no checkpoint and no config: not a run folder, or killed before it recorded anything (start it again with train)",
+            run.path().display()
+        );
+    }
+    let mut config = TrainConfig::from_file(&config_path)?;
+    if let Some(n) = episodes {
+        config.episodes = n;
+    }
+    // The plant is recorded right after the config; a kill between the two leaves only the
+    // config, and the task it names is then the plant (nothing has trained on it yet).
+    let scenario_path = run.file(folder::SCENARIO);
+    let scenario = if scenario_path.exists() {
+        trainer::scenario_file(&scenario_path)
+            .with_context(|| format!("the recorded plant of {}", run.path().display()))?
+    } else {
+        trainer::scenario(&config.task)?
+    };
+    eprintln!(
+        "host-trainer: {} has no checkpoint yet (stopped before its first one); starting it again from its recorded config",
+        run.path().display()
+    );
+    Ok(Trainer::on(config, scenario)?)
+}
+
+/// A run trains on the plant it recorded. If its scenario file has changed since, say so: the
+/// run goes on with the plant it started with, which is what makes it one run.
+pub(crate) fn note_changed_plant(trainer: &Trainer) {
+    let task = &trainer.config.task;
+    if Scenario::builtin(task).is_some() || !Path::new(task).exists() {
+        return;
+    }
+    if Scenario::resolve(task).ok().as_ref() != Some(&trainer.scenario) {
+        eprintln!(
+            "host-trainer: note: {task} has changed (or no longer loads) since the run started; the run continues on its recorded plant ({})",
+            folder::SCENARIO
+        );
+    }
+}
