@@ -8,8 +8,8 @@
 use policy_core::model::Model;
 use policy_core::slot::{self, SlotId, Status};
 
-use crate::boot::PlantSizes;
-use crate::controller::{BlobPolicy, Controller, SafeState, SCRATCH_WIDTH};
+use crate::boot::{or_safe_state, PlantSizes};
+use crate::controller::{BlobPolicy, Controller, SCRATCH_WIDTH};
 use crate::error::Error;
 
 /// The example firmware's activation scratch width (`W` in `firmware/src/main.rs`): a blob with a
@@ -89,20 +89,15 @@ pub fn boot_slots<'a>(
     let boot = slot::choose(a, b, |blob| {
         Model::for_policy(blob, plant.observations, plant.actions, scratch_width)
     });
-    let (controller, error, running): (Box<dyn Controller + 'a>, _, _) = match boot.running {
-        Some((id, model)) => (Box::new(BlobPolicy::from_model(model)?), None, Some(id)),
-        None => {
-            let safe = SafeState {
-                observations: plant.observations,
-                actions: plant.actions,
-            };
-            let error = Error::NoSlot {
-                a: boot.a,
-                b: boot.b,
-            };
-            (Box::new(safe), Some(error), None)
-        }
+    let running = boot.running.as_ref().map(|(id, _)| *id);
+    let booted = match boot.running {
+        Some((_, model)) => Ok(BlobPolicy::from_model(model)?),
+        None => Err(Error::NoSlot {
+            a: boot.a,
+            b: boot.b,
+        }),
     };
+    let (controller, error) = or_safe_state(booted, plant);
     Ok(SlotBoot {
         controller,
         error,
