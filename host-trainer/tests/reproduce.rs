@@ -73,6 +73,7 @@ fn two_slices_merge_into_the_page_and_a_rerun_skips_what_finished() {
         "## Table 3",
         "| td3 | 0.5 | ",
         "No verdict: a quick grid",
+        "## Run time per agent",
         "figures/fig7-steps-to-goal.svg",
         "## Missing runs\n\nNone.",
         "| 0/2 | ",

@@ -458,6 +458,7 @@ mod tests {
                 };
                 let finished = Finished {
                     dir: "unused".into(),
+                    training_seconds: Some(100.0 + run.seed as f64),
                     config: run.cell.config(true),
                     report,
                 };

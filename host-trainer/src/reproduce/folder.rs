@@ -209,6 +209,32 @@ pub struct Finished {
     pub config: TrainConfig,
     /// Its evaluation.
     pub report: Report,
+    /// Seconds its training episodes took (the sum over `metrics.csv` of steps / steps per
+    /// second: evaluation and checkpoint writes left out); none if the file does not say.
+    pub training_seconds: Option<f64>,
+}
+
+/// Seconds of training a run folder's `metrics.csv` records, or none if it has no such columns
+/// or no rows.
+pub fn training_seconds(dir: &Path) -> Option<f64> {
+    let text = fs::read_to_string(dir.join(folder::METRICS)).ok()?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next()?.split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name);
+    let (steps, rate) = (column("steps")?, column("steps_per_s")?);
+    let mut seconds = 0.0;
+    let mut rows = 0;
+    for line in lines {
+        let cells: Vec<&str> = line.split(',').collect();
+        let parse = |i: usize| cells.get(i).and_then(|c| c.parse::<f64>().ok());
+        if let (Some(n), Some(r)) = (parse(steps), parse(rate)) {
+            if r > 0.0 {
+                seconds += n / r;
+                rows += 1;
+            }
+        }
+    }
+    (rows > 0).then_some(seconds)
 }
 
 /// The outcome of one run of the grid, read from its folder alone.
@@ -237,6 +263,7 @@ pub fn outcome(out: &Path, grid: &Grid, run: &GridRun) -> Result<Outcome, Error>
             });
         }
         return Ok(Outcome::Finished(Box::new(Finished {
+            training_seconds: training_seconds(&dir),
             dir,
             config,
             report,
@@ -268,4 +295,23 @@ pub fn outcomes(out: &Path, grid: &Grid) -> Result<Vec<(GridRun, Outcome)>, Erro
 /// The cell's finished runs' outcomes, looked up in `all`.
 pub fn of_cell<'a>(all: &'a [(GridRun, Outcome)], cell: &Cell) -> Vec<&'a (GridRun, Outcome)> {
     all.iter().filter(|(run, _)| run.cell == *cell).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn training_time_is_summed_from_the_metrics() {
+        let dir = std::env::temp_dir().join(format!("reproduce-metrics-{}", std::process::id()));
+        fs::create_dir_all(&dir).expect("dir");
+        assert_eq!(training_seconds(&dir), None, "no metrics.csv");
+        let csv = "episode,return,steps,success,total_steps,steps_per_s\n\
+                   1,-3,200,0,200,100\n2,-1,50,1,250,25\n3,0,10,1,260,nan\n";
+        fs::write(dir.join(folder::METRICS), csv).expect("write");
+        assert_eq!(training_seconds(&dir), Some(4.0)); // 200/100 + 50/25; the NaN row left out
+        fs::write(dir.join(folder::METRICS), "episode,steps\n1,200\n").expect("write");
+        assert_eq!(training_seconds(&dir), None, "no steps_per_s column");
+        fs::remove_dir_all(&dir).expect("cleanup");
+    }
 }

@@ -364,6 +364,58 @@ pub fn missing(all: &[(GridRun, Outcome)]) -> Vec<String> {
         .collect()
 }
 
+/// Each agent's training time per run: its headline cell's runs (4×48, GR, pinwheel), and the
+/// range over all its runs.
+pub fn run_times(all: &[(GridRun, Outcome)]) -> String {
+    let mut t = String::from(
+        "| agent | runs timed | seconds per run, 4×48 pinwheel (mean ± 95 %) | per seed | all its runs: min – max |\n|---|---|---|---|---|\n",
+    );
+    for agent in AGENTS {
+        let headline = CellRuns::of(all, &Cell::headline(agent));
+        let timed: Vec<(u64, f64)> = headline
+            .finished()
+            .filter_map(|(seed, f)| f.training_seconds.map(|s| (seed, s)))
+            .collect();
+        let values: Vec<f64> = timed.iter().map(|t| t.1).collect();
+        let every: Vec<f64> = all
+            .iter()
+            .filter(|(run, _)| run.cell.agent == agent)
+            .filter_map(|(_, o)| match o {
+                Outcome::Finished(f) => f.training_seconds,
+                _ => None,
+            })
+            .collect();
+        let range = match (
+            every.iter().copied().reduce(f64::min),
+            every.iter().copied().reduce(f64::max),
+        ) {
+            (Some(lo), Some(hi)) => format!("{lo:.0} – {hi:.0} ({} runs)", every.len()),
+            _ => "–".into(),
+        };
+        let per_seed = timed
+            .iter()
+            .map(|(_, v)| format!("{v:.0}"))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let mean = match mean_interval(&values) {
+            None => "–".into(),
+            Some(MeanInterval {
+                mean,
+                half_width: Some(h),
+                ..
+            }) => format!("{mean:.0} ± {h:.0}"),
+            Some(m) => format!("{:.0}", m.mean),
+        };
+        let _ = writeln!(
+            t,
+            "| {} | {} | {mean} | {per_seed} | {range} |",
+            agent.name,
+            values.len()
+        );
+    }
+    t
+}
+
 /// The page's tables and verdicts (the caller adds the header, figures and missing runs).
 pub fn body(grid: &Grid, all: &[(GridRun, Outcome)]) -> String {
     let mut page = String::new();
@@ -384,6 +436,13 @@ pub fn body(grid: &Grid, all: &[(GridRun, Outcome)]) -> String {
         "## Table 3: training failure under large exploration noise (pinwheel, 4×48, GR)\n\nA \
          failed training: success on fewer than half the test starts (or a run that failed).\n\n{}",
         table3(all)
+    );
+    let _ = writeln!(
+        page,
+        "## Run time per agent\n\nSeconds of training per run, from each run's `metrics.csv` \
+         (episodes only; evaluation and checkpoints left out), on the machines and loads of the \
+         parts above.\n\n{}",
+        run_times(all)
     );
     let _ = writeln!(page, "## Claims 1–3\n");
     if grid.quick {
@@ -429,6 +488,7 @@ mod tests {
                 report.success_rate = success(&run.cell, run.seed);
                 let finished = Finished {
                     dir: "unused".into(),
+                    training_seconds: Some(100.0 + run.seed as f64),
                     config: run.cell.config(false),
                     report,
                 };
@@ -497,6 +557,18 @@ mod tests {
         );
         assert_eq!(verdict_of(&text, "Claim 2"), "not reproduced", "{text}");
         assert_eq!(verdict_of(&text, "Claim 3"), "contradicted", "{text}");
+    }
+
+    #[test]
+    fn run_times_come_per_agent_from_the_headline_cell() {
+        let all = grid_with(|_, _| 1.0);
+        let table = run_times(&all);
+        // training_seconds is 100 + seed for every run of the made-up grid.
+        assert!(
+            table.contains("| dcp | 5 | 102 ± 2 | 100, 101, 102, 103, 104 | 100 – 104 ("),
+            "{table}"
+        );
+        assert_eq!(table.lines().count(), 2 + AGENTS.len());
     }
 
     #[test]
