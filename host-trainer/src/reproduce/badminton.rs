@@ -16,9 +16,10 @@ use firmware_sim::badminton::Config;
 use firmware_sim::files;
 use plotters::prelude::*;
 
+use super::figures::category_label;
 use super::grid::Grid;
 use super::teams::{self, TeamKind, TeamOutcome, TeamRun, KINDS};
-use crate::sweep::stats::{mean_interval, MeanInterval};
+use crate::sweep::stats::{self, mean_interval};
 use crate::Error;
 
 /// How much each measure plays.
@@ -198,15 +199,7 @@ fn gather(out: &Path, grid: &Grid) -> Result<(Teams, Vec<String>), Error> {
 }
 
 fn interval_text(values: &[f64]) -> String {
-    match mean_interval(values) {
-        None => "–".into(),
-        Some(MeanInterval {
-            mean,
-            half_width: Some(h),
-            ..
-        }) => format!("{mean:.3} ± {h:.3}"),
-        Some(m) => format!("{:.3}", m.mean),
-    }
+    stats::interval_text(values, 3)
 }
 
 fn per_seed_text(values: &[(u64, f64)]) -> String {
@@ -269,23 +262,6 @@ fn scores(teams: &Teams, a: &str, b: &str) -> Result<Vec<Scored>, Error> {
         }
     }
     Ok(out)
-}
-
-/// The interval of `values` lies above `line`, below it, or holds it.
-fn versus(values: &[f64], line: f64) -> std::cmp::Ordering {
-    match mean_interval(values) {
-        Some(MeanInterval {
-            mean,
-            half_width: Some(h),
-            ..
-        }) if mean - h > line => std::cmp::Ordering::Greater,
-        Some(MeanInterval {
-            mean,
-            half_width: Some(h),
-            ..
-        }) if mean + h < line => std::cmp::Ordering::Less,
-        _ => std::cmp::Ordering::Equal,
-    }
 }
 
 /// Builds the page's body and writes its figures into `figures`; returns the body and the
@@ -434,7 +410,7 @@ pub fn body(out: &Path, grid: &Grid, figures: &Path) -> Result<(String, Vec<Stri
     // Influence of T and the verdict.
     let _ = writeln!(page, "## Influence of T (figure 14)\n\n| DCP | seeds | score against DDPG | beats DDPG |\n|---|---|---|---|");
     for (kind, v) in &against_ddpg {
-        let word = match versus(v, 0.5) {
+        let word = match stats::against(v, 0.5) {
             std::cmp::Ordering::Greater => "beats",
             std::cmp::Ordering::Less => "loses",
             std::cmp::Ordering::Equal => "ties",
@@ -462,9 +438,9 @@ pub fn body(out: &Path, grid: &Grid, figures: &Path) -> Result<(String, Vec<Stri
             against_ddpg
                 .iter()
                 .find(|(k, _)| *k == kind)
-                .map(|(_, v)| versus(v, 0.5))
+                .map(|(_, v)| stats::against(v, 0.5))
         };
-        let verdict = claim4(t("dcp-t16"), t("dcp-t1"), versus(&e, 0.0));
+        let verdict = claim4(t("dcp-t16"), t("dcp-t1"), stats::against(&e, 0.0));
         let _ = writeln!(
             page,
             "**Claim 4** (DCP beats DDPG once T > 4, mostly through fewer serve errors): \
@@ -583,6 +559,7 @@ fn contributions_figure(rows: &[(String, Vec<f64>)]) -> Result<String, Error> {
 
 /// Figure 14: DCP's score against DDPG for T = 1, 4, 16, mean and interval over seeds.
 fn influence_of_t(rows: &[(&str, Vec<f64>)]) -> Result<String, Error> {
+    let names: Vec<&str> = rows.iter().map(|r| r.0).collect();
     let mut text = String::new();
     {
         let root = SVGBackend::with_string(&mut text, (640, 400)).into_drawing_area();
@@ -601,15 +578,7 @@ fn influence_of_t(rows: &[(&str, Vec<f64>)]) -> Result<String, Error> {
             .configure_mesh()
             .disable_x_mesh()
             .x_labels(rows.len())
-            .x_label_formatter(&|x| {
-                let i = x.round();
-                if (x - i).abs() < 1e-6 && i >= 0.0 {
-                    rows.get(i as usize)
-                        .map_or(String::new(), |r| r.0.to_string())
-                } else {
-                    String::new()
-                }
-            })
+            .x_label_formatter(&|x| category_label(&names, *x))
             .y_desc("share of the points won against DDPG")
             .draw()
             .map_err(drawing)?;
@@ -673,9 +642,9 @@ mod tests {
 
     #[test]
     fn an_interval_is_judged_against_its_line() {
-        assert_eq!(versus(&[0.6, 0.7, 0.65], 0.5), Greater);
-        assert_eq!(versus(&[0.3, 0.35, 0.4], 0.5), Less);
-        assert_eq!(versus(&[0.3, 0.7, 0.5], 0.5), Equal);
-        assert_eq!(versus(&[0.9], 0.5), Equal); // one seed has no interval
+        assert_eq!(stats::against(&[0.6, 0.7, 0.65], 0.5), Greater);
+        assert_eq!(stats::against(&[0.3, 0.35, 0.4], 0.5), Less);
+        assert_eq!(stats::against(&[0.3, 0.7, 0.5], 0.5), Equal);
+        assert_eq!(stats::against(&[0.9], 0.5), Equal); // one seed has no interval
     }
 }

@@ -15,6 +15,7 @@ use firmware_sim::files;
 use firmware_sim::heads::HeadsPolicy;
 use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::test_protocol::{self, EvalConfig};
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
@@ -230,33 +231,54 @@ pub fn settled_error_boxes(all: &[(GridRun, Outcome)]) -> Result<String, Error> 
 
 type Boxes = (Option<[f64; 5]>, Option<[f64; 5]>, usize, usize);
 
-fn draw_boxes(root: &DrawingArea<SVGBackend<'_>, Shift>, boxes: &[Boxes], top: f64) -> Drawn {
+/// The label at `x` of an axis whose categories `names` sit at 0, 1, 2, ...: the name at whole
+/// numbers, nothing between them.
+pub(crate) fn category_label(names: &[&str], x: f64) -> String {
+    let i = x.round();
+    if (x - i).abs() < 1e-6 && i >= 0.0 {
+        names
+            .get(i as usize)
+            .map_or(String::new(), |n| n.to_string())
+    } else {
+        String::new()
+    }
+}
+
+type AgentChart<'a, 'b> =
+    ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// A white chart with the agents along x (each at a whole number) and `0..top` along y.
+fn agent_chart<'a, 'b>(
+    root: &'a DrawingArea<SVGBackend<'b>, Shift>,
+    caption: &str,
+    top: f64,
+    y_desc: &str,
+) -> Result<AgentChart<'a, 'b>, DrawingAreaErrorKind<std::io::Error>> {
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(root)
-        .caption(
-            "Settled error of successful tests: pinwheel (blue) and open arena (orange)",
-            ("sans-serif", 15),
-        )
+        .caption(caption, ("sans-serif", 14))
         .margin(10)
         .x_label_area_size(40)
         .y_label_area_size(50)
         .build_cartesian_2d(-0.5..AGENTS.len() as f64 - 0.5, 0.0..top)?;
+    let names = AGENTS.map(|a| a.name);
     chart
         .configure_mesh()
         .disable_x_mesh()
         .x_labels(AGENTS.len())
-        .x_label_formatter(&|x| {
-            let i = x.round();
-            if (x - i).abs() < 1e-6 && i >= 0.0 {
-                AGENTS
-                    .get(i as usize)
-                    .map_or(String::new(), |a| a.name.to_string())
-            } else {
-                String::new()
-            }
-        })
-        .y_desc("settled error (distance to the centre)")
+        .x_label_formatter(&|x| category_label(&names, *x))
+        .y_desc(y_desc)
         .draw()?;
+    Ok(chart)
+}
+
+fn draw_boxes(root: &DrawingArea<SVGBackend<'_>, Shift>, boxes: &[Boxes], top: f64) -> Drawn {
+    let mut chart = agent_chart(
+        root,
+        "Settled error of successful tests: pinwheel (blue) and open arena (orange)",
+        top,
+        "settled error (distance to the centre)",
+    )?;
     for (i, (walls, open, nw, no)) in boxes.iter().enumerate() {
         for (offset, five, colour, n) in [
             (-0.18, walls, WALLS_COLOUR, nw),
@@ -343,32 +365,12 @@ pub fn steps_to_goal(all: &[(GridRun, Outcome)]) -> Result<String, Error> {
 type Bar = [(Option<(f64, f64)>, usize, usize); 2];
 
 fn draw_steps(root: &DrawingArea<SVGBackend<'_>, Shift>, bars: &[Bar], top: f64) -> Drawn {
-    root.fill(&WHITE)?;
-    let mut chart = ChartBuilder::on(root)
-        .caption(
-            "Steps to the goal (within 0.1 for 10 steps), mean over seeds ± 95 %: pinwheel (blue), open (orange); k/n runs ever reached it",
-            ("sans-serif", 14),
-        )
-        .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(50)
-        .build_cartesian_2d(-0.5..AGENTS.len() as f64 - 0.5, 0.0..top)?;
-    chart
-        .configure_mesh()
-        .disable_x_mesh()
-        .x_labels(AGENTS.len())
-        .x_label_formatter(&|x| {
-            let i = x.round();
-            if (x - i).abs() < 1e-6 && i >= 0.0 {
-                AGENTS
-                    .get(i as usize)
-                    .map_or(String::new(), |a| a.name.to_string())
-            } else {
-                String::new()
-            }
-        })
-        .y_desc("steps")
-        .draw()?;
+    let mut chart = agent_chart(
+        root,
+        "Steps to the goal (within 0.1 for 10 steps), mean over seeds ± 95 %: pinwheel (blue), open (orange); k/n runs ever reached it",
+        top,
+        "steps",
+    )?;
     for (i, pair) in bars.iter().enumerate() {
         for ((m, k, n), (offset, colour)) in pair
             .iter()

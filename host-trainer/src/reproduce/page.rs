@@ -13,7 +13,7 @@ use super::grid::{
     Agent, Cell, Grid, GridRun, Walls, AGENTS, LARGE_SIGMAS, NOISE_AGENTS, REWARDS, SIZES,
 };
 use crate::run::config::RewardKind;
-use crate::sweep::stats::{mean_interval, MeanInterval};
+use crate::sweep::stats;
 
 /// A run whose test success is below this failed to train (table 3) [design §2].
 pub const TRAINING_FAILURE: f64 = 0.5;
@@ -63,15 +63,7 @@ impl<'a> CellRuns<'a> {
 }
 
 fn interval_text(values: &[f64]) -> String {
-    match mean_interval(values) {
-        None => "–".into(),
-        Some(MeanInterval {
-            mean,
-            half_width: Some(h),
-            ..
-        }) => format!("{mean:.2} ± {h:.2}"),
-        Some(m) => format!("{:.2}", m.mean),
-    }
+    stats::interval_text(values, 2)
 }
 
 fn per_seed(values: &[(u64, f64)]) -> String {
@@ -201,18 +193,10 @@ pub enum Side {
 
 /// The side of 0 the interval of `values` lies on.
 pub fn side(values: &[f64]) -> Side {
-    match mean_interval(values) {
-        Some(MeanInterval {
-            mean,
-            half_width: Some(h),
-            ..
-        }) if mean - h > 0.0 => Side::Above,
-        Some(MeanInterval {
-            mean,
-            half_width: Some(h),
-            ..
-        }) if mean + h < 0.0 => Side::Below,
-        _ => Side::Spans,
+    match stats::against(values, 0.0) {
+        std::cmp::Ordering::Greater => Side::Above,
+        std::cmp::Ordering::Less => Side::Below,
+        std::cmp::Ordering::Equal => Side::Spans,
     }
 }
 
@@ -397,15 +381,7 @@ pub fn run_times(all: &[(GridRun, Outcome)]) -> String {
             .map(|(_, v)| format!("{v:.0}"))
             .collect::<Vec<_>>()
             .join(", ");
-        let mean = match mean_interval(&values) {
-            None => "–".into(),
-            Some(MeanInterval {
-                mean,
-                half_width: Some(h),
-                ..
-            }) => format!("{mean:.0} ± {h:.0}"),
-            Some(m) => format!("{:.0}", m.mean),
-        };
+        let mean = stats::interval_text(&values, 0);
         let _ = writeln!(
             t,
             "| {} | {} | {mean} | {per_seed} | {range} |",

@@ -72,6 +72,52 @@ pub fn mean_interval(values: &[f64]) -> Option<MeanInterval> {
     })
 }
 
+/// `mean ± half-width` with `decimals` digits, the mean alone for one value, `–` for none.
+///
+/// ```
+/// use host_trainer::sweep::stats::interval_text;
+/// assert_eq!(interval_text(&[1.0, 2.0, 3.0], 2), "2.00 ± 2.48");
+/// assert_eq!(interval_text(&[5.0], 1), "5.0");
+/// assert_eq!(interval_text(&[], 1), "–");
+/// ```
+pub fn interval_text(values: &[f64], decimals: usize) -> String {
+    match mean_interval(values) {
+        None => "–".into(),
+        Some(MeanInterval {
+            mean,
+            half_width: Some(h),
+            ..
+        }) => format!("{mean:.decimals$} ± {h:.decimals$}"),
+        Some(m) => format!("{:.decimals$}", m.mean),
+    }
+}
+
+/// Where the 95 % interval of `values` lies against `line`: entirely above (`Greater`),
+/// entirely below (`Less`), or holding it (`Equal`, also with fewer than two values, which
+/// have no interval).
+///
+/// ```
+/// use std::cmp::Ordering;
+/// use host_trainer::sweep::stats::against;
+/// assert_eq!(against(&[0.6, 0.7, 0.65], 0.5), Ordering::Greater);
+/// assert_eq!(against(&[0.9], 0.5), Ordering::Equal);
+/// ```
+pub fn against(values: &[f64], line: f64) -> std::cmp::Ordering {
+    match mean_interval(values) {
+        Some(MeanInterval {
+            mean,
+            half_width: Some(h),
+            ..
+        }) if mean - h > line => std::cmp::Ordering::Greater,
+        Some(MeanInterval {
+            mean,
+            half_width: Some(h),
+            ..
+        }) if mean + h < line => std::cmp::Ordering::Less,
+        _ => std::cmp::Ordering::Equal,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
