@@ -130,6 +130,10 @@ struct Teams {
     config: Config,
     /// Per kind, per seed: the team's players and measures, or why there are none.
     rows: Vec<(TeamKind, Vec<(u64, Measured)>)>,
+    /// The reference players' measures (seed 0), the last rows of every table.
+    references: Vec<(PlayerKind, TeamMeasures)>,
+    /// Teams whose process failed.
+    failed: usize,
 }
 
 impl Teams {
@@ -165,6 +169,7 @@ fn gather(out: &Path, grid: &Grid) -> Result<(Teams, Vec<String>), Error> {
     let config = Config::builtin();
     let budget = Budget::of(grid);
     let mut missing = Vec::new();
+    let mut failed = 0;
     let mut rows = Vec::new();
     for kind in KINDS {
         let mut seeds = Vec::new();
@@ -177,7 +182,10 @@ fn gather(out: &Path, grid: &Grid) -> Result<(Teams, Vec<String>), Error> {
                     let m = team_measures(&config, &players, budget, seed)?;
                     Ok((players, m))
                 }
-                TeamOutcome::Failed(line) => Err(format!("failed: {line}")),
+                TeamOutcome::Failed(line) => {
+                    failed += 1;
+                    Err(format!("failed: {line}"))
+                }
                 TeamOutcome::Missing => {
                     missing.push(format!("team {} seed {seed}", kind.name));
                     Err("missing".into())
@@ -187,12 +195,21 @@ fn gather(out: &Path, grid: &Grid) -> Result<(Teams, Vec<String>), Error> {
         }
         rows.push((kind, seeds));
     }
+    let references = [PlayerKind::Scripted, PlayerKind::Random]
+        .into_iter()
+        .map(|r| {
+            let m = team_measures(&config, std::slice::from_ref(&r), budget, 0)?;
+            Ok((r, m))
+        })
+        .collect::<Result<_, Error>>()?;
     Ok((
         Teams {
             grid: *grid,
             budget,
             config,
             rows,
+            references,
+            failed,
         },
         missing,
     ))
@@ -211,7 +228,7 @@ fn per_seed_text(values: &[(u64, f64)]) -> String {
 }
 
 /// A table of one team measure, the reference players as the last rows.
-fn measure_table(teams: &Teams, get: fn(&TeamMeasures) -> Option<f64>) -> Result<String, Error> {
+fn measure_table(teams: &Teams, get: fn(&TeamMeasures) -> Option<f64>) -> String {
     let mut t =
         String::from("| team | teams measured | mean ± 95 % | per seed |\n|---|---|---|---|\n");
     for (kind, seeds) in &teams.rows {
@@ -227,17 +244,11 @@ fn measure_table(teams: &Teams, get: fn(&TeamMeasures) -> Option<f64>) -> Result
             per_seed_text(&values)
         );
     }
-    for reference in [PlayerKind::Scripted, PlayerKind::Random] {
-        let m = team_measures(
-            &teams.config,
-            std::slice::from_ref(&reference),
-            teams.budget,
-            0,
-        )?;
-        let value = get(&m).map_or("–".into(), |v| format!("{v:.3}"));
+    for (reference, m) in &teams.references {
+        let value = get(m).map_or("–".into(), |v| format!("{v:.3}"));
         let _ = writeln!(t, "| {reference} (reference) | – | {value} | seed 0 |");
     }
-    Ok(t)
+    t
 }
 
 /// Team A's share of the points won against team B, per seed where both finished.
@@ -264,9 +275,13 @@ fn scores(teams: &Teams, a: &str, b: &str) -> Result<Vec<Scored>, Error> {
     Ok(out)
 }
 
-/// Builds the page's body and writes its figures into `figures`; returns the body and the
-/// teams that are missing.
-pub fn body(out: &Path, grid: &Grid, figures: &Path) -> Result<(String, Vec<String>), Error> {
+/// Builds the page's body and writes its figures into `figures`; returns the body, the teams
+/// that are missing and how many failed.
+pub fn body(
+    out: &Path,
+    grid: &Grid,
+    figures: &Path,
+) -> Result<(String, Vec<String>, usize), Error> {
     let (teams, missing) = gather(out, grid)?;
     let mut page = String::new();
     let b = teams.budget;
@@ -281,18 +296,18 @@ pub fn body(out: &Path, grid: &Grid, figures: &Path) -> Result<(String, Vec<Stri
     let _ = writeln!(
         page,
         "## Table 5: catch success\n\n{}",
-        measure_table(&teams, |m| m.catch)?
+        measure_table(&teams, |m| m.catch)
     );
     let _ = writeln!(
         page,
         "## Table 6: serve error\n\n{}",
-        measure_table(&teams, |m| m.serve_error)?
+        measure_table(&teams, |m| m.serve_error)
     );
     let _ = writeln!(
         page,
         "## Table 7: catch success with the reset agent enabled, and disabled\n\nEnabled:\n\n{}\nDisabled:\n\n{}",
-        measure_table(&teams, |m| m.reset_enabled)?,
-        measure_table(&teams, |m| m.reset_disabled)?
+        measure_table(&teams, |m| m.reset_enabled),
+        measure_table(&teams, |m| m.reset_disabled)
     );
     let boot: Vec<String> = teams
         .rows
@@ -327,6 +342,11 @@ pub fn body(out: &Path, grid: &Grid, figures: &Path) -> Result<(String, Vec<Stri
             let s = scores(&teams, a.name, b.name)?;
             let values: Vec<(u64, f64)> = s.iter().map(|(seed, v, _)| (*seed, *v)).collect();
             let v: Vec<f64> = values.iter().map(|p| p.1).collect();
+            if a.name == "ddpg" && b.algo == crate::algorithms::Algo::Dcp {
+                // A DCP team's score against DDPG is the rest of DDPG's share of the same
+                // match's decided points.
+                against_ddpg.push((b.name, v.iter().map(|s| 1.0 - s).collect::<Vec<f64>>()));
+            }
             let _ = writeln!(
                 page,
                 "| {} | {} | {} | {} | {} |",
@@ -355,10 +375,6 @@ pub fn body(out: &Path, grid: &Grid, figures: &Path) -> Result<(String, Vec<Stri
                 }
             }
         }
-    }
-    for kind in ["dcp-t1", "dcp-t4", "dcp-t16"] {
-        let s = scores(&teams, kind, "ddpg")?;
-        against_ddpg.push((kind, s.iter().map(|(_, v, _)| *v).collect::<Vec<f64>>()));
     }
     page.push('\n');
 
@@ -454,7 +470,7 @@ pub fn body(out: &Path, grid: &Grid, figures: &Path) -> Result<(String, Vec<Stri
     for name in names {
         let _ = writeln!(page, "![{name}](figures/{name})\n");
     }
-    Ok((page, missing))
+    Ok((page, missing, teams.failed))
 }
 
 /// The verdict on claim 4 by the protocol's rule, from where DCP T = 16's and T = 1's scores
