@@ -162,15 +162,28 @@ pub fn create_cells(plan: &[PlannedRun]) -> Result<(), Error> {
 }
 
 /// The file that marks a failed run, beside its log.
-fn failed_mark(run: &PlannedRun) -> PathBuf {
-    logs_of(run).join(format!("{}.failed", run.name()))
+fn failed_mark(run_dir: &Path) -> PathBuf {
+    let name = run_dir.file_name().unwrap_or_default().to_string_lossy();
+    logs_of(run_dir).join(format!("{name}.failed"))
+}
+
+/// The last line a failed run printed, if its folder's mark says it failed (the run itself,
+/// a `train` run or a team, is at `run_dir`).
+pub fn failed_line(run_dir: &Path) -> Option<String> {
+    let text = fs::read_to_string(failed_mark(run_dir)).ok()?;
+    let record: Option<RunRecord> = serde_json::from_str(&text).ok();
+    Some(
+        record
+            .and_then(|r| r.last_line)
+            .unwrap_or_else(|| "failed".into()),
+    )
 }
 
 /// Marks the runs that failed (their record, as JSON, beside their log) and clears the mark
 /// of those that finished: the page counts a failed run as failed, never drops it.
 pub fn mark(plan: &[PlannedRun], records: &[RunRecord]) -> Result<(), Error> {
     for (run, record) in plan.iter().zip(records) {
-        let path = failed_mark(run);
+        let path = failed_mark(&run.dir);
         let io = |source| Error::Io {
             path: path.clone(),
             source,
@@ -269,19 +282,7 @@ pub fn outcome(out: &Path, grid: &Grid, run: &GridRun) -> Result<Outcome, Error>
             report,
         })));
     }
-    let mark = cell_dir
-        .join(crate::sweep::supervise::LOGS)
-        .join(format!("{}.failed", config.run_name()));
-    match fs::read_to_string(&mark) {
-        Ok(text) => {
-            let record: Option<RunRecord> = serde_json::from_str(&text).ok();
-            let line = record
-                .and_then(|r| r.last_line)
-                .unwrap_or_else(|| "failed".into());
-            Ok(Outcome::Failed(line))
-        }
-        Err(_) => Ok(Outcome::Missing),
-    }
+    Ok(failed_line(&dir).map_or(Outcome::Missing, Outcome::Failed))
 }
 
 /// Every run's outcome, in grid order.

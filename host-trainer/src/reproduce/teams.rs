@@ -2,7 +2,6 @@
 //! seeds, each a `host-trainer team` run in `OUT/teams/{scenario}__{algo}__{seed}/`, planned,
 //! sliced and read back like experiment 1's runs.
 
-use std::fs;
 use std::path::{Path, PathBuf};
 
 use super::grid::{Grid, Slice};
@@ -168,19 +167,7 @@ pub fn outcome(out: &Path, grid: &Grid, run: &TeamRun) -> Result<TeamOutcome, Er
             .collect();
         return Ok(TeamOutcome::Finished(players));
     }
-    let mark = out
-        .join(TEAMS)
-        .join(crate::sweep::supervise::LOGS)
-        .join(format!("{}.failed", config.team_name()));
-    Ok(match fs::read_to_string(&mark) {
-        Ok(text) => TeamOutcome::Failed(
-            serde_json::from_str::<crate::sweep::record::RunRecord>(&text)
-                .ok()
-                .and_then(|r| r.last_line)
-                .unwrap_or_else(|| "failed".into()),
-        ),
-        Err(_) => TeamOutcome::Missing,
-    })
+    Ok(super::folder::failed_line(&dir).map_or(TeamOutcome::Missing, TeamOutcome::Failed))
 }
 
 #[cfg(test)]

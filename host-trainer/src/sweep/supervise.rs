@@ -62,7 +62,7 @@ struct Running {
 pub fn execute(plan: &[PlannedRun], runner: &Runner<'_>) -> Result<Vec<RunRecord>, Error> {
     let mut queue = (0..plan.len()).filter(|&i| plan[i].start != Start::Skip);
     for index in queue.clone() {
-        let logs = logs_of(&plan[index]);
+        let logs = logs_of(&plan[index].dir);
         fs::create_dir_all(&logs).map_err(|source| Error::Io { path: logs, source })?;
     }
     let mut sweep = Supervisor::new(plan, runner, queue.clone().count());
@@ -178,13 +178,13 @@ impl<'a> Supervisor<'a> {
 
 /// The folder of a run's log: `sweep-logs/` beside the run's folder (the sweep's `--out` for a
 /// sweep; a grid of several sweeps has one per folder of runs).
-pub fn logs_of(run: &PlannedRun) -> PathBuf {
-    run.dir.parent().unwrap_or(Path::new(".")).join(LOGS)
+pub fn logs_of(run_dir: &Path) -> PathBuf {
+    run_dir.parent().unwrap_or(Path::new(".")).join(LOGS)
 }
 
 /// Starts one run's `train` child, its output appended to its log.
 fn spawn(runner: &Runner<'_>, run: &PlannedRun, index: usize) -> Result<Running, Error> {
-    let logs = logs_of(run);
+    let logs = logs_of(&run.dir);
     let log = logs.join(format!("{}.log", run.name()));
     // A fresh run starts from its own config file beside its log: the sweep's config with the
     // run's algorithm and seed, and the settings that algorithm does not read at their defaults
