@@ -273,8 +273,6 @@ struct Record {
     dropout: bool,
     /// The network's output (after tanh for [`Output::Tanh`]).
     out: Matrix,
-    /// Scratch: the current hidden layer's pre-activation.
-    pre: Matrix,
 }
 
 impl Record {
@@ -473,9 +471,8 @@ impl Net {
                 _ => &hidden_below[l - 1],
             };
             let h = &mut hidden[0];
-            kernels::affine(input, &self.layers[l], &mut rec.pre);
-            h.reshape(rec.pre.rows, rec.pre.cols);
-            kernels::activate(self.config.activation, &rec.pre.data, &mut h.data);
+            let activation = Some(self.config.activation);
+            kernels::affine_then(input, &self.layers[l], activation, h);
             if let Some(rng) = rng.as_deref_mut() {
                 kernels::dropout(
                     h,

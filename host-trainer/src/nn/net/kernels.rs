@@ -72,10 +72,58 @@ pub(super) enum Lhs<'a> {
 /// `y[r, :] = init + Σ_k x[r, k] w[k, :]` for `x`: rows × `k`, `w`: `k` × `n`, `y`: rows × `n`
 /// (row-major), accumulating in increasing `k`.
 pub(super) fn matmul(x: Lhs<'_>, k: usize, w: &[f32], n: usize, y: &mut [f32], init: Init<'_>) {
+    matmul_then(x, k, w, n, y, init, None);
+}
+
+/// [`matmul`], with `activation` applied to each sum as it leaves the registers: a hidden
+/// layer's forward pass in one sweep over its output instead of a product then a second pass
+/// (the second pass was a tenth of a DCP run, all of it loads and stores). The activated values
+/// are the same bits as [`activate`] applied afterwards.
+pub(super) fn matmul_then(
+    x: Lhs<'_>,
+    k: usize,
+    w: &[f32],
+    n: usize,
+    y: &mut [f32],
+    init: Init<'_>,
+    activation: Option<Activation>,
+) {
     debug_assert!(k > 0 && n > 0, "matmul: empty inner or output dimension");
     debug_assert_eq!(w.len(), k * n);
     debug_assert_eq!(y.len() % n, 0);
-    matmul_tiled::<ROWS, COLS>(x, k, w, n, y, init);
+    match activation {
+        None => matmul_tiled::<ROWS, COLS, NONE>(x, k, w, n, y, init),
+        Some(Activation::Relu) => matmul_tiled::<ROWS, COLS, RELU>(x, k, w, n, y, init),
+        Some(Activation::Tanh) => matmul_tiled::<ROWS, COLS, TANH>(x, k, w, n, y, init),
+    }
+}
+
+/// What a tile applies as it stores its sums (a const parameter, so each kernel is compiled
+/// with its own store loop and the plain product pays nothing).
+const NONE: u8 = 0;
+/// ReLU on store.
+const RELU: u8 = 1;
+/// Tanh ([`tanh_fast`]) on store.
+const TANH: u8 = 2;
+
+/// The activation `ACT` of one value.
+#[inline(always)]
+fn apply<const ACT: u8>(v: f32) -> f32 {
+    match ACT {
+        RELU => relu(v),
+        TANH => tanh_fast(v),
+        _ => v,
+    }
+}
+
+/// ReLU as the batched pass computes it (NaN becomes 0, as policy-core's).
+#[inline(always)]
+fn relu(v: f32) -> f32 {
+    if v > 0.0 {
+        v
+    } else {
+        0.0
+    }
 }
 
 /// Rows per register tile: 6 rows × 2 vectors of 8 outputs keeps 12 multiply-add chains in
@@ -88,7 +136,7 @@ const COLS: usize = if cfg!(target_feature = "avx") { 16 } else { 8 };
 /// [`matmul`] with `R × C` tiles; leftover rows in tiles of 4 and 1, leftover outputs in tiles
 /// of 16, 8 and 1. A one-output row-major product goes to [`dot_rows`].
 #[inline(always)]
-fn matmul_tiled<const R: usize, const C: usize>(
+fn matmul_tiled<const R: usize, const C: usize, const ACT: u8>(
     x: Lhs<'_>,
     k: usize,
     w: &[f32],
@@ -100,20 +148,21 @@ fn matmul_tiled<const R: usize, const C: usize>(
     if let (1, Lhs::Rows(x), Init::Bias(_) | Init::Zero) = (n, x, init) {
         if k >= 16 {
             dot_rows(x, k, w, y, init);
+            y.iter_mut().for_each(|v| *v = apply::<ACT>(*v));
             return;
         }
     }
     let mut r = 0;
     while r + R <= rows {
-        row_block::<R, C>(x, rows, k, r, w, n, y, init);
+        row_block::<R, C, ACT>(x, rows, k, r, w, n, y, init);
         r += R;
     }
     while r + 4 <= rows {
-        row_block::<4, C>(x, rows, k, r, w, n, y, init);
+        row_block::<4, C, ACT>(x, rows, k, r, w, n, y, init);
         r += 4;
     }
     while r < rows {
-        row_block::<1, C>(x, rows, k, r, w, n, y, init);
+        row_block::<1, C, ACT>(x, rows, k, r, w, n, y, init);
         r += 1;
     }
 }
@@ -121,7 +170,7 @@ fn matmul_tiled<const R: usize, const C: usize>(
 /// Rows `r0..r0 + R` of [`matmul`]: `C`-wide tiles, then 16, 8 and 1 wide.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn row_block<const R: usize, const C: usize>(
+fn row_block<const R: usize, const C: usize, const ACT: u8>(
     x: Lhs<'_>,
     rows: usize,
     k: usize,
@@ -133,19 +182,19 @@ fn row_block<const R: usize, const C: usize>(
 ) {
     let mut c = 0;
     while c + C <= n {
-        tile::<R, C>(x, rows, k, r0, w, n, c, y, init);
+        tile::<R, C, ACT>(x, rows, k, r0, w, n, c, y, init);
         c += C;
     }
     while c + 16 <= n {
-        tile::<R, 16>(x, rows, k, r0, w, n, c, y, init);
+        tile::<R, 16, ACT>(x, rows, k, r0, w, n, c, y, init);
         c += 16;
     }
     while c + 8 <= n {
-        tile::<R, 8>(x, rows, k, r0, w, n, c, y, init);
+        tile::<R, 8, ACT>(x, rows, k, r0, w, n, c, y, init);
         c += 8;
     }
     while c < n {
-        tile::<R, 1>(x, rows, k, r0, w, n, c, y, init);
+        tile::<R, 1, ACT>(x, rows, k, r0, w, n, c, y, init);
         c += 1;
     }
 }
@@ -154,7 +203,7 @@ fn row_block<const R: usize, const C: usize>(
 /// registers.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn tile<const R: usize, const C: usize>(
+fn tile<const R: usize, const C: usize, const ACT: u8>(
     x: Lhs<'_>,
     rows: usize,
     k: usize,
@@ -192,7 +241,9 @@ fn tile<const R: usize, const C: usize>(
         }
     }
     for (r, a) in acc.iter().enumerate() {
-        y[(r0 + r) * n + c..][..C].copy_from_slice(a);
+        for (out, &v) in y[(r0 + r) * n + c..][..C].iter_mut().zip(a) {
+            *out = apply::<ACT>(v);
+        }
     }
 }
 
@@ -260,14 +311,25 @@ fn transpose(src: &[f32], rows: usize, cols: usize, dst: &mut Vec<f32>) {
 
 /// `y = b + x Wᵀ` for every row of `x`, in policy-core's order of summation.
 pub(super) fn affine(x: &Matrix, layer: &Layer, y: &mut Matrix) {
+    affine_then(x, layer, None, y);
+}
+
+/// [`affine`], then `activation` on every output, in one sweep ([`matmul_then`]).
+pub(super) fn affine_then(
+    x: &Matrix,
+    layer: &Layer,
+    activation: Option<Activation>,
+    y: &mut Matrix,
+) {
     y.reshape(x.rows, layer.outputs);
-    matmul(
+    matmul_then(
         Lhs::Rows(&x.data),
         layer.inputs,
         &layer.w,
         layer.outputs,
         &mut y.data,
         Init::Bias(&layer.b),
+        activation,
     );
 }
 
@@ -295,17 +357,6 @@ pub(super) fn tanh_fast(x: f32) -> f32 {
     q = x2 * q + 2.268_434_7e-3;
     q = x2 * q + 4.893_525e-3;
     (p / q).clamp(-1.0, 1.0)
-}
-
-/// `dst = activation(src)` (batched pass). From one buffer into another on purpose: the
-/// in-place ReLU `if v > 0.0 { v } else { 0.0 }` compiles to a masked store of the zeros, which
-/// made it cost a third of a forward pass on this project's AMD machine.
-pub(super) fn activate(activation: Activation, src: &[f32], dst: &mut [f32]) {
-    let pairs = dst.iter_mut().zip(src);
-    match activation {
-        Activation::Tanh => pairs.for_each(|(d, &v)| *d = tanh_fast(v)),
-        Activation::Relu => pairs.for_each(|(d, &v)| *d = if v > 0.0 { v } else { 0.0 }),
-    }
 }
 
 /// The actor's output squashing in the batched pass: tanh, non-finite -> 0 (as policy-core).
@@ -509,6 +560,46 @@ mod tests {
 
     /// Builds for wider or narrower vectors (x86-64-v4, SSE) tile differently; with the same
     /// multiply-add they must give the same bits.
+    /// The activation as a second pass over a product's output: what [`matmul_then`] fuses.
+    fn activate(activation: Activation, src: &[f32], dst: &mut [f32]) {
+        let pairs = dst.iter_mut().zip(src);
+        match activation {
+            Activation::Tanh => pairs.for_each(|(d, &v)| *d = tanh_fast(v)),
+            Activation::Relu => pairs.for_each(|(d, &v)| *d = relu(v)),
+        }
+    }
+
+    #[test]
+    fn an_activation_fused_into_the_product_gives_the_bits_of_a_second_pass() {
+        let (mut cut, mut passed) = (0, 0);
+        for (rows, k, n) in SHAPES {
+            let x = data(rows * k, 0.41);
+            let w = data(k * n, 0.09);
+            let b = data(n, 0.3);
+            for activation in [Activation::Relu, Activation::Tanh] {
+                let mut product = vec![0.0; rows * n];
+                matmul(Lhs::Rows(&x), k, &w, n, &mut product, Init::Bias(&b));
+                let mut two_passes = vec![f32::NAN; rows * n];
+                activate(activation, &product, &mut two_passes);
+                let mut fused = vec![f32::NAN; rows * n];
+                let init = Init::Bias(&b);
+                matmul_then(Lhs::Rows(&x), k, &w, n, &mut fused, init, Some(activation));
+                let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+                assert_eq!(
+                    bits(&fused),
+                    bits(&two_passes),
+                    "{rows}x{k}x{n} {activation:?}"
+                );
+                if activation == Activation::Relu {
+                    cut += product.iter().filter(|&&v| v < 0.0).count();
+                    passed += product.iter().filter(|&&v| v > 0.0).count();
+                }
+            }
+        }
+        // Both sides of the ReLU were exercised.
+        assert!(cut > 100 && passed > 100, "{cut} cut, {passed} passed");
+    }
+
     #[test]
     fn the_tile_shape_does_not_change_the_bits() {
         for (rows, k, n) in SHAPES {
@@ -517,9 +608,9 @@ mod tests {
             let b = data(n, 0.5);
             for init in [Init::Bias(&b), Init::Keep, Init::Zero] {
                 let mut wide = vec![0.5; rows * n];
-                matmul_tiled::<ROWS, COLS>(Lhs::Rows(&x), k, &w, n, &mut wide, init);
+                matmul_tiled::<ROWS, COLS, NONE>(Lhs::Rows(&x), k, &w, n, &mut wide, init);
                 let mut narrow = vec![0.5; rows * n];
-                matmul_tiled::<3, 4>(Lhs::Rows(&x), k, &w, n, &mut narrow, init);
+                matmul_tiled::<3, 4, NONE>(Lhs::Rows(&x), k, &w, n, &mut narrow, init);
                 let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
                 assert_eq!(bits(&wide), bits(&narrow), "{rows}x{k}x{n}");
             }
