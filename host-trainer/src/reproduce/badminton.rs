@@ -253,14 +253,23 @@ fn measure_table(teams: &Teams, get: fn(&TeamMeasures) -> Option<f64>) -> String
 
 /// Team A's share of the points won against team B, per seed where both finished.
 fn scores(teams: &Teams, a: &str, b: &str) -> Result<Vec<Scored>, Error> {
+    scores_against(teams, a, |seed| teams.players(b, seed).map(<[_]>::to_vec))
+}
+
+/// Team A's share of the points won against the players `b` gives for each seed.
+fn scores_against(
+    teams: &Teams,
+    a: &str,
+    b: impl Fn(u64) -> Option<Vec<PlayerKind>>,
+) -> Result<Vec<Scored>, Error> {
     let mut out = Vec::new();
     for seed in 0..teams.grid.seeds {
-        let (Some(pa), Some(pb)) = (teams.players(a, seed), teams.players(b, seed)) else {
+        let (Some(pa), Some(pb)) = (teams.players(a, seed), b(seed)) else {
             continue;
         };
         let score = team_match(
             &teams.config,
-            &[pa.to_vec(), pb.to_vec()],
+            &[pa.to_vec(), pb],
             teams.budget.match_points,
             seed,
         )
@@ -331,10 +340,29 @@ pub fn body(
     // Team scores, every pair of kinds, same seed.
     let _ = writeln!(
         page,
-        "## Team scores (figures 10–13)\n\nTeam A's share of the points won against team B \
-         (lets left out), pairings drawn uniformly from their players, each team serving half.\n\n\
+        "## Table 4: team scores (figures 10–13)\n\nTeam A's share of the points won against \
+         team B (lets left out), pairings drawn uniformly from their players, each team serving \
+         half; the reference players as a team B of one player.\n\n\
          | team A | team B | seeds | A's score | per seed |\n|---|---|---|---|---|"
     );
+    for kind in KINDS {
+        for (reference, name) in [
+            (PlayerKind::Scripted, "scripted"),
+            (PlayerKind::Random, "random"),
+        ] {
+            let s = scores_against(&teams, kind.name, |_| Some(vec![reference.clone()]))?;
+            let values: Vec<(u64, f64)> = s.iter().map(|(seed, v, _)| (*seed, *v)).collect();
+            let v: Vec<f64> = values.iter().map(|p| p.1).collect();
+            let _ = writeln!(
+                page,
+                "| {} | {name} (reference) | {} | {} | {} |",
+                kind.name,
+                v.len(),
+                interval_text(&v),
+                per_seed_text(&values)
+            );
+        }
+    }
     let mut against_ddpg = Vec::new();
     let mut contributions: Vec<(String, Vec<f64>)> = Vec::new();
     for (i, a) in KINDS.iter().enumerate() {
