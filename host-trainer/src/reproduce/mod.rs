@@ -160,8 +160,9 @@ pub fn build_page(out: &Path, grid: &Grid) -> Result<Built, Error> {
     };
     let mut text = format!(
         "# {title}\n\n\
-         Built by `host-trainer reproduce {} --out DIR` from the run folders in DIR: {runs} runs, \
-         {} finished, {failed} failed, {} missing.\n\n",
+         Built by `host-trainer reproduce {} --out DIR` (commit {COMMIT}) from the run folders \
+         in DIR: {runs} runs, {} finished, {failed} failed, {} missing. The parts that trained \
+         them:\n\n",
         grid.describe(),
         runs - missing.len() - failed,
         missing.len(),
