@@ -1,7 +1,8 @@
 //! The loops of the forward and backward passes, on row-major batches.
 //!
 //! Everything is one kernel, [`matmul`]: `y[r, :] = init[r, :] + Σ_k x[r, k] w[k, :]` with `w`
-//! row-major, summed in increasing `k`, one multiply-add at a time. A layer's weights are
+//! row-major, summed in increasing `k`, one multiply-add at a time ([`matmul_then`] applies a
+//! hidden layer's activation to each sum as it is stored). A layer's weights are
 //! column-major (`w[j * outputs + o]`), which is exactly the row-major `inputs × outputs` matrix
 //! the forward pass needs, so the forward pass adds bias first, then input `j = 0, 1, ...`:
 //! policy-core's order of operations. The weight gradient `aᵀ delta` reads `a` transposed in
@@ -78,7 +79,7 @@ pub(super) fn matmul(x: Lhs<'_>, k: usize, w: &[f32], n: usize, y: &mut [f32], i
 /// [`matmul`], with `activation` applied to each sum as it leaves the registers: a hidden
 /// layer's forward pass in one sweep over its output instead of a product then a second pass
 /// (the second pass was a tenth of a DCP run, all of it loads and stores). The activated values
-/// are the same bits as [`activate`] applied afterwards.
+/// are the bits a second pass over the product would give (tested).
 pub(super) fn matmul_then(
     x: Lhs<'_>,
     k: usize,
@@ -116,7 +117,7 @@ fn apply<const ACT: u8>(v: f32) -> f32 {
     }
 }
 
-/// ReLU as the batched pass computes it (NaN becomes 0, as policy-core's).
+/// ReLU as the batched pass computes it (NaN becomes 0).
 #[inline(always)]
 fn relu(v: f32) -> f32 {
     if v > 0.0 {
@@ -558,8 +559,6 @@ mod tests {
         }
     }
 
-    /// Builds for wider or narrower vectors (x86-64-v4, SSE) tile differently; with the same
-    /// multiply-add they must give the same bits.
     /// The activation as a second pass over a product's output: what [`matmul_then`] fuses.
     fn activate(activation: Activation, src: &[f32], dst: &mut [f32]) {
         let pairs = dst.iter_mut().zip(src);
@@ -600,6 +599,8 @@ mod tests {
         assert!(cut > 100 && passed > 100, "{cut} cut, {passed} passed");
     }
 
+    /// Builds for wider or narrower vectors (x86-64-v4, SSE) tile differently; with the same
+    /// multiply-add they must give the same bits.
     #[test]
     fn the_tile_shape_does_not_change_the_bits() {
         for (rows, k, n) in SHAPES {
