@@ -284,6 +284,20 @@ fn scores_against(
     Ok(out)
 }
 
+/// Writes table 4's row of team `a` against `b` and returns A's score per seed.
+fn score_row(page: &mut String, a: &str, b: &str, scored: &[Scored]) -> Vec<f64> {
+    let values: Vec<(u64, f64)> = scored.iter().map(|(seed, v, _)| (*seed, *v)).collect();
+    let v: Vec<f64> = values.iter().map(|p| p.1).collect();
+    let _ = writeln!(
+        page,
+        "| {a} | {b} | {} | {} | {} |",
+        v.len(),
+        interval_text(&v),
+        per_seed_text(&values)
+    );
+    v
+}
+
 /// Builds the page's body and writes its figures into `figures`; returns the body, the teams
 /// that are missing and how many failed.
 pub fn body(
@@ -346,20 +360,13 @@ pub fn body(
          | team A | team B | seeds | A's score | per seed |\n|---|---|---|---|---|"
     );
     for kind in KINDS {
-        for (reference, name) in [
-            (PlayerKind::Scripted, "scripted"),
-            (PlayerKind::Random, "random"),
-        ] {
+        for (reference, _) in &teams.references {
             let s = scores_against(&teams, kind.name, |_| Some(vec![reference.clone()]))?;
-            let values: Vec<(u64, f64)> = s.iter().map(|(seed, v, _)| (*seed, *v)).collect();
-            let v: Vec<f64> = values.iter().map(|p| p.1).collect();
-            let _ = writeln!(
-                page,
-                "| {} | {name} (reference) | {} | {} | {} |",
+            score_row(
+                &mut page,
                 kind.name,
-                v.len(),
-                interval_text(&v),
-                per_seed_text(&values)
+                &format!("{reference} (reference)"),
+                &s,
             );
         }
     }
@@ -368,22 +375,12 @@ pub fn body(
     for (i, a) in KINDS.iter().enumerate() {
         for b in &KINDS[i + 1..] {
             let s = scores(&teams, a.name, b.name)?;
-            let values: Vec<(u64, f64)> = s.iter().map(|(seed, v, _)| (*seed, *v)).collect();
-            let v: Vec<f64> = values.iter().map(|p| p.1).collect();
+            let v = score_row(&mut page, a.name, b.name, &s);
             if a.name == "ddpg" && b.algo == crate::algorithms::Algo::Dcp {
                 // A DCP team's score against DDPG is the rest of DDPG's share of the same
                 // match's decided points.
                 against_ddpg.push((b.name, v.iter().map(|s| 1.0 - s).collect::<Vec<f64>>()));
             }
-            let _ = writeln!(
-                page,
-                "| {} | {} | {} | {} | {} |",
-                a.name,
-                b.name,
-                v.len(),
-                interval_text(&v),
-                per_seed_text(&values)
-            );
             if let Some((_, _, shares)) = s.iter().find(|(seed, _, _)| *seed == 0) {
                 for (kind, team) in [(a.name, &shares[0]), (b.name, &shares[1])] {
                     let share = team
