@@ -307,7 +307,10 @@ run_qemu() {
 # the Rust firmware's release settings (fat LTO, one codegen unit, panic = abort; `core` and
 # compiler_builtins' memcpy/memset from source), then firmware-c/ compiled and linked against it
 # with firmware/memory.x's layout. Each target's library is built once.
+# Built from the root workspace, so with policy-core's features as policy-core-ffi asks for them
+# (`package`): a caller's CARGO_RESOLVER_FEATURE_UNIFICATION=workspace would add the host's `std`.
 FFI_ENV=(env -u RUSTFLAGS -u CARGO_ENCODED_RUSTFLAGS -u CARGO_BUILD_RUSTFLAGS RUSTC="$RUSTC_X" RUSTC_BOOTSTRAP=1 CARGO_TARGET_DIR="$WORK/ffi"
+  CARGO_RESOLVER_FEATURE_UNIFICATION=package
   CARGO_PROFILE_RELEASE_LTO=fat CARGO_PROFILE_RELEASE_CODEGEN_UNITS=1 CARGO_PROFILE_RELEASE_PANIC=abort CARGO_PROFILE_RELEASE_DEBUG=true)
 C_FLAGS=(-std=c11 -O2 -g -Wall -Wextra -Werror -ffreestanding -ffunction-sections -fdata-sections)
 build_c_firmware() { # TARGET OUT.elf
