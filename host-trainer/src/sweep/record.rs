@@ -24,7 +24,8 @@ pub struct EvalSummary {
     pub strict_reach_rate: f64,
 }
 
-pub(super) fn read_eval(dir: &Path) -> Result<EvalSummary, Error> {
+/// The summary columns of `DIR/eval.json`, the report of a finished run.
+pub fn read_eval(dir: &Path) -> Result<EvalSummary, Error> {
     let path = dir.join(folder::EVAL);
     let text = fs::read_to_string(&path).map_err(|source| Error::Io {
         path: path.clone(),
