@@ -315,10 +315,10 @@ fn read_rows(file: &Path) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
-/// Every arm's runs in the record; it must hold `A0`'s arm.
-fn read_record(file: &Path) -> Result<Arms> {
+/// The rows grouped by arm and cell; a run may have one row only.
+fn by_arm(rows: &[Row], file: &Path) -> Result<Arms> {
     let mut arms = Arms::new();
-    for row in read_rows(file)? {
+    for row in rows {
         let runs = arms.entry(row.arm.clone()).or_default();
         let cell = (row.task.clone(), row.seed);
         ensure!(
@@ -330,6 +330,12 @@ fn read_record(file: &Path) -> Result<Arms> {
             row.seed
         );
     }
+    Ok(arms)
+}
+
+/// Every arm's runs in the record; it must hold `A0`'s arm.
+fn read_record(file: &Path) -> Result<Arms> {
+    let arms = by_arm(&read_rows(file)?, file)?;
     ensure!(
         arms.contains_key(REFERENCE),
         "{}: no run of {REFERENCE} (DCP as adopted)",
@@ -343,22 +349,11 @@ fn read_record(file: &Path) -> Result<Arms> {
 /// one, so a record is never half written.
 fn record(root: &Path, into: &Path, binary: &str) -> Result<(usize, usize)> {
     let mut rows = read_rows(into)?;
-    let mut in_record: BTreeMap<(String, Cell), Outcome> = BTreeMap::new();
-    for row in &rows {
-        let key = (row.arm.clone(), (row.task.clone(), row.seed));
-        ensure!(
-            in_record.insert(key, row.outcome()).is_none(),
-            "{}: two rows of {} on {}, seed {}",
-            into.display(),
-            row.arm,
-            row.task,
-            row.seed
-        );
-    }
+    let in_record = by_arm(&rows, into)?;
     let (mut added, mut known) = (0, 0);
     for (arm, runs) in read_folders(root)? {
         for (cell, outcome) in runs {
-            match in_record.get(&(arm.clone(), cell.clone())) {
+            match in_record.get(&arm).and_then(|runs| runs.get(&cell)) {
                 Some(old) => {
                     ensure!(
                         old.agrees(&outcome),
