@@ -860,6 +860,9 @@ mod tests {
         std::fs::write(&file, format!("{rounded}\n{rounded}\n")).expect("write");
         let e = read_record(&file).expect_err("twice");
         assert!(e.to_string().contains("two rows of A0"), "{e}");
+        std::fs::write(&file, format!("{rounded}\n{{\"arm\": \"A0\"\n")).expect("write");
+        let e = read_record(&file).expect_err("malformed");
+        assert!(format!("{e:#}").contains("screen.jsonl line 2"), "{e:#}");
         std::fs::remove_dir_all(&dir).expect("clean up");
     }
 }
