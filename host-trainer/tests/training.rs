@@ -292,6 +292,94 @@ fn margin_candidate_files_set_their_options_only_and_train() {
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
 
+/// The margin study's queue plan (`experiments/margin/plan.txt`, read by `queue.sh`) names only
+/// arms and layouts that exist and holds every run of the protocol exactly once: 26 runs per
+/// arm in the screening (pinwheel seeds 0–9, each of the 8 layouts seeds 0–1), and in the
+/// confirmation 26 per agent on fresh seeds and layouts (the winner's lines come when step 2
+/// names it). Lines marked `#recorded` count: their runs are in the record.
+#[test]
+fn margin_plan_holds_every_run_of_the_protocol_once() {
+    use std::collections::BTreeMap;
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../experiments/margin");
+    let plan = std::fs::read_to_string(dir.join("plan.txt")).expect("plan");
+    let layouts = (1..=4).flat_map(|l| [format!("rings-{l}"), format!("maze-{l}")]);
+    let expected_tasks = |seeds: std::ops::RangeInclusive<u64>, layout_seeds: [u64; 2]| {
+        let mut runs: Vec<(String, u64)> = seeds.map(|s| ("pinwheel".to_string(), s)).collect();
+        for layout in layouts.clone() {
+            runs.extend(layout_seeds.map(|s| (layout.clone(), s)));
+        }
+        runs.sort();
+        runs
+    };
+    let mut runs: BTreeMap<(String, String), Vec<(String, u64)>> = BTreeMap::new();
+    for line in plan.lines() {
+        let line = line.strip_prefix("#recorded ").unwrap_or(line);
+        if line.trim().is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line.split_whitespace().collect();
+        let [step, arm, layout, seeds] = fields[..] else {
+            panic!("not STEP ARM LAYOUT SEEDS: {line}")
+        };
+        let (folder, suffix) = match step {
+            "screen" => ("layouts", "seed11"),
+            "confirm" => ("confirm-layouts", "seed12"),
+            _ => panic!("unknown step: {line}"),
+        };
+        assert!(
+            ["A0", "ddpg", "td3", "ppo", "dqn"].contains(&arm)
+                || dir.join(format!("{arm}.toml")).is_file(),
+            "no such arm: {line}"
+        );
+        assert!(
+            layout == "pinwheel"
+                || dir
+                    .join(folder)
+                    .join(format!("{layout}-{suffix}.toml"))
+                    .is_file(),
+            "no such layout: {line}"
+        );
+        let (first, last) = seeds.split_once('-').expect("seeds as A-B");
+        let (first, last): (u64, u64) = (first.parse().expect("A"), last.parse().expect("B"));
+        let list = runs.entry((step.into(), arm.into())).or_default();
+        list.extend((first..=last).map(|s| (layout.to_string(), s)));
+    }
+    for list in runs.values_mut() {
+        list.sort();
+    }
+    let arms = |step: &str| -> Vec<&str> {
+        runs.keys()
+            .filter(|(s, _)| s == step)
+            .map(|(_, a)| a.as_str())
+            .collect()
+    };
+    assert_eq!(
+        arms("screen"),
+        [
+            "A0",
+            "heads",
+            "sigma-schedule",
+            "uniform-share",
+            "uniform-sigma"
+        ]
+    );
+    for arm in arms("screen") {
+        assert_eq!(
+            runs[&("screen".into(), arm.into())],
+            expected_tasks(0..=9, [0, 1]),
+            "{arm}"
+        );
+    }
+    let confirm = arms("confirm");
+    for agent in ["A0", "ddpg", "td3", "ppo", "dqn"] {
+        assert!(confirm.contains(&agent), "{agent} confirms");
+    }
+    for arm in confirm {
+        let want = expected_tasks(10..=19, [10, 11]);
+        assert_eq!(runs[&("confirm".into(), arm.into())], want, "{arm}");
+    }
+}
+
 /// A badminton team of three DCP players trains on its pairings, the same seed gives the same
 /// player blobs, stopping and resuming equals the uninterrupted run, and DCP with another T
 /// starts from the same weights; the exported players load as folders of a manifest and blobs
