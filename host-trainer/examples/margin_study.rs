@@ -23,7 +23,8 @@
 //! A **failed seed** is a run with test success below 0.9 or settled error 0.5 or more.
 //!
 //! - `screen FILE` (protocol step 1 and 2): each arm's 26 runs are the pinwheel's seeds 0–9 and
-//!   seeds 0–1 on each layout of `--layouts` (default `experiments/margin/layouts`). The winner is
+//!   seeds 0–1 on each layout of `--layouts` (default `experiments/margin/layouts`). It prints
+//!   every run's row, each arm's failed seeds by kind of layout, and the tallies. The winner is
 //!   the candidate with the fewest failed seeds, fewer than `A0`'s, with a mean settled error no
 //!   worse than `A0`'s; ties go to the lower mean. Before every run is in, it says which
 //!   candidates can no longer win whatever the missing runs give, and names the winner once
@@ -91,6 +92,7 @@ fn run() -> Result<()> {
             let dir = layouts.unwrap_or_else(|| "experiments/margin/layouts".into());
             let plan = Plan::new(&dir, 0..10, 0..2)?;
             print!("{}", rows_table(&arms, &plan));
+            print!("{}", kinds_table(&arms, &plan));
             print!("{}", screen_verdict(&arms, &plan));
         }
         "confirm" => {
@@ -99,6 +101,7 @@ fn run() -> Result<()> {
             let dir = layouts.unwrap_or_else(|| "experiments/margin/confirm-layouts".into());
             let plan = Plan::new(&dir, 10..20, 10..12)?;
             print!("{}", rows_table(&arms, &plan));
+            print!("{}", kinds_table(&arms, &plan));
             print!("{}", confirm_verdict(&arms, &plan, &winner)?);
         }
         _ => bail!("unknown step {step}\n{usage}"),
@@ -402,6 +405,47 @@ fn task_label(task: &str) -> &str {
     }
 }
 
+/// The kind of a task: the pinwheel, or a generated layout's kind (`rings-3-seed11`: `rings`).
+fn task_kind(task: &str) -> &str {
+    if task == PINWHEEL {
+        "pinwheel"
+    } else {
+        task.split('-').next().unwrap_or(task)
+    }
+}
+
+/// Each arm's failed seeds among its finished runs by kind of layout, the kinds in plan order:
+/// where an arm fails, which the tallies' totals do not say. A reading aid, not a rule.
+fn kinds_table(arms: &Arms, plan: &Plan) -> String {
+    let mut kinds: Vec<&str> = Vec::new();
+    for cell in &plan.cells {
+        let kind = task_kind(&cell.0);
+        if !kinds.contains(&kind) {
+            kinds.push(kind);
+        }
+    }
+    let mut out = format!(
+        "\nFailed seeds of the finished runs, by kind of layout:\n\n| arm | {} |\n|---|{}\n",
+        kinds.join(" | "),
+        "---:|".repeat(kinds.len())
+    );
+    for (arm, runs) in arms {
+        out += &format!("| {arm} |");
+        for kind in &kinds {
+            let done: Vec<&Outcome> = plan
+                .cells
+                .iter()
+                .filter(|c| task_kind(&c.0) == *kind)
+                .filter_map(|c| runs.get(c))
+                .collect();
+            let failed = done.iter().filter(|o| o.failed()).count();
+            out += &format!(" {failed} of {} |", done.len());
+        }
+        out += "\n";
+    }
+    out
+}
+
 /// Every finished run of the plan, one row each, cell by cell and arm by arm.
 fn rows_table(arms: &Arms, plan: &Plan) -> String {
     let mut out = String::from(
@@ -666,6 +710,22 @@ mod tests {
 
     fn plan() -> Plan {
         Plan::from_names(&["maze-1".to_string()], 0..2, 0..2)
+    }
+
+    #[test]
+    fn failed_seeds_are_counted_by_kind_of_layout() {
+        let names = ["maze-1-seed11".to_string(), "rings-1-seed11".to_string()];
+        let plan = Plan::from_names(&names, 0..2, 0..2);
+        let a = arms(
+            &plan,
+            &[(
+                "A0",
+                &[Some(0.6), Some(0.1), Some(0.7), Some(0.8), Some(0.1), None],
+            )],
+        );
+        let t = kinds_table(&a, &plan);
+        assert!(t.contains("| arm | pinwheel | maze | rings |"), "{t}");
+        assert!(t.contains("| A0 | 1 of 2 | 2 of 2 | 0 of 1 |"), "{t}");
     }
 
     #[test]
