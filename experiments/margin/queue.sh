@@ -11,56 +11,70 @@
 # in `layouts/`, the confirmation's seed-12 file in `confirm-layouts/`); SEEDS as `sweep` takes
 # them. Blank lines and `#` comments are skipped.
 #
-# Every sweep skips finished runs and resumes checkpointed ones, so the queue can be stopped
-# (Ctrl-C: the running runs checkpoint) and started again from the top. One queue runs at a
+# The plan is checked whole before the first run. Every sweep skips finished runs and resumes
+# checkpointed ones, so the queue can be stopped (Ctrl-C: the running runs checkpoint) and
+# started again from the top. One queue runs at a
 # time: a second one waits on the lock, which the running sweep holds until it ends, so a new
 # plan can take over from a stopped queue without two sweeps sharing the machine.
 # Runs made beside other work can sit in a low-priority session:
 #   (echo 19 > /proc/self/autogroup; exec experiments/margin/queue.sh experiments/margin/plan.txt)
 set -euo pipefail
 
+die() { echo "queue.sh: $*" >&2; exit 2; }
 plan="${1:?usage: experiments/margin/queue.sh PLAN_FILE}"
-[ -r "$plan" ] || { echo "queue.sh: cannot read the plan $plan" >&2; exit 2; }
+[ -f "$plan" ] && [ -r "$plan" ] || die "cannot read the plan $plan"
+plan="$(realpath "$plan")"
 cd "$(dirname "$0")/../.."
-bin="${HOST_TRAINER:-target/release/host-trainer}"
-[ -x "$bin" ] || { echo "queue.sh: no host-trainer at $bin (cargo build --release -p host-trainer, or set HOST_TRAINER)" >&2; exit 2; }
 
+# One plan line's sweep: sets `sweep_args` and `out`, or stops the queue naming what is wrong.
+job() {
+  local step=$1 arm=$2 layout=$3 seeds=$4 rest=$5 layouts suffix
+  [ -n "$seeds" ] && [ -z "$rest" ] || die "a line of $plan is not 'STEP ARM LAYOUT SEEDS': $*"
+  case "$step" in
+    screen) layouts=experiments/margin/layouts suffix=seed11 ;;
+    confirm) layouts=experiments/margin/confirm-layouts suffix=seed12 ;;
+    *) die "unknown step '$step' in $plan" ;;
+  esac
+  case "$arm" in
+    A0) sweep_args=() ;;
+    ddpg | td3 | ppo | dqn) sweep_args=(--algo "$arm") ;;
+    *)
+      [ -r "experiments/margin/$arm.toml" ] || die "no config experiments/margin/$arm.toml ($plan)"
+      sweep_args=(--config "experiments/margin/$arm.toml")
+      ;;
+  esac
+  if [ "$layout" != pinwheel ]; then
+    [ -r "$layouts/$layout-$suffix.toml" ] || die "no layout $layouts/$layout-$suffix.toml ($plan)"
+    sweep_args+=(--task "$layouts/$layout-$suffix.toml")
+  fi
+  out="runs/margin/$step/$arm"
+  sweep_args+=(--seeds "$seeds" --out "$out")
+}
+
+# The whole plan is checked before any run, so a mistake on its last line is found now, not
+# hours later.
+lines=()
+while read -r step arm layout seeds rest; do
+  case "$step" in '' | '#'*) continue ;; esac
+  job "$step" "$arm" "$layout" "$seeds" "$rest"
+  lines+=("$step $arm $layout $seeds")
+done < "$plan"
+
+bin="${HOST_TRAINER:-target/release/host-trainer}"
+[ -x "$bin" ] || die "no host-trainer at $bin (cargo build --release -p host-trainer, or set HOST_TRAINER)"
 mkdir -p runs/margin
 exec 9> runs/margin/queue.lock
 flock 9
 
-while read -r step arm layout seeds rest; do
-  case "$step" in '' | '#'*) continue ;; esac
-  case "$step" in
-    screen) layouts=experiments/margin/layouts; suffix=seed11 ;;
-    confirm) layouts=experiments/margin/confirm-layouts; suffix=seed12 ;;
-    *) echo "queue.sh: unknown step '$step' in $plan" >&2; exit 2 ;;
-  esac
-  if [ -z "$seeds" ] || [ -n "$rest" ]; then
-    echo "queue.sh: a line of $plan is not 'STEP ARM LAYOUT SEEDS': $step $arm $layout $seeds $rest" >&2
-    exit 2
-  fi
-  case "$arm" in
-    A0) opts=() ;;
-    ddpg | td3 | ppo | dqn) opts=(--algo "$arm") ;;
-    *)
-      [ -r "experiments/margin/$arm.toml" ] || { echo "queue.sh: no config experiments/margin/$arm.toml" >&2; exit 2; }
-      opts=(--config "experiments/margin/$arm.toml")
-      ;;
-  esac
-  if [ "$layout" = pinwheel ]; then
-    task=()
-  else
-    [ -r "$layouts/$layout-$suffix.toml" ] || { echo "queue.sh: no layout $layouts/$layout-$suffix.toml" >&2; exit 2; }
-    task=(--task "$layouts/$layout-$suffix.toml")
-  fi
-  out="runs/margin/$step/$arm"
+for line in "${lines[@]}"; do
+  # shellcheck disable=SC2086 # the line's four words, checked above
+  job $line ""
   mkdir -p "$out"
-  echo "$(date -u +%FT%TZ) start $step $arm $layout $seeds"
+  echo "$(date -u +%FT%TZ) start $line"
   rc=0
-  "$bin" sweep "${opts[@]}" "${task[@]}" --seeds "$seeds" --out "$out" || rc=$?
-  echo "$(date -u +%FT%TZ) end $step $arm $layout $seeds rc=$rc"
-  # A sweep stopped by Ctrl-C ends the queue; a failed run is recorded by the sweep and the
-  # queue goes on.
-  [ "$rc" -eq 130 ] && exit 130
-done < "$plan"
+  "$bin" sweep "${sweep_args[@]}" || rc=$?
+  echo "$(date -u +%FT%TZ) end $line rc=$rc"
+  # A sweep stopped by Ctrl-C ends the queue. Any other failure (a failed run, which the sweep
+  # records; a folder another process writes) is logged and the queue goes on.
+  [ "$rc" -ne 130 ] || exit 130
+done

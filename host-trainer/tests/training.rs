@@ -380,6 +380,70 @@ fn margin_plan_holds_every_run_of_the_protocol_once() {
     }
 }
 
+/// The margin study's queue checks its whole plan before any run: a bad line anywhere, even
+/// after good ones, stops it at once with one line naming what is wrong and exit code 2, before
+/// it looks for the binary or takes the queue's lock (so this test never waits on a running
+/// queue); an unreadable plan and a missing binary likewise.
+#[test]
+fn margin_queue_refuses_a_bad_plan_before_any_run() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let dir = scratch("margin-queue");
+    let queue = |plan: &std::path::Path, binary: &str| {
+        std::process::Command::new("bash")
+            .arg(root.join("experiments/margin/queue.sh"))
+            .arg(plan)
+            .env("HOST_TRAINER", binary)
+            .output()
+            .expect("bash runs")
+    };
+    let cases = [
+        (
+            "screen nope rings-1 0-1",
+            "no config experiments/margin/nope.toml",
+        ),
+        (
+            "screen A0 rings-9 0-1",
+            "no layout experiments/margin/layouts/rings-9-seed11.toml",
+        ),
+        ("run A0 rings-1 0-1", "unknown step 'run'"),
+        ("screen A0 rings-1", "is not 'STEP ARM LAYOUT SEEDS'"),
+        (
+            "confirm ddpg maze-1 10-11 12",
+            "is not 'STEP ARM LAYOUT SEEDS'",
+        ),
+    ];
+    for (line, needle) in cases {
+        let plan = dir.join("plan.txt");
+        std::fs::write(
+            &plan,
+            format!("# good first\nscreen A0 pinwheel 0-9\n\n{line}\n"),
+        )
+        .expect("plan");
+        let out = queue(&plan, "/nonexistent/host-trainer");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{line}: {stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{line}: {stderr}");
+        assert!(
+            stderr.starts_with("queue.sh: ") && stderr.contains(needle),
+            "{stderr}"
+        );
+        assert!(out.stdout.is_empty(), "{line}: nothing ran");
+    }
+    let good = dir.join("good.txt");
+    std::fs::write(&good, "screen A0 pinwheel 0-9\n").expect("plan");
+    let out = queue(&good, "/nonexistent/host-trainer");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("no host-trainer at /nonexistent"),
+        "{stderr}"
+    );
+    let out = queue(&dir.join("missing.txt"), "/nonexistent/host-trainer");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("cannot read the plan"), "{stderr}");
+    assert_eq!(out.status.code(), Some(2));
+    std::fs::remove_dir_all(&dir).expect("cleanup");
+}
+
 /// A badminton team of three DCP players trains on its pairings, the same seed gives the same
 /// player blobs, stopping and resuming equals the uninterrupted run, and DCP with another T
 /// starts from the same weights; the exported players load as folders of a manifest and blobs
