@@ -429,17 +429,22 @@ fn kinds_table(arms: &Arms, plan: &Plan) -> String {
         kinds.join(" | "),
         "---:|".repeat(kinds.len())
     );
-    for (arm, runs) in arms {
-        out += &format!("| {arm} |");
-        for kind in &kinds {
-            let done: Vec<&Outcome> = plan
+    let of_kind: Vec<Plan> = kinds
+        .iter()
+        .map(|kind| Plan {
+            cells: plan
                 .cells
                 .iter()
                 .filter(|c| task_kind(&c.0) == *kind)
-                .filter_map(|c| runs.get(c))
-                .collect();
-            let failed = done.iter().filter(|o| o.failed()).count();
-            out += &format!(" {failed} of {} |", done.len());
+                .cloned()
+                .collect(),
+        })
+        .collect();
+    for (arm, runs) in arms {
+        out += &format!("| {arm} |");
+        for part in &of_kind {
+            let t = tally(runs, part);
+            out += &format!(" {} of {} |", t.failed, t.finished);
         }
         out += "\n";
     }
