@@ -9,6 +9,8 @@
 //!   FIFO or a device is written through, as `>` in a shell would, and a symbolic link is
 //!   followed, its target written (atomically when that is a regular file). Renaming over them
 //!   would replace the device, pipe or link with a plain file.
+//! - [`write_new`]: a file written once by whichever of several racing writers comes first,
+//!   whole or not at all (a grid's record, claimed by its parts).
 //! - [`check_output`]: an output path is checked (its folder exists and is writable, it is not a
 //!   folder) before any work, so a long evaluation never ends in "cannot write".
 //! - [`read_config_text`]: reads a config or scenario file (TOML), refusing one larger than
@@ -191,6 +193,43 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     let mut file = AtomicFile::create(path)?;
     file.write_all(bytes)?;
     file.commit()
+}
+
+/// Writes `bytes` to `path` only if nothing is there yet, and whole: the bytes go to a hidden
+/// sibling, synced, then hard-linked to `path`, which the system refuses (`AlreadyExists`) when
+/// `path` exists. So of several writers racing (two parts of one grid started together, on one
+/// machine or on nodes sharing the folder), exactly one wins, and every reader sees either no
+/// file or the complete one, never an empty or half-written file, as `create_new` followed by a
+/// write would show for a moment (or for ever, if the writer was killed in between). The
+/// sibling is removed in every case; only a kill between its creation and its removal leaves it
+/// (`.NAME.new-PID-N`, a few bytes). It is not a `.tmp-` name, so no other writer's clean-up
+/// of dead processes' temporaries (which judges by process ids on this machine) removes it
+/// while a process on another node still needs it.
+///
+/// ```
+/// use std::io::ErrorKind;
+/// let path = std::env::temp_dir().join(format!("write-new-doc-{}.json", std::process::id()));
+/// firmware_sim::files::write_new(&path, b"first").unwrap();
+/// let err = firmware_sim::files::write_new(&path, b"second").unwrap_err();
+/// assert_eq!(err.kind(), ErrorKind::AlreadyExists);
+/// assert_eq!(std::fs::read(&path).unwrap(), b"first");
+/// # std::fs::remove_file(&path).unwrap();
+/// ```
+pub fn write_new(path: &Path, bytes: &[u8]) -> io::Result<()> {
+    let name = file_name(path)?;
+    let n = NEXT_TEMP.fetch_add(1, Ordering::Relaxed);
+    let temp = folder_of(path).join(format!(".{name}.new-{}-{n}", std::process::id()));
+    let written = fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&temp)
+        .and_then(|mut file| {
+            file.write_all(bytes)?;
+            file.sync_all()
+        })
+        .and_then(|()| fs::hard_link(&temp, path));
+    let _ = fs::remove_file(&temp);
+    written
 }
 
 /// Removes the temporary files (`.NAME.tmp-PID-N`) in `dir` that a process no longer running

@@ -11,7 +11,6 @@
 //! part comes first, and every later part checks it holds the same grid.
 
 use std::fs;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use firmware_sim::files;
@@ -57,21 +56,10 @@ pub fn claim(out: &Path, grid: &Grid) -> Result<(), Error> {
     }
     let path = out.join(GRID_FILE);
     let text = serde_json::to_string_pretty(grid).unwrap_or_default() + "\n";
-    // `create_new` makes the first part the only writer: two parts starting together cannot
-    // both write, and the second reads what the first wrote.
-    match fs::OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .open(&path)
-    {
-        Ok(mut file) => {
-            let io = |source| Error::Io {
-                path: path.clone(),
-                source,
-            };
-            file.write_all(text.as_bytes()).map_err(io)?;
-            file.sync_all().map_err(io)
-        }
+    // One part wins the race to create the record, and publishes it whole: a part that loses
+    // reads the complete record (never an empty file) and checks it holds the same grid.
+    match files::write_new(&path, text.as_bytes()) {
+        Ok(()) => Ok(()),
         Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => check(out, grid),
         Err(source) => Err(Error::Io { path, source }),
     }
@@ -79,36 +67,21 @@ pub fn claim(out: &Path, grid: &Grid) -> Result<(), Error> {
 
 /// Checks that `out` holds `grid`.
 pub fn check(out: &Path, grid: &Grid) -> Result<(), Error> {
-    let path = out.join(GRID_FILE);
-    // A part that lost the race to create the file may read it before its first byte lands.
-    for _ in 0..50 {
-        match recorded(out) {
-            Ok(Some(found)) if found == *grid => return Ok(()),
-            Ok(Some(found)) => {
-                return Err(Error::GridDiffers {
-                    path: out.to_path_buf(),
-                    difference: format!(
-                        "it holds the grid `{}`, not `{}`",
-                        found.describe(),
-                        grid.describe()
-                    ),
-                })
-            }
-            Ok(None) => {
-                return Err(Error::GridDiffers {
-                    path: out.to_path_buf(),
-                    difference: format!(
-                        "it holds no grid ({GRID_FILE} is missing): nothing to merge"
-                    ),
-                })
-            }
-            Err(_) if fs::metadata(&path).is_ok_and(|m| m.len() == 0) => {
-                std::thread::sleep(std::time::Duration::from_millis(100));
-            }
-            Err(e) => return Err(e),
-        }
+    match recorded(out)? {
+        Some(found) if found == *grid => Ok(()),
+        Some(found) => Err(Error::GridDiffers {
+            path: out.to_path_buf(),
+            difference: format!(
+                "it holds the grid `{}`, not `{}`",
+                found.describe(),
+                grid.describe()
+            ),
+        }),
+        None => Err(Error::GridDiffers {
+            path: out.to_path_buf(),
+            difference: format!("it holds no grid ({GRID_FILE} is missing): nothing to merge"),
+        }),
     }
-    recorded(out).map(|_| ())
 }
 
 /// Plans the slice's runs, cell by cell through `sweep`'s planner (a folder holding a run of
@@ -300,7 +273,57 @@ pub fn of_cell<'a>(all: &'a [(GridRun, Outcome)], cell: &Cell) -> Vec<&'a (GridR
 
 #[cfg(test)]
 mod tests {
+    use super::super::grid::Experiment;
     use super::*;
+
+    #[test]
+    fn parts_racing_to_claim_a_folder_all_agree_and_no_reader_sees_half_a_record() {
+        let grid = |seeds| Grid {
+            experiment: Experiment::Exp1,
+            seeds,
+            quick: true,
+        };
+        let root = std::env::temp_dir().join(format!("reproduce-claim-{}", std::process::id()));
+        for round in 0..40 {
+            let out = root.join(round.to_string());
+            fs::create_dir_all(&out).expect("dir");
+            let start = std::sync::Barrier::new(5);
+            std::thread::scope(|s| {
+                let claims: Vec<_> = (0..4)
+                    .map(|_| {
+                        s.spawn(|| {
+                            start.wait();
+                            claim(&out, &grid(5))
+                        })
+                    })
+                    .collect();
+                // A reader polling the record while the parts race: it sees no record or the
+                // whole one, never an error (an empty or half-written file).
+                let reader = s.spawn(|| {
+                    start.wait();
+                    loop {
+                        match recorded(&out) {
+                            Ok(None) => std::thread::yield_now(),
+                            Ok(Some(found)) => return Ok(found),
+                            Err(e) => return Err(e.to_string()),
+                        }
+                    }
+                });
+                for claim in claims {
+                    claim.join().expect("no panic").expect("every part agrees");
+                }
+                assert_eq!(reader.join().expect("no panic"), Ok(grid(5)));
+            });
+            let left: Vec<_> = fs::read_dir(&out)
+                .expect("list")
+                .map(|e| e.expect("entry").file_name())
+                .collect();
+            assert_eq!(left, [GRID_FILE], "only the record, no sibling left behind");
+            let err = claim(&out, &grid(6)).expect_err("another grid is refused");
+            assert!(matches!(err, Error::GridDiffers { .. }), "{err}");
+        }
+        fs::remove_dir_all(&root).expect("cleanup");
+    }
 
     #[test]
     fn training_time_is_summed_from_the_metrics() {
