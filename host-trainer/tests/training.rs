@@ -295,8 +295,8 @@ fn margin_candidate_files_set_their_options_only_and_train() {
 /// The margin study's queue plan (`experiments/margin/plan.txt`, read by `queue.sh`) names only
 /// arms and layouts that exist and holds every run of the protocol exactly once: 26 runs per
 /// arm in the screening (pinwheel seeds 0–9, each of the 8 layouts seeds 0–1), and in the
-/// confirmation 26 per agent on fresh seeds and layouts (the winner's lines come when step 2
-/// names it). Lines marked `#recorded` count: their runs are in the record.
+/// confirmation 26 per agent on fresh seeds and layouts, for the winner step 2 named
+/// (`uniform-share`), A0 and the four baselines. Lines marked `#recorded` count: their runs are in the record.
 #[test]
 fn margin_plan_holds_every_run_of_the_protocol_once() {
     use std::collections::BTreeMap;
@@ -370,10 +370,9 @@ fn margin_plan_holds_every_run_of_the_protocol_once() {
             "{arm}"
         );
     }
+    // The confirmation's agents: the winner step 2 named, A0 and the four baselines.
     let confirm = arms("confirm");
-    for agent in ["A0", "ddpg", "td3", "ppo", "dqn"] {
-        assert!(confirm.contains(&agent), "{agent} confirms");
-    }
+    assert_eq!(confirm, ["A0", "ddpg", "dqn", "ppo", "td3", "uniform-share"]);
     for arm in confirm {
         let want = expected_tasks(10..=19, [10, 11]);
         assert_eq!(runs[&("confirm".into(), arm.into())], want, "{arm}");
