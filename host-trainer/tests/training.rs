@@ -372,7 +372,10 @@ fn margin_plan_holds_every_run_of_the_protocol_once() {
     }
     // The confirmation's agents: the winner step 2 named, A0 and the four baselines.
     let confirm = arms("confirm");
-    assert_eq!(confirm, ["A0", "ddpg", "dqn", "ppo", "td3", "uniform-share"]);
+    assert_eq!(
+        confirm,
+        ["A0", "ddpg", "dqn", "ppo", "td3", "uniform-share"]
+    );
     for arm in confirm {
         let want = expected_tasks(10..=19, [10, 11]);
         assert_eq!(runs[&("confirm".into(), arm.into())], want, "{arm}");
