@@ -13,9 +13,9 @@
 #
 # The plan is checked whole before the first run. Every sweep skips finished runs and resumes
 # checkpointed ones, so the queue can be stopped (Ctrl-C: the running runs checkpoint) and
-# started again from the top. One queue runs at a
-# time: a second one waits on the lock, which the running sweep holds until it ends, so a new
-# plan can take over from a stopped queue without two sweeps sharing the machine.
+# started again from the top. One queue runs at a time: a second one waits on the lock, which
+# the running sweep holds until it ends, so a new plan can take over from a stopped queue
+# without two sweeps sharing the machine.
 # Runs made beside other work can sit in a low-priority session:
 #   (echo 19 > /proc/self/autogroup; exec experiments/margin/queue.sh experiments/margin/plan.txt)
 set -euo pipefail

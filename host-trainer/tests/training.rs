@@ -296,7 +296,8 @@ fn margin_candidate_files_set_their_options_only_and_train() {
 /// arms and layouts that exist and holds every run of the protocol exactly once: 26 runs per
 /// arm in the screening (pinwheel seeds 0–9, each of the 8 layouts seeds 0–1), and in the
 /// confirmation 26 per agent on fresh seeds and layouts, for the winner step 2 named
-/// (`uniform-share`), A0 and the four baselines. Lines marked `#recorded` count: their runs are in the record.
+/// (`uniform-share`), A0 and the four baselines. Lines marked `#recorded` count: their runs are
+/// in the record.
 #[test]
 fn margin_plan_holds_every_run_of_the_protocol_once() {
     use std::collections::BTreeMap;

@@ -7,8 +7,8 @@
 //! OUT/exp1.md, OUT/figures/               the page and its figures, built from the above alone
 //! ```
 //! Every part of a grid (each `--slice`, on any machine sharing the folder) writes disjoint run
-//! folders, so the parts never write the same file; `grid.json` is created once, by whichever
-//! part comes first, and every later part checks it holds the same grid.
+//! folders, so the parts never write the same file; `grid.json` is created once, whole, by
+//! whichever part comes first, and every later part checks it holds the same grid.
 
 use std::fs;
 use std::path::{Path, PathBuf};
