@@ -242,6 +242,28 @@ impl Plan {
     fn finished<'a>(&self, runs: &'a BTreeMap<Cell, Outcome>) -> Vec<&'a Outcome> {
         self.cells.iter().filter_map(|c| runs.get(c)).collect()
     }
+
+    /// Whether an arm has finished every run of the plan.
+    fn complete(&self, runs: &BTreeMap<Cell, Outcome>) -> bool {
+        self.cells.iter().all(|c| runs.contains_key(c))
+    }
+
+    /// The plan's tasks, each once, in plan order.
+    fn tasks(&self) -> Vec<&str> {
+        let mut tasks: Vec<&str> = Vec::new();
+        for cell in &self.cells {
+            if !tasks.contains(&cell.0.as_str()) {
+                tasks.push(&cell.0);
+            }
+        }
+        tasks
+    }
+
+    /// The part of the plan whose tasks pass `keep`.
+    fn only(&self, keep: impl Fn(&str) -> bool) -> Plan {
+        let cells = self.cells.iter().filter(|c| keep(&c.0)).cloned().collect();
+        Plan { cells }
+    }
 }
 
 /// Reads `ROOT/ARM/TASK__ALGO__SEED/eval.json` for every arm.
@@ -423,8 +445,7 @@ fn task_kind(task: &str) -> &str {
 /// where an arm fails, which the tallies' totals do not say. A reading aid, not a rule.
 fn kinds_table(arms: &Arms, plan: &Plan) -> String {
     let mut kinds: Vec<&str> = Vec::new();
-    for cell in &plan.cells {
-        let kind = task_kind(&cell.0);
+    for kind in plan.tasks().into_iter().map(task_kind) {
         if !kinds.contains(&kind) {
             kinds.push(kind);
         }
@@ -436,14 +457,7 @@ fn kinds_table(arms: &Arms, plan: &Plan) -> String {
     );
     let of_kind: Vec<Plan> = kinds
         .iter()
-        .map(|kind| Plan {
-            cells: plan
-                .cells
-                .iter()
-                .filter(|c| task_kind(&c.0) == *kind)
-                .cloned()
-                .collect(),
-        })
+        .map(|kind| plan.only(|task| task_kind(task) == *kind))
         .collect();
     for (arm, runs) in arms {
         out += &format!("| {arm} |");
@@ -459,12 +473,6 @@ fn kinds_table(arms: &Arms, plan: &Plan) -> String {
 /// Each arm's mean settled error on each task of the plan, with its failed seeds, and the arm of
 /// the lowest mean: which agent to prefer on which layout. A reading aid, not a rule.
 fn layouts_table(arms: &Arms, plan: &Plan) -> String {
-    let mut tasks: Vec<&str> = Vec::new();
-    for cell in &plan.cells {
-        if !tasks.contains(&cell.0.as_str()) {
-            tasks.push(&cell.0);
-        }
-    }
     let names: Vec<&str> = arms.keys().map(String::as_str).collect();
     let mut out = format!(
         "\nMean settled error of the finished runs on each task (failed seeds / finished runs),\n\
@@ -473,17 +481,15 @@ fn layouts_table(arms: &Arms, plan: &Plan) -> String {
         names.join(" | "),
         "---:|".repeat(names.len())
     );
-    for task in tasks {
-        let part = Plan {
-            cells: plan.cells.iter().filter(|c| c.0 == task).cloned().collect(),
-        };
+    for task in plan.tasks() {
+        let part = plan.only(|t| t == task);
         out += &format!("| {} |", task_label(task));
         // A comparison needs every arm's runs: until then the last column stays empty.
         let mut lowest: Option<(&str, f64)> = None;
         let mut complete = true;
         for (arm, runs) in arms {
             let t = tally(runs, &part);
-            complete &= t.finished == part.cells.len();
+            complete &= part.complete(runs);
             match mean_interval(&t.errors) {
                 Some(m) => {
                     out += &format!(" {:.3} ({}/{}) |", m.mean, t.failed, t.finished);
@@ -695,32 +701,22 @@ fn confirm_verdict(arms: &Arms, plan: &Plan, winner: &str) -> String {
             format!("seeds {pinwheel_fails:?} fail")
         }
     );
-    // A comparison with the baselines waits for all their runs of the cells it reads.
-    let finished = |arm: &str, cells: &[&Cell]| {
-        arms.get(arm)
-            .is_some_and(|r| cells.iter().all(|c| r.contains_key(*c)))
-    };
-    let mean_of = |arm: &str, cells: &[&Cell], value: fn(&Outcome) -> f64| {
-        let v: Vec<f64> = cells.iter().map(|c| value(&arms[arm][*c])).collect();
+    // A comparison with the baselines waits for all their runs of the part it reads.
+    let finished = |arm: &str, part: &Plan| arms.get(arm).is_some_and(|r| part.complete(r));
+    let mean_of = |arm: &str, part: &Plan, value: fn(&Outcome) -> f64| {
+        let v: Vec<f64> = part.finished(&arms[arm]).into_iter().map(value).collect();
         mean_interval(&v).map_or(f64::NAN, |m| m.mean)
     };
-    let mut layouts: Vec<&String> = plan
-        .cells
-        .iter()
-        .map(|c| &c.0)
-        .filter(|t| *t != PINWHEEL)
-        .collect();
-    layouts.dedup();
-    for layout in layouts {
-        let cells: Vec<&Cell> = plan.cells.iter().filter(|c| &c.0 == layout).collect();
-        if !BASELINES.iter().all(|b| finished(b, &cells)) {
+    for layout in plan.tasks().into_iter().filter(|t| *t != PINWHEEL) {
+        let part = plan.only(|t| t == layout);
+        if !BASELINES.iter().all(|b| finished(b, &part)) {
             out += &format!("Goal, {layout}: not every baseline run is in.\n");
             continue;
         }
-        let own = mean_of(default, &cells, |o| o.error);
+        let own = mean_of(default, &part, |o| o.error);
         let (best, theirs) = BASELINES
             .iter()
-            .map(|b| (*b, mean_of(b, &cells, |o| o.error)))
+            .map(|b| (*b, mean_of(b, &part, |o| o.error)))
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .expect("four baselines");
         out += &format!(
@@ -728,11 +724,10 @@ fn confirm_verdict(arms: &Arms, plan: &Plan, winner: &str) -> String {
             if own <= theirs { "no worse" } else { "worse" }
         );
     }
-    let all: Vec<&Cell> = plan.cells.iter().collect();
-    out += &if finished("ddpg", &all) {
+    out += &if finished("ddpg", plan) {
         let (own, theirs) = (
-            mean_of(default, &all, |o| o.stuck),
-            mean_of("ddpg", &all, |o| o.stuck),
+            mean_of(default, plan, |o| o.stuck),
+            mean_of("ddpg", plan, |o| o.stuck),
         );
         format!(
             "Goal, stuck at the margin: {own:.3} against DDPG's {theirs:.3}: {}.\n",
