@@ -659,6 +659,10 @@ fn confirm_verdict(arms: &Arms, plan: &Plan, winner: &str) -> String {
         );
         return out;
     }
+    if !arms.contains_key(REFERENCE) {
+        out += &format!("\nIncomplete: no run of {REFERENCE} in the record yet.\n");
+        return out;
+    }
     let failed = paired(arms, plan, winner, |o| f64::from(u8::from(o.failed())));
     let error = paired(arms, plan, winner, |o| o.error);
     out += &format!(
@@ -959,6 +963,10 @@ mod tests {
         let v = confirm_verdict(&d, &plan, "w");
         assert!(v.contains("| A0 | 2 of 4 |"), "{v}");
         assert!(v.contains("Incomplete: no run of w"), "{v}");
+        // A record of the winner alone is incomplete too, not a panic.
+        let e = arms(&plan, &[("w", &[Some(0.1), None, None, None])]);
+        let v = confirm_verdict(&e, &plan, "w");
+        assert!(v.contains("Incomplete: no run of A0"), "{v}");
     }
 
     /// A scratch folder of its own per test, in the system's temporary folder.
