@@ -1,0 +1,130 @@
+#!/usr/bin/env bash
+# Carries a `reproduce` grid's finished runs to another machine, for a grid run in parts on
+# machines whose disks do not outlive the part (a fresh VM each time, a cluster's scratch space):
+#
+#   scripts/runs-archive.sh save OUT ARCHIVES      # the runs finished since the last save
+#   scripts/runs-archive.sh restore ARCHIVES OUT   # every saved run, into a fresh OUT
+#
+# then `host-trainer reproduce ... --out OUT` carries on with the runs not yet finished, and
+# `--merge` builds the page from OUT as if every run had been made there.
+#
+# `save` writes ARCHIVES/NNN.tar.xz (the next free number) holding, for every run of OUT that
+# finished (its eval.json is written) and is in no earlier archive, the files the results page
+# reads and a reader would want: config.toml, scenario.toml, eval.json, metrics.csv, the blobs
+# and the run's sweep logs; the logs and markers of failed runs, so they still count as failed;
+# and OUT's grid record and part records (grid.json, parts/*.json: commit and wall time of each
+# part), whose newest copy wins on restore. It leaves out what a finished run no longer needs:
+# checkpoints (about 20 MB a run, for resuming), locks and the learning-curve SVG (metrics.csv
+# holds its numbers). Nothing new finished: it says so and writes nothing. The archive is
+# written under a temporary name and linked into place, so a killed save leaves no half archive
+# and two saves never take the same number.
+#
+# `restore` unpacks every archive in number order into OUT, which must be empty or absent: it
+# never writes over runs that are already there, and a corrupt archive leaves OUT as it was.
+#
+# Exit codes: 0 done, 1 a command failed, 2 bad arguments.
+set -euo pipefail
+
+usage() {
+    echo "usage: $0 save OUT ARCHIVES | restore ARCHIVES OUT" >&2
+    exit 2
+}
+die() {
+    echo "runs-archive: $*" >&2
+    exit 2
+}
+[[ $# -eq 3 ]] || usage
+
+# The archives of a folder, in number order (NNN.tar.xz only).
+archives_in() {
+    find "$1" -maxdepth 1 -type f -name '[0-9][0-9][0-9].tar.xz' -printf '%f\n' | sort
+}
+
+save() {
+    local out=$1 dir=$2
+    [[ -f "$out/grid.json" ]] || die "$out holds no grid (no grid.json): not a reproduce --out folder"
+    mkdir -p "$dir" || die "cannot create $dir"
+    [[ -w "$dir" ]] || die "cannot write to $dir"
+    dir="$(realpath "$dir")"
+    cd "$out"
+
+    # Runs in earlier archives, as their eval.json paths.
+    saved="$(mktemp)"
+    list="$(mktemp)"
+    trap 'rm -f "$saved" "$list" "${tmp:-}"' EXIT
+    local a
+    while read -r a; do
+        [[ -n "$a" ]] || continue
+        tar -tJf "$dir/$a" | grep '/eval\.json$' >>"$saved" || true
+    done < <(archives_in "$dir")
+
+    local eval run cell name new=0
+    while read -r eval; do
+        grep -qxF "$eval" "$saved" && continue
+        run="$(dirname "$eval")"
+        cell="$(dirname "$run")"
+        name="$(basename "$run")"
+        find "$run" -maxdepth 1 -type f ! -name 'checkpoint*' ! -name '.*' ! -name '*.svg' \
+            ! -name '*.tmp' | sort >>"$list"
+        find "$cell/sweep-logs" -maxdepth 1 -type f -name "$name.*" 2>/dev/null | sort >>"$list"
+        new=$((new + 1))
+    done < <(find runs -mindepth 3 -maxdepth 3 -type f -name eval.json | sort)
+    # Failed runs: their markers and logs (a later save adds the same small files again).
+    find runs -mindepth 3 -maxdepth 3 -path '*/sweep-logs/*.failed' -type f | sort |
+        while read -r marker; do
+            echo "$marker"
+            if [[ -f "${marker%.failed}.log" ]]; then echo "${marker%.failed}.log"; fi
+        done >>"$list"
+    if [[ $new -eq 0 ]]; then
+        echo "runs-archive: no run of $out finished since the last save; nothing written"
+        return 0
+    fi
+    echo grid.json >>"$list"
+    find parts -maxdepth 1 -type f -name '*.json' 2>/dev/null >>"$list" || true
+
+    local last next
+    last="$(archives_in "$dir" | tail -n 1)"
+    last="${last%.tar.xz}"
+    next="$(printf '%03d' $((10#${last:-000} + 1)))"
+    tmp="$dir/.$next.tar.xz.$$.tmp"
+    tar -cf - --no-recursion -T "$list" | xz -9 >"$tmp"
+    # A hard link fails if the name is taken: a save racing this one keeps its own archive.
+    ln "$tmp" "$dir/$next.tar.xz" 2>/dev/null ||
+        die "$dir/$next.tar.xz appeared while saving (another save?); run save again"
+    rm -f "$tmp"
+    echo "runs-archive: $new finished runs of $out saved in $dir/$next.tar.xz" \
+        "($(du -k "$dir/$next.tar.xz" | cut -f1) KiB)"
+}
+
+restore() {
+    local dir=$1 out=$2
+    [[ -d "$dir" ]] || die "no archive folder $dir"
+    local names
+    names="$(archives_in "$dir")"
+    [[ -n "$names" ]] || die "$dir holds no archive (NNN.tar.xz)"
+    if [[ -e "$out" ]]; then
+        [[ -d "$out" ]] || die "$out exists and is not a folder"
+        [[ -z "$(ls -A "$out")" ]] || die "$out is not empty: restore writes only into a fresh folder"
+    fi
+    # Unpacked beside OUT and moved into place whole: a corrupt archive leaves OUT as it was.
+    staging="$(mktemp -d "$(dirname "$out")/.restore.XXXXXX")" || die "cannot write beside $out"
+    trap 'rm -rf "$staging"' EXIT
+    chmod go+rx "$staging"
+    local a
+    for a in $names; do
+        tar -xJf "$dir/$a" -C "$staging" || {
+            echo "runs-archive: $dir/$a does not unpack; $out left as it was" >&2
+            exit 1
+        }
+    done
+    if [[ -d "$out" ]]; then rmdir "$out"; fi
+    mv -T "$staging" "$out"
+    echo "runs-archive: $(find "$out/runs" -mindepth 3 -maxdepth 3 -name eval.json | wc -l)" \
+        "finished runs restored into $out from $(wc -w <<<"$names") archives"
+}
+
+case "$1" in
+save) save "$2" "$3" ;;
+restore) restore "$2" "$3" ;;
+*) usage ;;
+esac
