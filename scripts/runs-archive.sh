@@ -42,7 +42,8 @@ archives_in() {
 
 save() {
     local out=$1 dir=$2
-    [[ -f "$out/grid.json" ]] || die "$out holds no grid (no grid.json): not a reproduce --out folder"
+    [[ -f "$out/grid.json" ]] ||
+        die "$out holds no grid (no grid.json): not a reproduce --out folder"
     mkdir -p "$dir" || die "cannot create $dir"
     [[ -w "$dir" ]] || die "cannot write to $dir"
     dir="$(realpath "$dir")"
@@ -104,7 +105,8 @@ restore() {
     [[ -n "$names" ]] || die "$dir holds no archive (NNN.tar.xz)"
     if [[ -e "$out" ]]; then
         [[ -d "$out" ]] || die "$out exists and is not a folder"
-        [[ -z "$(ls -A "$out")" ]] || die "$out is not empty: restore writes only into a fresh folder"
+        [[ -z "$(ls -A "$out")" ]] ||
+            die "$out is not empty: restore writes only into a fresh folder"
     fi
     # Unpacked beside OUT and moved into place whole: a corrupt archive leaves OUT as it was.
     staging="$(mktemp -d "$(dirname "$out")/.restore.XXXXXX")" || die "cannot write beside $out"
