@@ -15,7 +15,7 @@
 # and OUT's grid record and part records (grid.json, parts/*.json: commit and wall time of each
 # part), whose newest copy wins on restore. It leaves out what a finished run no longer needs:
 # checkpoints (about 20 MB a run, for resuming), locks and the learning-curve SVG (metrics.csv
-# holds its numbers). Nothing new finished: it says so and writes nothing. The archive is
+# holds its numbers). Nothing new finished or failed: it says so and writes nothing. The archive is
 # written under a temporary name and linked into place, so a killed save leaves no half archive
 # and two saves never take the same number.
 #
@@ -49,14 +49,14 @@ save() {
     dir="$(realpath "$dir")"
     cd "$out"
 
-    # Runs in earlier archives, as their eval.json paths.
+    # Runs in earlier archives, as their eval.json paths and failure markers.
     saved="$(mktemp)"
     list="$(mktemp)"
     trap 'rm -f "$saved" "$list" "${tmp:-}"' EXIT
     local a
     while read -r a; do
         [[ -n "$a" ]] || continue
-        tar -tJf "$dir/$a" | grep '/eval\.json$' >>"$saved" || true
+        tar -tJf "$dir/$a" | grep -E '/eval\.json$|\.failed$' >>"$saved" || true
     done < <(archives_in "$dir")
 
     local eval run cell name new=0
@@ -70,14 +70,16 @@ save() {
         find "$cell/sweep-logs" -maxdepth 1 -type f -name "$name.*" 2>/dev/null | sort >>"$list"
         new=$((new + 1))
     done < <(find runs -mindepth 3 -maxdepth 3 -type f -name eval.json | sort)
-    # Failed runs: their markers and logs (a later save adds the same small files again).
-    find runs -mindepth 3 -maxdepth 3 -path '*/sweep-logs/*.failed' -type f | sort |
-        while read -r marker; do
-            echo "$marker"
-            if [[ -f "${marker%.failed}.log" ]]; then echo "${marker%.failed}.log"; fi
-        done >>"$list"
+    # Failed runs not saved yet: their markers and logs, so they still count as failed.
+    local marker
+    while read -r marker; do
+        grep -qxF "$marker" "$saved" && continue
+        echo "$marker" >>"$list"
+        if [[ -f "${marker%.failed}.log" ]]; then echo "${marker%.failed}.log" >>"$list"; fi
+        new=$((new + 1))
+    done < <(find runs -mindepth 3 -maxdepth 3 -path '*/sweep-logs/*.failed' -type f | sort)
     if [[ $new -eq 0 ]]; then
-        echo "runs-archive: no run of $out finished since the last save; nothing written"
+        echo "runs-archive: no run of $out finished or failed since the last save; nothing written"
         return 0
     fi
     echo grid.json >>"$list"
@@ -93,7 +95,7 @@ save() {
     ln "$tmp" "$dir/$next.tar.xz" 2>/dev/null ||
         die "$dir/$next.tar.xz appeared while saving (another save?); run save again"
     rm -f "$tmp"
-    echo "runs-archive: $new finished runs of $out saved in $dir/$next.tar.xz" \
+    echo "runs-archive: $new finished or failed runs of $out saved in $dir/$next.tar.xz" \
         "($(du -k "$dir/$next.tar.xz" | cut -f1) KiB)"
 }
 
