@@ -18,6 +18,7 @@ use firmware_sim::nav::test_protocol::{self, EvalConfig};
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::folder::{Finished, Outcome};
 use super::grid::{Agent, Cell, GridRun, Walls, AGENTS};
@@ -224,9 +225,17 @@ pub fn settled_error_boxes(all: &[(GridRun, Outcome)]) -> Result<String, Error> 
     let mut text = String::new();
     {
         let root = SVGBackend::with_string(&mut text, (900, 420)).into_drawing_area();
-        draw_boxes(&root, &boxes, top * 1.05).map_err(|e| drawing("box plots", e))?;
+        draw_boxes(&root, &boxes, top * 1.1).map_err(|e| drawing("box plots", e))?;
     }
     Ok(text)
+}
+
+/// A small label centred on its point and standing on it, so it never covers the mark below.
+fn label_above() -> TextStyle<'static> {
+    ("sans-serif", 10)
+        .into_font()
+        .color(&BLACK)
+        .pos(Pos::new(HPos::Center, VPos::Bottom))
 }
 
 type Boxes = (Option<[f64; 5]>, Option<[f64; 5]>, usize, usize);
@@ -311,8 +320,8 @@ fn draw_boxes(root: &DrawingArea<SVGBackend<'_>, Shift>, boxes: &[Boxes], top: f
             }
             chart.draw_series(std::iter::once(Text::new(
                 format!("n={n}"),
-                (x - half, hi + top * 0.01),
-                ("sans-serif", 10),
+                (x, hi + top * 0.01),
+                label_above(),
             )))?;
         }
     }
@@ -389,11 +398,8 @@ fn draw_steps(root: &DrawingArea<SVGBackend<'_>, Shift>, bars: &[Bar], top: f64)
             }
             chart.draw_series(std::iter::once(Text::new(
                 format!("{k}/{n}"),
-                (
-                    x - 0.12,
-                    top * 0.02 + m.map_or(0.0, |(mean, half)| mean + half),
-                ),
-                ("sans-serif", 10),
+                (x, top * 0.01 + m.map_or(0.0, |(mean, half)| mean + half)),
+                label_above(),
             )))?;
         }
     }
