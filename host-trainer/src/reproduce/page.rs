@@ -359,13 +359,10 @@ pub fn verdicts(all: &[(GridRun, Outcome)]) -> String {
     let missing: usize = LARGE_SIGMAS
         .iter()
         .map(|&sigma| {
-            ["ddpg", "dcp-paper"]
-                .iter()
-                .map(|name| {
-                    CellRuns::of(all, &noise_cell(name, sigma))
-                        .count(|o| matches!(o, Outcome::Missing))
-                })
-                .sum::<usize>()
+            missing_runs(all, &["ddpg", "dcp-paper"], |a| Cell {
+                sigma: Some(sigma),
+                ..Cell::headline(a)
+            })
         })
         .sum();
     let _ = writeln!(
