@@ -111,6 +111,8 @@ restore() {
             die "$out is not empty: restore writes only into a fresh folder"
     fi
     # Unpacked beside OUT and moved into place whole: a corrupt archive leaves OUT as it was.
+    # OUT's parent is made first: on a fresh clone `runs/` does not exist yet.
+    mkdir -p "$(dirname "$out")" || die "cannot create the folder that holds $out"
     staging="$(mktemp -d "$(dirname "$out")/.restore.XXXXXX")" || die "cannot write beside $out"
     trap 'rm -rf "$staging"' EXIT
     chmod go+rx "$staging"
