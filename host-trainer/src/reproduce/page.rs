@@ -519,6 +519,13 @@ mod tests {
         &line[from..from + line[from..].find("**").expect("bold")]
     }
 
+    /// Each claim's verdict in `text` is the one expected.
+    fn assert_verdicts(text: &str, expected: &[(&str, &str)]) {
+        for (claim, verdict) in expected {
+            assert_eq!(verdict_of(text, claim), *verdict, "{claim}: {text}");
+        }
+    }
+
     #[test]
     fn the_claims_follow_their_rules() {
         let jitter = |seed: u64| 0.01 * seed as f64;
@@ -534,18 +541,15 @@ mod tests {
             }
         });
         let text = verdicts(&story);
-        assert_eq!(
-            verdict_of(&text, "Claim 1, first half"),
-            "reproduced",
-            "{text}"
+        assert_verdicts(
+            &text,
+            &[
+                ("Claim 1, first half", "reproduced"),
+                ("Claim 1, second half", "reproduced"),
+                ("Claim 2", "reproduced"),
+                ("Claim 3", "reproduced"),
+            ],
         );
-        assert_eq!(
-            verdict_of(&text, "Claim 1, second half"),
-            "reproduced",
-            "{text}"
-        );
-        assert_eq!(verdict_of(&text, "Claim 2"), "reproduced", "{text}");
-        assert_eq!(verdict_of(&text, "Claim 3"), "reproduced", "{text}");
         // The other way round, and a tie.
         let reversed = grid_with(|cell, seed| {
             let agent = cell.agent.name;
@@ -558,18 +562,15 @@ mod tests {
             }
         });
         let text = verdicts(&reversed);
-        assert_eq!(
-            verdict_of(&text, "Claim 1, first half"),
-            "contradicted",
-            "{text}"
+        assert_verdicts(
+            &text,
+            &[
+                ("Claim 1, first half", "contradicted"),
+                ("Claim 1, second half", "contradicted"),
+                ("Claim 2", "not reproduced"),
+                ("Claim 3", "contradicted"),
+            ],
         );
-        assert_eq!(
-            verdict_of(&text, "Claim 1, second half"),
-            "contradicted",
-            "{text}"
-        );
-        assert_eq!(verdict_of(&text, "Claim 2"), "not reproduced", "{text}");
-        assert_eq!(verdict_of(&text, "Claim 3"), "contradicted", "{text}");
     }
 
     #[test]
@@ -592,20 +593,13 @@ mod tests {
             }
         }
         let text = verdicts(&story);
-        assert_eq!(
-            verdict_of(&text, "Claim 1, first half"),
-            "reproduced",
-            "{text}"
-        );
-        assert_eq!(
-            verdict_of(&text, "Claim 2"),
-            "undecided (1 of its runs missing)",
-            "{text}"
-        );
-        assert_eq!(
-            verdict_of(&text, "Claim 3"),
-            "undecided (1 of its runs missing)",
-            "{text}"
+        assert_verdicts(
+            &text,
+            &[
+                ("Claim 1, first half", "reproduced"),
+                ("Claim 2", "undecided (1 of its runs missing)"),
+                ("Claim 3", "undecided (1 of its runs missing)"),
+            ],
         );
     }
 
