@@ -139,6 +139,27 @@ pub fn table2(all: &[(GridRun, Outcome)]) -> String {
     t
 }
 
+/// The layouts table: every agent with and without walls (4×48, GR), the cells of figures 4–7
+/// and of claim 1's second half, whose open-arena rows no other table shows.
+pub fn layouts_table(all: &[(GridRun, Outcome)]) -> String {
+    let mut t = format!("| agent | layout {}", HEADER);
+    t.push_str(
+        "|---|---|---|---|---|---|---|---|---|---|
+",
+    );
+    for agent in AGENTS {
+        for (walls, layout) in [(Walls::With, "pinwheel"), (Walls::Without, "open arena")] {
+            let cell = Cell {
+                walls,
+                ..Cell::headline(agent)
+            };
+            let row = metrics_row(&CellRuns::of(all, &cell));
+            let _ = writeln!(t, "| {} | {layout} {row}", agent.name);
+        }
+    }
+    t
+}
+
 /// Training failures (success below [`TRAINING_FAILURE`], or a failed run) per seed: 1 or 0.
 fn failures(all: &[(GridRun, Outcome)], cell: &Cell) -> Vec<(u64, f64)> {
     CellRuns::of(all, cell)
@@ -452,6 +473,11 @@ pub fn body(grid: &Grid, all: &[(GridRun, Outcome)]) -> String {
     );
     let _ = writeln!(
         page,
+        "## With and without walls (4×48, GR: the runs of figures 4–7 and of claim 1)\n\n{}",
+        layouts_table(all)
+    );
+    let _ = writeln!(
+        page,
         "## Run time per agent\n\nSeconds of training per run, from each run's `metrics.csv` \
          (episodes only; evaluation and checkpoints left out), on the machines and loads of the \
          parts above.\n\n{}",
@@ -613,6 +639,24 @@ mod tests {
             "{table}"
         );
         assert_eq!(table.lines().count(), 2 + AGENTS.len());
+    }
+
+    #[test]
+    fn the_layouts_table_has_both_layouts_of_every_agent() {
+        let all = grid_with(|cell, seed| match cell.walls {
+            Walls::With => 0.5 + 0.1 * seed as f64,
+            Walls::Without => 1.0,
+        });
+        let table = layouts_table(&all);
+        assert_eq!(table.lines().count(), 2 + 2 * AGENTS.len());
+        assert!(
+            table.contains("| ddpg | pinwheel | 5 / 0 / 0 | 0.70 ± 0.20 |"),
+            "{table}"
+        );
+        assert!(
+            table.contains("| ddpg | open arena | 5 / 0 / 0 | 1.00 ± 0.00 |"),
+            "{table}"
+        );
     }
 
     #[test]
