@@ -105,59 +105,64 @@ fn reward_name(r: RewardKind) -> &'static str {
     }
 }
 
-/// Table 1: every agent at every network size on the pinwheel.
-pub fn table1(all: &[(GridRun, Outcome)]) -> String {
-    let mut t = format!("| agent | hidden {}", HEADER);
+/// A table of [`metrics_row`]s, one per `(setting, cell)` of `rows`, under a header whose second
+/// column is `setting`.
+fn metrics_table(
+    all: &[(GridRun, Outcome)],
+    setting: &str,
+    rows: impl IntoIterator<Item = (String, Cell)>,
+) -> String {
+    let mut t = format!("| agent | {setting} {HEADER}");
     t.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
-    for agent in AGENTS {
-        for size in SIZES {
-            let cell = Cell {
-                size,
-                ..Cell::headline(agent)
-            };
-            let row = metrics_row(&CellRuns::of(all, &cell));
-            let _ = writeln!(t, "| {} | {}×{} {row}", agent.name, size.0, size.1);
-        }
+    for (value, cell) in rows {
+        let row = metrics_row(&CellRuns::of(all, &cell));
+        let _ = writeln!(t, "| {} | {value} {row}", cell.agent.name);
     }
     t
 }
 
+/// Table 1: every agent at every network size on the pinwheel.
+pub fn table1(all: &[(GridRun, Outcome)]) -> String {
+    let rows = AGENTS.into_iter().flat_map(|agent| {
+        SIZES.into_iter().map(move |size| {
+            let cell = Cell {
+                size,
+                ..Cell::headline(agent)
+            };
+            (format!("{}×{}", size.0, size.1), cell)
+        })
+    });
+    metrics_table(all, "hidden", rows)
+}
+
 /// Table 2: every agent under the three rewards (4×48, the pinwheel).
 pub fn table2(all: &[(GridRun, Outcome)]) -> String {
-    let mut t = format!("| agent | reward {}", HEADER);
-    t.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
-    for agent in AGENTS {
-        for reward in REWARDS {
+    let rows = AGENTS.into_iter().flat_map(|agent| {
+        REWARDS.into_iter().map(move |reward| {
             let cell = Cell {
                 reward,
                 ..Cell::headline(agent)
             };
-            let row = metrics_row(&CellRuns::of(all, &cell));
-            let _ = writeln!(t, "| {} | {} {row}", agent.name, reward_name(reward));
-        }
-    }
-    t
+            (reward_name(reward).to_string(), cell)
+        })
+    });
+    metrics_table(all, "reward", rows)
 }
 
 /// The layouts table: every agent with and without walls (4×48, GR), the cells of figures 4–7
 /// and of claim 1's second half, whose open-arena rows no other table shows.
 pub fn layouts_table(all: &[(GridRun, Outcome)]) -> String {
-    let mut t = format!("| agent | layout {}", HEADER);
-    t.push_str(
-        "|---|---|---|---|---|---|---|---|---|---|
-",
-    );
-    for agent in AGENTS {
-        for (walls, layout) in [(Walls::With, "pinwheel"), (Walls::Without, "open arena")] {
+    let layouts = [(Walls::With, "pinwheel"), (Walls::Without, "open arena")];
+    let rows = AGENTS.into_iter().flat_map(move |agent| {
+        layouts.into_iter().map(move |(walls, layout)| {
             let cell = Cell {
                 walls,
                 ..Cell::headline(agent)
             };
-            let row = metrics_row(&CellRuns::of(all, &cell));
-            let _ = writeln!(t, "| {} | {layout} {row}", agent.name);
-        }
-    }
-    t
+            (layout.to_string(), cell)
+        })
+    });
+    metrics_table(all, "layout", rows)
 }
 
 /// Training failures (success below [`TRAINING_FAILURE`], or a failed run) per seed: 1 or 0.
