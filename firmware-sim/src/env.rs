@@ -37,6 +37,9 @@ pub struct StepInfo {
     pub applied: Vec<f32>,
     /// Whether the step touched a hard margin (a wall, a joint limit).
     pub margin_touched: bool,
+    /// The plant's own verdict on the episode so far, if it has one (a goal reached): what a
+    /// test protocol for any plant counts as success (docs/own-plant.md).
+    pub success: Option<bool>,
 }
 
 /// The result of one step.
@@ -65,6 +68,12 @@ pub trait Env {
     fn reset(&mut self, seed: u64) -> Vec<f32>;
     /// Applies one action. Non-finite components are treated as 0 by every plant.
     fn step(&mut self, action: &[f32]) -> Step;
+    /// Why the plant cannot go on, if it cannot: a plant in another process that exited, hung
+    /// or answered out of its boxes. Such a plant ends every episode at once from then on, and
+    /// the loop that runs it stops with this error. In-process plants never fail.
+    fn failure(&self) -> Option<crate::Error> {
+        None
+    }
 }
 
 /// What one agent of a [`Plant`] is: its name and its boxes.
@@ -146,6 +155,10 @@ pub trait Plant: std::fmt::Debug {
     /// Applies the action of the agent the last [`Turn`] named; runs the plant to the next
     /// decision point or the end of the episode. Non-finite components are treated as 0.
     fn act(&mut self, action: &[f32]) -> Turn;
+    /// Why the plant cannot go on, if it cannot (see [`Env::failure`]).
+    fn failure(&self) -> Option<crate::Error> {
+        None
+    }
 }
 
 /// Every one-agent [`Env`] is a [`Plant`] whose agent decides every step.
@@ -187,5 +200,9 @@ impl<E: Env + std::fmt::Debug> Plant for E {
             }],
             info: step.info,
         }
+    }
+
+    fn failure(&self) -> Option<crate::Error> {
+        Env::failure(self)
     }
 }

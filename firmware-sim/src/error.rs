@@ -70,6 +70,14 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+    /// A plant in another process (the plant link) could not start, stopped answering, or
+    /// answered outside the protocol or its own boxes.
+    Plant {
+        /// The plant's command, as given.
+        plant: String,
+        /// Which request failed and what was expected.
+        message: String,
+    },
     /// An evaluation or fault setting is out of range.
     Config {
         /// The setting.
@@ -117,6 +125,7 @@ impl fmt::Display for Error {
             Error::Player { player, message } => {
                 write!(f, "player {player:?}: {message}")
             }
+            Error::Plant { plant, message } => write!(f, "plant {plant:?}: {message}"),
             Error::Config { field, message } => write!(f, "{field}: {message}"),
             Error::Hil(message) => write!(f, "{message}"),
         }

@@ -17,6 +17,8 @@
 //!   [`mod@pass`]: a run's verdict.
 //! - [`files`]: atomic output files, output paths checked before work, bounded blob reads;
 //!   [`seed`]: the random streams; [`error`]: the crate's one error type.
+//! - [`plant_link`]: a plant in another process, any language, over its standard input and
+//!   output: the host's side ([`plant_link::child`]) and the plant's ([`plant_link::serve`]).
 //! - [`hil`]: hardware in the loop: the HIL firmware (under QEMU or on a board) computes
 //!   every action, as a [`controller::Controller`] the test protocol runs unchanged.
 //! - [`nav`]: the navigation plant of experiment 1, its layouts, reference controllers and test
@@ -37,6 +39,7 @@ pub mod heads;
 pub mod hil;
 pub mod nav;
 pub mod pass;
+pub mod plant_link;
 pub mod refine;
 pub mod seed;
 pub mod sensor;

@@ -21,6 +21,7 @@ use commands::heatmap::{heatmap, HeatmapArgs};
 use commands::play::{play, MatchArgs};
 use commands::run::{run, RunArgs};
 use commands::scenario::{generate_layout, ScenarioCommand};
+use commands::serve_plant::{serve_plant, ServePlantArgs};
 use commands::teams::{teams, TeamsArgs};
 
 #[derive(Parser, Debug)]
@@ -50,6 +51,9 @@ enum Command {
     /// Draw a badminton critic's Q over the court as SVG: the catch critic over the targets it
     /// can ask for, the serve critic over the landing points of its serves.
     Heatmap(HeatmapArgs),
+    /// Serve a navigation scenario's plant over standard input and output with the plant link
+    /// (docs/own-plant.md), for a Gymnasium environment or any other client.
+    ServePlant(ServePlantArgs),
 }
 
 fn main() -> ExitCode {
@@ -70,6 +74,7 @@ fn main() -> ExitCode {
         Command::Scenario(ScenarioCommand::Generate(args)) => generate_layout(args),
         Command::Heatmap(args) => heatmap(args),
         Command::Teams(args) => teams(args),
+        Command::ServePlant(args) => serve_plant(args),
     };
     match outcome {
         Ok(true) => ExitCode::SUCCESS,

@@ -268,31 +268,51 @@ pub fn encode_version<'b, M: Serialize>(
 ) -> Result<&'b [u8], Error> {
     let mut body = [0u8; MAX_FRAME];
     let body = postcard::to_slice(message, &mut body).map_err(|_| Error::TooLong)?;
+    frame_body(body, version, buf)
+}
+
+/// Frames a message's postcard bytes `body` under `version` into `out`: the envelope, its
+/// CRC-32, COBS and the `0x00` delimiter. Returns the frame. This is the framing of every link
+/// the project speaks (the chip's here; firmware-sim's plant link, whose messages are larger
+/// and allocated, calls it with its own version and buffer).
+///
+/// ```
+/// let mut out = [0u8; 32];
+/// let frame = hil_protocol::frame_body(&[7, 1], 3, &mut out).unwrap();
+/// let mut wire = frame[..frame.len() - 1].to_vec();
+/// assert_eq!(hil_protocol::unframe(&mut wire).unwrap(), (3, &[7u8, 1][..]));
+/// ```
+pub fn frame_body<'b>(body: &[u8], version: u16, out: &'b mut [u8]) -> Result<&'b [u8], Error> {
     let envelope = Envelope { version, body };
-    let cobs = Cobs::try_new(Slice::new(buf)).map_err(|_| Error::TooLong)?;
+    let cobs = Cobs::try_new(Slice::new(out)).map_err(|_| Error::TooLong)?;
     let frame = postcard::serialize_with_flavor(&envelope, CrcModifier::new(cobs, CRC.digest()))
         .map_err(|_| Error::TooLong)?;
     Ok(frame)
 }
 
-/// Reads the message of one frame: `frame` holds the bytes before the delimiter (decoded in
-/// place).
-pub fn decode<'a, M: Deserialize<'a>>(frame: &'a mut [u8]) -> Result<M, Error> {
+/// Undoes [`frame_body`] on the bytes before the delimiter (decoded in place): COBS, then the
+/// CRC-32; returns the version and the message's bytes, whatever the version.
+pub fn unframe(frame: &mut [u8]) -> Result<(u16, &[u8]), Error> {
     let n = cobs::decode_in_place(frame).map_err(|_| Error::Framing)?;
-    let bytes: &'a [u8] = &frame[..n];
-    let envelope: Envelope<'a> = postcard::de_flavors::crc::from_bytes_u32(bytes, CRC.digest())
+    let bytes: &[u8] = &frame[..n];
+    let envelope: Envelope<'_> = postcard::de_flavors::crc::from_bytes_u32(bytes, CRC.digest())
         .map_err(|e| match e {
             postcard::Error::DeserializeBadCrc => Error::Crc,
             postcard::Error::DeserializeUnexpectedEnd => Error::Truncated,
             _ => Error::Crc,
         })?;
-    if envelope.version != VERSION {
-        return Err(Error::Version {
-            found: envelope.version,
-        });
+    Ok((envelope.version, envelope.body))
+}
+
+/// Reads the message of one frame: `frame` holds the bytes before the delimiter (decoded in
+/// place).
+pub fn decode<'a, M: Deserialize<'a>>(frame: &'a mut [u8]) -> Result<M, Error> {
+    let (version, body) = unframe(frame)?;
+    if version != VERSION {
+        return Err(Error::Version { found: version });
     }
     // The message must fill the body: a shorter reading is another message misread.
-    match postcard::take_from_bytes(envelope.body) {
+    match postcard::take_from_bytes(body) {
         Ok((message, [])) => Ok(message),
         _ => Err(Error::Malformed),
     }

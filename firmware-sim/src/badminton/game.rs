@@ -288,6 +288,7 @@ impl Badminton {
         StepInfo {
             applied: (0..3).map(|i| unit(action, i) as f32).collect(),
             margin_touched: false,
+            success: None,
         }
     }
 
@@ -298,6 +299,7 @@ impl Badminton {
         StepInfo {
             applied: target.iter().map(|&c| c as f32).collect(),
             margin_touched: self.court.on_margin(target),
+            success: None,
         }
     }
 

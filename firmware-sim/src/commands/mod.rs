@@ -6,6 +6,7 @@ pub(crate) mod heatmap;
 pub(crate) mod play;
 pub(crate) mod run;
 pub(crate) mod scenario;
+pub(crate) mod serve_plant;
 pub(crate) mod teams;
 
 use std::io;

@@ -205,6 +205,7 @@ impl Env for NavEnv {
             let info = StepInfo {
                 applied: vec![0.0; 2],
                 margin_touched: false,
+                success: None,
             };
             return Step {
                 observation: self.observation(),
@@ -240,6 +241,7 @@ impl Env for NavEnv {
         let info = StepInfo {
             applied: vec![moved.x as f32, moved.y as f32],
             margin_touched: motion.touched,
+            success: None,
         };
         Step {
             observation: self.observation(),
