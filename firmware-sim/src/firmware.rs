@@ -10,8 +10,10 @@ use serde::{Deserialize, Serialize};
 use crate::actuator::{Actuator, ActuatorModel, ActuatorStuck};
 use crate::controller::Controller;
 use crate::env::BoxSpace;
+use crate::error::number;
 use crate::seed::stream;
 use crate::sensor::{Dropout, Sensor, SensorModel};
+use crate::Error;
 
 /// Inference time per tick (wall-clock; the only part of a report that is not deterministic).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -119,4 +121,63 @@ fn count_saturated(command: &[f32], high: &[f32], counts: &mut [u32]) {
             *n += 1;
         }
     }
+}
+
+/// Checks a sensor and an actuator model: noise and quantum finite and `>= 0`, a rate limit
+/// finite and `> 0`.
+pub(crate) fn validate_models(s: &SensorModel, a: &ActuatorModel) -> Result<(), Error> {
+    let bad = |field, message| Err(Error::Config { field, message });
+    if !(s.noise_std.is_finite() && s.noise_std >= 0.0) {
+        return bad(
+            "sensor.noise_std",
+            format!("must be finite and >= 0, found {}", number(s.noise_std)),
+        );
+    }
+    if !(s.quantum.is_finite() && s.quantum >= 0.0) {
+        return bad(
+            "sensor.quantum",
+            format!("must be finite and >= 0, found {}", number(s.quantum)),
+        );
+    }
+    if let Some(r) = a.rate_limit {
+        if !(r.is_finite() && r > 0.0) {
+            return bad(
+                "actuator.rate_limit",
+                format!("must be finite and > 0, found {}", number(r)),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Checks the faults every plant has: a dropout probability in `[0, 1]`, a stuck dimension
+/// below the plant's `actions`.
+pub(crate) fn validate_faults(
+    dropout: Option<Dropout>,
+    stuck: Option<ActuatorStuck>,
+    actions: usize,
+) -> Result<(), Error> {
+    let bad = |message| {
+        Err(Error::Config {
+            field: "faults",
+            message,
+        })
+    };
+    if let Some(d) = dropout {
+        if !(0.0..=1.0).contains(&d.probability) {
+            return bad(format!(
+                "dropout probability must be in [0, 1], found {}",
+                number(d.probability)
+            ));
+        }
+    }
+    if let Some(s) = stuck {
+        if s.dim >= actions {
+            return bad(format!(
+                "stuck dimension must be below {actions}, found {}",
+                s.dim
+            ));
+        }
+    }
+    Ok(())
 }

@@ -17,6 +17,8 @@
 //!   [`mod@pass`]: a run's verdict.
 //! - [`files`]: atomic output files, output paths checked before work, bounded blob reads;
 //!   [`seed`]: the random streams; [`error`]: the crate's one error type.
+//! - [`plant_test`]: the test protocol for any plant: the firmware loop with its faults, the
+//!   margin figures every plant gives, and criteria the user declares.
 //! - [`plant_link`]: a plant in another process, any language, over its standard input and
 //!   output: the host's side ([`plant_link::child`]) and the plant's ([`plant_link::serve`]).
 //! - [`hil`]: hardware in the loop: the HIL firmware (under QEMU or on a board) computes
@@ -40,6 +42,7 @@ pub mod hil;
 pub mod nav;
 pub mod pass;
 pub mod plant_link;
+pub mod plant_test;
 pub mod refine;
 pub mod seed;
 pub mod sensor;

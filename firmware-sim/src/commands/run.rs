@@ -16,16 +16,20 @@ use firmware_sim::boot::{boot_or_safe_state, PlantSizes};
 use firmware_sim::controller::Controller;
 use firmware_sim::files::{self, AtomicFile};
 use firmware_sim::heads::HeadsPolicy;
-use firmware_sim::hil::chip::{describe_boot, Backend, ChipOptions};
+use firmware_sim::hil::chip::{describe_boot, Backend, ChipOptions, ChipReport};
 use firmware_sim::hil::link::{open_serial, Link};
 use firmware_sim::hil::qemu::{self, slot_addresses, Machine};
 use firmware_sim::hil::HilChip;
+use firmware_sim::nav::faults::Faults;
 use firmware_sim::nav::json_report::JsonReportWriter;
 use firmware_sim::nav::metrics::EpisodeRecord;
 use firmware_sim::nav::reference::reference;
 use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::svg::SvgWriter;
 use firmware_sim::nav::test_protocol::{evaluate_streaming, EvalConfig, Report};
+use firmware_sim::pass::PassOutcome;
+use firmware_sim::plant_link::child::{ChildPlant, Timeouts};
+use firmware_sim::plant_test::{evaluate_plant, Criteria, PlantTestConfig, SuccessRule};
 use firmware_sim::refine::RefiningPolicy;
 use firmware_sim::sensor::SensorModel;
 use firmware_sim::slots::{boot_slots, FIRMWARE_SCRATCH_WIDTH};
@@ -80,6 +84,29 @@ pub(crate) struct RunArgs {
     /// Built-in scenario name (nav-walls, nav-open) or a TOML file.
     #[arg(long, default_value = "nav-walls")]
     scenario: String,
+    /// A plant of your own instead of a scenario: "CMD ARGS" starts it as a child process that
+    /// speaks the plant link on its standard input and output (docs/own-plant.md). The test is
+    /// then the protocol for any plant: success by the plant's flag or --success-return, the
+    /// margin figures, and --faults dropout and stuck.
+    #[arg(long, conflicts_with_all = ["controller", "critic", "svg"])]
+    plant_cmd: Option<String>,
+    /// With --plant-cmd: the longest wait, in seconds, for the plant's answer to a reset or step.
+    #[arg(long, requires = "plant_cmd", default_value_t = 10.0)]
+    plant_timeout: f64,
+    /// With --plant-cmd: an episode's success is a return of at least this (instead of the
+    /// plant's own success flag).
+    #[arg(long, requires = "plant_cmd", allow_hyphen_values = true)]
+    success_return: Option<f64>,
+    /// With --plant-cmd: the smallest success rate that passes.
+    #[arg(long, requires = "plant_cmd", default_value_t = 0.8)]
+    min_success: f64,
+    /// With --plant-cmd: the largest stuck-at-margin rate that passes.
+    #[arg(long, requires = "plant_cmd", default_value_t = 0.2)]
+    max_stuck: f64,
+    /// With --plant-cmd: the longest test episode, in steps (a plant that never ends its
+    /// episodes is cut here).
+    #[arg(long, requires = "plant_cmd", default_value_t = 1000)]
+    max_steps: u32,
     /// Number of test starts, at most 1,000,000.
     #[arg(long, default_value_t = 100)]
     episodes: usize,
@@ -156,6 +183,9 @@ pub(crate) fn parse_hil(s: &str) -> Result<HilTarget, String> {
 /// Runs the evaluation; `Ok(passed)`. All input is checked before the first episode.
 pub(crate) fn run(args: &RunArgs) -> Result<bool> {
     outputs_ok(args.json.as_deref(), args.svg.as_deref())?;
+    if let Some(command) = &args.plant_cmd {
+        return run_on_plant(args, command);
+    }
     if args.scratch_width.is_some() && args.slot_a.is_none() && args.slot_b.is_none() {
         // A blob boots with the width it declares; only the firmware's slot boot has a limit.
         anyhow::bail!("--scratch-width applies to slot boots only (--slot-a/--slot-b)");
@@ -251,6 +281,109 @@ pub(crate) fn run(args: &RunArgs) -> Result<bool> {
     Ok(report.pass.passed)
 }
 
+/// `run --plant-cmd`: the test protocol for any plant, on a plant process; `Ok(passed)`.
+pub(crate) fn run_on_plant(args: &RunArgs, command: &str) -> Result<bool> {
+    let cfg = plant_test_config(args)?;
+    let timeouts = Timeouts {
+        step: seconds("--plant-timeout", args.plant_timeout)?,
+        ..Timeouts::default()
+    };
+    let bytes = read_blob(args)?;
+    let [slot_a, slot_b] = [&args.slot_a, &args.slot_b].map(|p| read_slot(p.as_deref()));
+    let (slot_a, slot_b) = (slot_a?, slot_b?);
+    let mut plant = ChildPlant::spawn(command, timeouts)?;
+    let sizes = PlantSizes::of_env(&plant);
+    cfg.validate(sizes.actions)?;
+    let name = plant.hello().name.clone();
+    let given = || match &bytes {
+        Some(blob) => Given::Blob(blob),
+        None => Given::Slots(&slot_a, &slot_b),
+    };
+    let mut report = if let Some(target) = &args.hil {
+        let (mut chip, host_error) = connect_chip(args, target, &sizes, given())?;
+        let mut report = evaluate_plant(&mut chip, &mut plant, &name, &cfg)?;
+        if let Some(e) = &host_error {
+            report.mark_boot_failure(e);
+        }
+        report.chip = Some(finish_chip(chip, &mut report.pass));
+        report
+    } else {
+        let (mut controller, boot_error) = match given() {
+            Given::Blob(blob) => boot_or_safe_state(blob, &sizes),
+            Given::Slots(a, b) => {
+                let width = args.scratch_width.unwrap_or(FIRMWARE_SCRATCH_WIDTH);
+                let boot = boot_slots(a, b, &sizes, width)?;
+                out!("{}", boot.describe());
+                (boot.controller, boot.error)
+            }
+        };
+        let mut report = evaluate_plant(controller.as_mut(), &mut plant, &name, &cfg)?;
+        if let Some(e) = &boot_error {
+            report.mark_boot_failure(e);
+        }
+        report
+    };
+    drop(plant);
+    if report.stopped.is_some() {
+        // The plant or the chip failed: the totals are those of the episodes that ran.
+        report.pass.passed = false;
+    }
+    out!("{}", report.summary());
+    if let Some(path) = &args.json {
+        let text = serde_json::to_string_pretty(&report).context("cannot write the report")?;
+        written(files::write_atomic(path, text.as_bytes()), path)?;
+    }
+    if let Some(reason) = &report.boot_error {
+        eprintln!("error: {reason} (ran in the safe state: zero action)");
+    } else if !report.pass.passed {
+        eprintln!("FAIL: {}", report.pass.failures.join("; "));
+    }
+    Ok(report.pass.passed)
+}
+
+/// The test settings of `run --plant-cmd`.
+fn plant_test_config(args: &RunArgs) -> Result<PlantTestConfig> {
+    let faults: Faults = args.faults.parse()?;
+    anyhow::ensure!(
+        faults.wall.is_none(),
+        "--faults wall:... moves navigation's walls; a plant from --plant-cmd takes the dropout \
+         and stuck faults"
+    );
+    let success = args
+        .success_return
+        .map_or(SuccessRule::PlantFlag, SuccessRule::ReturnAtLeast);
+    Ok(PlantTestConfig {
+        episodes: args.episodes,
+        seed: args.seed,
+        max_steps: args.max_steps,
+        sensor: SensorModel {
+            noise_std: args.noise,
+            quantum: args.quantum,
+            delay: args.delay,
+        },
+        actuator: ActuatorModel {
+            rate_limit: args.rate_limit,
+        },
+        dropout: faults.dropout,
+        stuck_actuator: faults.stuck,
+        criteria: Criteria {
+            success,
+            min_success_rate: args.min_success,
+            max_stuck_rate: args.max_stuck,
+            ..Criteria::default()
+        },
+    })
+}
+
+/// A time in seconds from a flag, in (0, 3600].
+fn seconds(flag: &str, s: f64) -> Result<Duration> {
+    anyhow::ensure!(
+        s.is_finite() && s > 0.0 && s <= 3600.0,
+        "{flag} must be in (0, 3600] seconds, found {s}"
+    );
+    Ok(Duration::from_secs_f64(s))
+}
+
 /// What `--hil` loads into the chip's slots.
 pub(crate) enum Given<'a> {
     Blob(&'a [u8]),
@@ -266,6 +399,46 @@ pub(crate) fn run_hil(
     given: Given<'_>,
 ) -> Result<bool> {
     let plant = PlantSizes::of(scenario)?;
+    let (mut chip, host_error) = connect_chip(args, target, &plant, given)?;
+    let mut outputs = Outputs::create(args, scenario, &chip.name())?;
+    let mut report = evaluate_streaming(&mut chip, scenario, cfg, |e| outputs.episode(&e))?;
+    if let Some(e) = &host_error {
+        report.mark_boot_failure(e);
+    }
+    let chip_report = finish_chip(chip, &mut report.pass);
+    report.chip = Some(chip_report);
+    print!("{}", report.summary());
+    outputs.finish(&report)?;
+    report_failures(&report, args.blob.as_deref());
+    Ok(report.pass.passed)
+}
+
+/// The chip's report at the end of a HIL run, its tick budget judged into `pass`; QEMU stops
+/// here, before the caller writes its outputs.
+pub(crate) fn finish_chip(chip: HilChip, pass: &mut PassOutcome) -> ChipReport {
+    let chip_report = chip.report();
+    drop(chip);
+    if chip_report.ticks_over_budget > 0 {
+        pass.passed = false;
+        pass.failures.push(format!(
+            "{} ticks took more than the tick budget of {} instructions (the most: {})",
+            chip_report.ticks_over_budget,
+            chip_report.tick_budget.unwrap_or_default(),
+            chip_report.instructions_max
+        ));
+    }
+    chip_report
+}
+
+/// Starts (QEMU) or opens (a board) the chip with the given slots, checks that it runs what the
+/// host boots from them with the firmware's rule and scratch width, and returns it with the
+/// host's boot error (the safe state's reason), if any.
+pub(crate) fn connect_chip(
+    args: &RunArgs,
+    target: &HilTarget,
+    plant: &PlantSizes,
+    given: Given<'_>,
+) -> Result<(HilChip, Option<firmware_sim::Error>)> {
     if !(args.tick_timeout.is_finite() && args.tick_timeout > 0.0 && args.tick_timeout <= 3600.0) {
         anyhow::bail!(
             "--tick-timeout must be in (0, 3600] seconds, found {}",
@@ -303,7 +476,7 @@ pub(crate) fn run_hil(
     }
     // The host boots the same slots with the firmware's rule and scratch width: the report's
     // controller is that blob, and the chip must say it runs the same one.
-    let host = boot_slots(&image_a, &image_b, &plant, FIRMWARE_SCRATCH_WIDTH)?;
+    let host = boot_slots(&image_a, &image_b, plant, FIRMWARE_SCRATCH_WIDTH)?;
     let expected = host.running.map(|id| {
         let image = if id == SlotId::A { &image_a } else { &image_b };
         let blob = policy_core::slot::read(image)
@@ -351,7 +524,7 @@ pub(crate) fn run_hil(
         budget: args.tick_budget,
     };
     let name = host.controller.name();
-    let mut chip = HilChip::connect(
+    let chip = HilChip::connect(
         link,
         backend,
         options,
@@ -387,28 +560,7 @@ pub(crate) fn run_hil(
         });
     println!("{link_name}: {}; {runs}", describe_boot(&hello));
 
-    let mut outputs = Outputs::create(args, scenario, &name)?;
-    let mut report = evaluate_streaming(&mut chip, scenario, cfg, |e| outputs.episode(&e))?;
-    if let Some(e) = &host.error {
-        report.mark_boot_failure(e);
-    }
-    let chip_report = chip.report();
-    // QEMU stops here, before the outputs are written.
-    drop(chip);
-    if chip_report.ticks_over_budget > 0 {
-        report.pass.passed = false;
-        report.pass.failures.push(format!(
-            "{} ticks took more than the tick budget of {} instructions (the most: {})",
-            chip_report.ticks_over_budget,
-            chip_report.tick_budget.unwrap_or_default(),
-            chip_report.instructions_max
-        ));
-    }
-    report.chip = Some(chip_report);
-    print!("{}", report.summary());
-    outputs.finish(&report)?;
-    report_failures(&report, args.blob.as_deref());
-    Ok(report.pass.passed)
+    Ok((chip, host.error))
 }
 
 /// The HIL firmware ELF: `--hil-firmware`, else where scripts/cortex-m.sh builds it.

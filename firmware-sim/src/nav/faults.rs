@@ -73,22 +73,7 @@ impl Faults {
     /// assert!(outside.validate(&s, 2).unwrap_err().to_string().contains("outside the arena"));
     /// ```
     pub fn validate(&self, scenario: &Scenario, actions: usize) -> Result<(), Error> {
-        if let Some(d) = self.dropout {
-            if !(0.0..=1.0).contains(&d.probability) {
-                return Err(bad(format!(
-                    "dropout probability must be in [0, 1], found {}",
-                    crate::error::number(d.probability)
-                )));
-            }
-        }
-        if let Some(s) = self.stuck {
-            if s.dim >= actions {
-                return Err(bad(format!(
-                    "stuck dimension must be below {actions}, found {}",
-                    s.dim
-                )));
-            }
-        }
+        crate::firmware::validate_faults(self.dropout, self.stuck, actions)?;
         if let Some(w) = self.wall {
             let mut changed = scenario.clone();
             match w.replaces {

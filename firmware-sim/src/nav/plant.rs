@@ -38,6 +38,9 @@ pub struct NavEnv {
     position: Vec2,
     steps: u32,
     hold: u32,
+    /// Consecutive steps within the success radius: the plant's success flag is the
+    /// scenario's settled rule ([`crate::nav::scenario::Metrics::settled`]) on them.
+    settled: u32,
     ended: Option<(bool, bool)>,
     goal_terminates: bool,
 }
@@ -62,6 +65,7 @@ impl NavEnv {
             position: Vec2::ZERO,
             steps: 0,
             hold: 0,
+            settled: 0,
             ended: None,
             goal_terminates: true,
             scenario: scenario.clone(),
@@ -179,6 +183,13 @@ impl NavEnv {
     }
 }
 
+impl NavEnv {
+    /// The last `settle_window` steps were all within the success radius.
+    fn is_settled(&self) -> bool {
+        self.settled >= self.scenario.metrics.settle_window
+    }
+}
+
 impl Env for NavEnv {
     fn observation_space(&self) -> &BoxSpace {
         &self.observation_space
@@ -194,6 +205,7 @@ impl Env for NavEnv {
         self.position = push_out(self.start_point(seed), &self.walls);
         self.steps = 0;
         self.hold = 0;
+        self.settled = 0;
         self.ended = None;
         self.observation()
     }
@@ -205,7 +217,7 @@ impl Env for NavEnv {
             let info = StepInfo {
                 applied: vec![0.0; 2],
                 margin_touched: false,
-                success: None,
+                success: Some(self.is_settled()),
             };
             return Step {
                 observation: self.observation(),
@@ -226,6 +238,11 @@ impl Env for NavEnv {
         } else {
             0
         };
+        self.settled = if d1 <= s.metrics.success_radius {
+            self.settled + 1
+        } else {
+            0
+        };
         let left = self.outside();
         let reward = if left {
             s.reward.exit_penalty(s.gamma)
@@ -241,7 +258,7 @@ impl Env for NavEnv {
         let info = StepInfo {
             applied: vec![moved.x as f32, moved.y as f32],
             margin_touched: motion.touched,
-            success: None,
+            success: Some(self.is_settled()),
         };
         Step {
             observation: self.observation(),

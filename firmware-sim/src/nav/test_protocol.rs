@@ -44,7 +44,6 @@ use crate::actuator::ActuatorModel;
 use crate::boot::{boot_or_safe_state, check_sizes, PlantSizes};
 use crate::controller::Controller;
 use crate::env::Env;
-use crate::error::number;
 use crate::firmware::{Clock, Firmware, Timing};
 use crate::nav::faults::Faults;
 use crate::pass::PassOutcome;
@@ -107,27 +106,7 @@ impl EvalConfig {
                 format!("must be in 1..={MAX_EPISODES}, found {}", self.episodes),
             );
         }
-        let s = self.sensor;
-        if !(s.noise_std.is_finite() && s.noise_std >= 0.0) {
-            return bad(
-                "sensor.noise_std",
-                format!("must be finite and >= 0, found {}", number(s.noise_std)),
-            );
-        }
-        if !(s.quantum.is_finite() && s.quantum >= 0.0) {
-            return bad(
-                "sensor.quantum",
-                format!("must be finite and >= 0, found {}", number(s.quantum)),
-            );
-        }
-        if let Some(r) = self.actuator.rate_limit {
-            if !(r.is_finite() && r > 0.0) {
-                return bad(
-                    "actuator.rate_limit",
-                    format!("must be finite and > 0, found {}", number(r)),
-                );
-            }
-        }
+        crate::firmware::validate_models(&self.sensor, &self.actuator)?;
         self.faults.validate(scenario, 2)
     }
 }
