@@ -1,11 +1,11 @@
 //! The test protocol for any plant: the firmware loop ([`crate::firmware`]: sensor noise,
 //! quantisation, delay, dropouts; actuator saturation, rate limit, a stuck dimension) run
-//! against any [`Env`], in process or in another process ([`crate::plant_link`]), scored by
+//! against any plant of one agent (any [`crate::env::Env`]), in process or in another process ([`crate::plant_link`]), scored by
 //! the margin figures every plant gives and judged by criteria the user declares.
 //!
 //! Navigation keeps its own protocol ([`crate::nav::test_protocol`]: settled distance to the
-//! goal, walls that move), badminton its matches; this one knows only what the [`Env`]
-//! interface says:
+//! goal, walls that move), badminton its matches; this one knows only what the
+//! [`crate::env::Env`] interface says:
 //!
 //! - **success**: by the plant's own flag ([`StepInfo::success`] on the episode's last step),
 //!   or, for plants with no notion of a goal, by the episode's return reaching a threshold
@@ -42,7 +42,7 @@ use serde::{Deserialize, Serialize};
 use crate::actuator::{ActuatorModel, ActuatorStuck};
 use crate::boot::{check_sizes, PlantSizes};
 use crate::controller::Controller;
-use crate::env::{BoxSpace, Env, Step};
+use crate::env::{BoxSpace, Plant, StepInfo};
 use crate::error::number;
 use crate::firmware::{Clock, Firmware, Timing};
 use crate::nav::test_protocol::{Stopped, MAX_EPISODES};
@@ -377,23 +377,38 @@ impl PlantReport {
 }
 
 /// Runs the test: `cfg.episodes` episodes of the firmware loop, each reset with
-/// `episode_seed(cfg.seed, i)`. `Err` for bad settings or sizes; a plant or controller that
-/// fails mid-run stops the run, and the report says after how many episodes and why.
+/// `episode_seed(cfg.seed, i)`, on a one-agent plant (any [`crate::env::Env`] is one). `Err`
+/// for bad settings or sizes; a plant or controller that fails mid-run stops the run, and the
+/// report says after how many episodes and why.
 pub fn evaluate_plant(
     controller: &mut dyn Controller,
-    env: &mut dyn Env,
-    plant: &str,
+    plant: &mut dyn Plant,
+    name: &str,
     cfg: &PlantTestConfig,
 ) -> Result<PlantReport, Error> {
-    let space = env.action_space().clone();
+    let agents = plant.agents();
+    let [agent] = agents.as_slice() else {
+        return Err(Error::Config {
+            field: "plant",
+            message: format!(
+                "the test protocol for any plant runs plants of one agent; this one has {}",
+                agents.len()
+            ),
+        });
+    };
+    let space = agent.action_space.clone();
     cfg.validate(space.dim())?;
-    check_sizes(controller, &PlantSizes::of_env(env))?;
+    let sizes = PlantSizes {
+        observations: agent.observation_space.dim(),
+        actions: space.dim(),
+    };
+    check_sizes(controller, &sizes)?;
     let mut clock = Clock::default();
     let mut episodes = Vec::with_capacity(cfg.episodes.min(100_000));
     let (mut sanitized, mut stopped) = (0, None);
     for index in 0..cfg.episodes as u64 {
-        let ran = run_episode(controller, env, &space, cfg, index, &mut clock);
-        let failure = env.failure().or_else(|| controller.failure());
+        let ran = run_episode(controller, plant, &space, cfg, index, &mut clock);
+        let failure = plant.failure().or_else(|| controller.failure());
         match (ran, failure) {
             (Ok((episode, n)), None) => {
                 sanitized += n;
@@ -409,7 +424,7 @@ pub fn evaluate_plant(
         }
     }
     let mut report = summarise(
-        plant,
+        name,
         controller.name(),
         cfg,
         episodes,
@@ -430,17 +445,23 @@ pub fn evaluate_plant(
 /// One episode; its record and the number of sanitised commands.
 fn run_episode(
     controller: &mut dyn Controller,
-    env: &mut dyn Env,
+    plant: &mut dyn Plant,
     space: &BoxSpace,
     cfg: &PlantTestConfig,
     index: u64,
     clock: &mut Clock,
 ) -> Result<(PlantEpisode, u64), Error> {
     let seed = episode_seed(cfg.seed, index);
-    let mut truth = env.reset(seed);
-    if let Some(e) = env.failure() {
+    let turn = plant.reset(seed);
+    if let Some(e) = plant.failure() {
         return Err(e);
     }
+    let Some(mut truth) = turn.decide.map(|d| d.observation) else {
+        return Err(Error::Config {
+            field: "plant",
+            message: format!("reset(seed {seed}) ended the episode before its first step"),
+        });
+    };
     controller.reset();
     let mut firmware = Firmware::new(
         space,
@@ -456,15 +477,21 @@ fn run_episode(
         let action = firmware
             .control(tick, &truth, controller, clock, &mut meter.saturated)
             .to_vec();
-        let step = env.step(&action);
-        if let Some(e) = env.failure() {
+        let turn = plant.act(&action);
+        if let Some(e) = plant.failure() {
             return Err(e);
         }
-        meter.push(&action, &step);
-        truth = step.observation;
-        if step.terminated || step.truncated {
-            meter.terminated = step.terminated;
-            break;
+        let (reward, terminated) = turn
+            .closed
+            .first()
+            .map_or((0.0, false), |o| (o.reward, o.terminated));
+        meter.push(&action, reward, &turn.info);
+        match turn.decide {
+            Some(next) => truth = next.observation,
+            None => {
+                meter.terminated = terminated;
+                break;
+            }
         }
     }
     Ok((meter.record(&cfg.criteria.success), firmware.sanitized()))
@@ -496,12 +523,12 @@ impl Meter {
         }
     }
 
-    fn push(&mut self, action: &[f32], step: &Step) {
+    fn push(&mut self, action: &[f32], reward: f32, info: &StepInfo) {
         self.steps += 1;
-        self.ret += f64::from(step.reward);
-        self.contact_steps += u32::from(step.info.margin_touched);
-        self.last_flag = step.info.success;
-        self.stuck.push(self.steps, action, step);
+        self.ret += f64::from(reward);
+        self.contact_steps += u32::from(info.margin_touched);
+        self.last_flag = info.success;
+        self.stuck.push(self.steps, action, info);
     }
 
     fn record(self, rule: &SuccessRule) -> PlantEpisode {
@@ -555,7 +582,7 @@ impl StuckDetector {
         }
     }
 
-    fn push(&mut self, step_number: u32, action: &[f32], step: &Step) {
+    fn push(&mut self, step_number: u32, action: &[f32], info: &StepInfo) {
         if self.found.is_some() {
             return;
         }
@@ -564,12 +591,12 @@ impl StuckDetector {
             .zip(self.mid.iter().zip(&self.half))
             .map(|(a, (m, h))| (a - m).abs() / h)
             .fold(0.0f32, f32::max);
-        let pushing = step.info.margin_touched && command >= self.rule.min_command;
+        let pushing = info.margin_touched && command >= self.rule.min_command;
         if !pushing {
             self.window.clear();
             return;
         }
-        let applied = step.info.applied.iter().zip(&self.half);
+        let applied = info.applied.iter().zip(&self.half);
         self.window
             .push_back(applied.map(|(a, h)| f64::from(a / h)).collect());
         if self.window.len() > self.rule.window as usize {

@@ -1124,7 +1124,7 @@ fn a_3x40_network_trains_and_exports() {
     let blob = trainer.export(&run).expect("export");
     let report = firmware_sim::nav::test_protocol::evaluate(
         &blob,
-        &trainer.scenario,
+        trainer.plant.scenario().expect("a scenario run"),
         &firmware_sim::nav::test_protocol::EvalConfig {
             episodes: 2,
             ..Default::default()
@@ -1201,8 +1201,11 @@ fn a_checkpoint_carries_its_plant() {
     let path = run.file(folder::CHECKPOINT);
     let mut resumed =
         Trainer::resume(Checkpoint::load(&path).expect("load"), Some(3), &path).expect("resume");
-    assert_eq!(resumed.scenario, trainer.scenario);
-    assert_eq!(resumed.scenario.time_limit, 30);
+    assert_eq!(resumed.plant, trainer.plant);
+    assert_eq!(
+        resumed.plant.scenario().expect("a scenario run").time_limit,
+        30
+    );
     let episode = resumed
         .run_episode()
         .expect("an episode on the recorded plant");

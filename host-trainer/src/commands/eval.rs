@@ -12,6 +12,7 @@ use firmware_sim::heads::HeadsPolicy;
 use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::test_protocol::{self, EvalConfig, Report};
 use firmware_sim::outln;
+use firmware_sim::plant_test::PlantReport;
 use host_trainer::run::trainer;
 
 #[derive(Debug, Args)]
@@ -102,10 +103,44 @@ pub(crate) fn report_json(report: &Report) -> Result<String> {
 }
 
 pub(crate) fn print_summary(report: &Report) {
+    print_summary_text(&summary_line(report));
+}
+
+/// Prints a one-line summary.
+pub(crate) fn print_summary_text(line: &str) {
+    outln!("{line}");
+}
+
+/// A plant test's report as `eval.json` holds it.
+pub(crate) fn plant_report_json(report: &PlantReport) -> Result<String> {
+    Ok(serde_json::to_string_pretty(report)? + "\n")
+}
+
+/// The one line `train` and `eval` print for a test on a plant of the user's.
+pub(crate) fn plant_summary_line(report: &PlantReport) -> String {
+    let verdict = if report.pass.passed {
+        "PASS".to_string()
+    } else {
+        format!("FAIL ({})", report.pass.failures.join("; "))
+    };
+    format!(
+        "{} on {}, {} test starts: success {:.1}%  mean return {:.3}  stuck at margin {:.1}%  contact {:.1}%  {verdict}",
+        report.controller,
+        report.plant,
+        report.episodes.len(),
+        100.0 * report.success_rate,
+        report.mean_return,
+        100.0 * report.stuck_rate,
+        100.0 * report.contact_fraction,
+    )
+}
+
+/// The one line `train` and `eval` print for a scenario's test.
+pub(crate) fn summary_line(report: &Report) -> String {
     let steps = report
         .mean_steps_to_goal
         .map_or_else(|| "-".to_string(), |s| format!("{s:.1}"));
-    outln!(
+    format!(
         "{} on {}, {} test starts: success {:.1}%  mean settled error {:.3}  strict reach {:.1}%  pass within 0.25 {:.1}%  steps to goal {steps}  stuck at margin {:.1}%  left arena {:.1}%",
         report.controller,
         report.scenario,
@@ -116,5 +151,5 @@ pub(crate) fn print_summary(report: &Report) {
         100.0 * report.near_pass_rate,
         100.0 * report.stuck_rate,
         100.0 * report.left_arena_rate,
-    );
+    )
 }

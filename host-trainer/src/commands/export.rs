@@ -1,5 +1,6 @@
 //! `host-trainer export`: a run's blobs in any weight encoding, and flash slot images.
 
+use firmware_sim::plant_link::child::Timeouts;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
@@ -76,7 +77,9 @@ pub(crate) fn export_command(args: ExportArgs) -> Result<()> {
             run.path().display()
         );
     }
-    let (trainer, run, _lock) = resume(&args.run, None)?;
+    // (A run on a plant process starts its plant again here: the checkpoint's networks are
+    // checked against the plant's hello before anything is exported.)
+    let (trainer, run, _lock) = resume(&args.run, None, Timeouts::default())?;
     let name = folder::policy_file(args.encoding);
     let f32 = trainer.policy_blob(&trainer.config.blob_label())?;
     let policy = match args.encoding {

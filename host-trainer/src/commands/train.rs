@@ -5,13 +5,16 @@ use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::Ordering;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use clap::Args;
+use firmware_sim::boot::{self, PlantSizes};
 use firmware_sim::files;
 use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::outln;
+use firmware_sim::plant_link::child::Timeouts;
+use firmware_sim::plant_test::{evaluate_plant, PlantReport, PlantTestConfig};
 use host_trainer::algorithms::noise::Noise;
 use host_trainer::algorithms::{self, Algo};
 use host_trainer::nn::hidden::Hidden;
@@ -24,7 +27,9 @@ use host_trainer::run::progress;
 use host_trainer::run::trainer::{self, Outcome, Trainer};
 
 use super::cores;
-use super::eval::{evaluate, print_summary, report_json};
+use super::eval::{
+    evaluate, plant_report_json, plant_summary_line, print_summary_text, report_json, summary_line,
+};
 use super::signals::{install_ctrl_c_handler, stop_when_parent_goes, INTERRUPTED, INTERRUPTS};
 
 /// Flags override the config file, which overrides the defaults (the paper's values).
@@ -33,6 +38,16 @@ pub(crate) struct TrainArgs {
     /// Built-in scenario (nav-walls, nav-open) or a scenario TOML file [default: nav-walls].
     #[arg(long)]
     task: Option<String>,
+    /// A plant of your own instead of a scenario: "CMD ARGS" starts it as a child process that
+    /// speaks the plant link on its standard input and output (docs/own-plant.md), e.g.
+    /// "python3 -m margin_safe_rl.plant_link serve Pendulum-v1". The run is named for the
+    /// plant's hello and records the command; the end-of-training test is the protocol for any
+    /// plant.
+    #[arg(long, conflicts_with = "task")]
+    plant_cmd: Option<String>,
+    /// The longest wait, in seconds, for the plant's answer to a reset or step.
+    #[arg(long, default_value_t = 10.0)]
+    plant_timeout: f64,
     /// Learning algorithm [default: dcp].
     #[arg(long, value_enum)]
     algo: Option<Algo>,
@@ -70,7 +85,7 @@ pub(crate) struct TrainArgs {
     #[arg(long)]
     config: Option<PathBuf>,
     /// Continue the run in this folder from its checkpoint (--episodes may raise the budget).
-    #[arg(long, conflicts_with_all = ["task", "algo", "hidden", "reward", "t", "sigma", "noise", "dropout", "reward_scale", "seed", "out", "config"])]
+    #[arg(long, conflicts_with_all = ["task", "plant_cmd", "algo", "hidden", "reward", "t", "sigma", "noise", "dropout", "reward_scale", "seed", "out", "config"])]
     resume: Option<PathBuf>,
     /// Worker threads of the updates; any count trains to the same bytes [default: the cores
     /// available].
@@ -95,9 +110,10 @@ pub(crate) fn train_command(args: TrainArgs) -> Result<ExitCode> {
     let stop_when_stdin_closes = args.stop_when_stdin_closes;
     let keep_checkpoints = args.keep_checkpoints;
     let workers = workers(args.threads)?;
+    let timeouts = plant_timeouts(args.plant_timeout)?;
     let (mut trainer, run, _lock) = match &args.resume {
-        Some(dir) => resume(dir, args.episodes)?,
-        None => fresh(args)?,
+        Some(dir) => resume(dir, args.episodes, timeouts)?,
+        None => fresh(args, timeouts)?,
     };
     trainer.set_workers(workers);
     trainer.keep_checkpoints = keep_checkpoints;
@@ -143,19 +159,68 @@ pub(crate) fn train_command(args: TrainArgs) -> Result<ExitCode> {
     } else {
         None
     };
-    let report = evaluate(
-        &blob,
-        critic.as_deref(),
-        &run.file(folder::POLICY),
-        &trainer.scenario,
-        trainer.config.eval_episodes,
-        0,
-    )?;
-    run.write(folder::EVAL, report_json(&report)?.as_bytes())?;
+    let summary = match trainer.plant.scenario().cloned() {
+        Some(scenario) => {
+            let report = evaluate(
+                &blob,
+                critic.as_deref(),
+                &run.file(folder::POLICY),
+                &scenario,
+                trainer.config.eval_episodes,
+                0,
+            )?;
+            run.write(folder::EVAL, report_json(&report)?.as_bytes())?;
+            summary_line(&report)
+        }
+        None => {
+            let report = evaluate_on_plant(&mut trainer, &blob, &run)?;
+            run.write(folder::EVAL, plant_report_json(&report)?.as_bytes())?;
+            plant_summary_line(&report)
+        }
+    };
     outln!("trained {} ({} episodes, {steps} env steps in {seconds:.1} s, {:.0} steps/s incl. updates)", run.path().display(), trainer.episode, steps as f64 / seconds.max(1e-9));
-    print_summary(&report);
+    print_summary_text(&summary);
     outln!("wrote {}", run.path().display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// The end-of-training test of a run on a plant of the user's: the exported blob, booted as the
+/// chip boots it, through the test protocol for any plant on the run's own plant (its test
+/// episodes seeded apart from training's).
+fn evaluate_on_plant(trainer: &mut Trainer, blob: &[u8], run: &RunDir) -> Result<PlantReport> {
+    let name = trainer.plant.name();
+    let cfg = PlantTestConfig {
+        episodes: trainer.config.eval_episodes,
+        ..PlantTestConfig::default()
+    };
+    let sizes = {
+        let agents = trainer.plant_mut().agents();
+        let agent = agents.first().context("the plant declares no agent")?;
+        PlantSizes {
+            observations: agent.observation_space.dim(),
+            actions: agent.action_space.dim(),
+        }
+    };
+    let mut policy = boot::boot(blob, &sizes)
+        .with_context(|| format!("{}: the exported blob", run.file(folder::POLICY).display()))?;
+    Ok(evaluate_plant(
+        &mut policy,
+        trainer.plant_mut(),
+        &name,
+        &cfg,
+    )?)
+}
+
+/// `--plant-timeout` as the plant link's time-outs.
+pub(crate) fn plant_timeouts(seconds: f64) -> Result<Timeouts> {
+    anyhow::ensure!(
+        seconds.is_finite() && seconds > 0.0 && seconds <= 3600.0,
+        "--plant-timeout must be in (0, 3600] seconds, found {seconds}"
+    );
+    Ok(Timeouts {
+        step: Duration::from_secs_f64(seconds),
+        ..Timeouts::default()
+    })
 }
 
 /// `--threads`: the worker threads of the updates, all cores by default. A count above the
@@ -171,7 +236,7 @@ pub(crate) fn workers(threads: Option<u32>) -> Result<Workers> {
 
 /// A new run: defaults, then the config file, then flags; nothing is written until the
 /// configuration is valid and the trainer is built.
-pub(crate) fn fresh(args: TrainArgs) -> Result<(Trainer, RunDir, FolderLock)> {
+pub(crate) fn fresh(args: TrainArgs, timeouts: Timeouts) -> Result<(Trainer, RunDir, FolderLock)> {
     let mut config = match &args.config {
         Some(path) => TrainConfig::from_file(path)?,
         None => TrainConfig::default(),
@@ -179,7 +244,7 @@ pub(crate) fn fresh(args: TrainArgs) -> Result<(Trainer, RunDir, FolderLock)> {
     apply_flags(&mut config, &args);
     check_flags_used(config.algo, &args)?;
     config.check_read(&[config.algo])?;
-    let trainer = Trainer::new(config)?;
+    let trainer = Trainer::new_with(config, timeouts)?;
     let out = match args.out {
         Some(out) => out,
         None => {
@@ -197,6 +262,9 @@ pub(crate) fn fresh(args: TrainArgs) -> Result<(Trainer, RunDir, FolderLock)> {
 pub(crate) fn apply_flags(config: &mut TrainConfig, args: &TrainArgs) {
     if let Some(v) = &args.task {
         config.task = v.clone();
+    }
+    if let Some(v) = &args.plant_cmd {
+        config.plant_cmd = Some(v.clone());
     }
     if let Some(v) = args.algo {
         config.algo = v;
@@ -258,13 +326,17 @@ pub(crate) fn check_flags_used(algo: Algo, args: &TrainArgs) -> Result<()> {
 
 /// Continues a run from its folder alone. A run killed before its first checkpoint starts
 /// again from its recorded config and plant (the result is the same: one seed drives it all).
-pub(crate) fn resume(dir: &Path, episodes: Option<usize>) -> Result<(Trainer, RunDir, FolderLock)> {
+pub(crate) fn resume(
+    dir: &Path,
+    episodes: Option<usize>,
+    timeouts: Timeouts,
+) -> Result<(Trainer, RunDir, FolderLock)> {
     let run = RunDir::open(dir)?;
     // Held until the command ends: a second trainer, export or sweep child is refused.
     let lock = lock::acquire(run.path())?;
     let path = run.file(folder::CHECKPOINT);
     let trainer = if path.exists() {
-        let trainer = Trainer::resume(Checkpoint::load(&path)?, episodes, &path)?;
+        let trainer = Trainer::resume_with(Checkpoint::load(&path)?, episodes, &path, timeouts)?;
         if episodes.is_some() {
             // The new budget is the run's: recorded in its checkpoint and its config.toml, so a
             // sweep sees the run's real budget and a later --resume keeps it.
@@ -273,13 +345,17 @@ pub(crate) fn resume(dir: &Path, episodes: Option<usize>) -> Result<(Trainer, Ru
         }
         trainer
     } else {
-        restart(&run, episodes)?
+        restart(&run, episodes, timeouts)?
     };
     note_changed_plant(&trainer);
     Ok((trainer, run, lock))
 }
 
-pub(crate) fn restart(run: &RunDir, episodes: Option<usize>) -> Result<Trainer> {
+pub(crate) fn restart(
+    run: &RunDir,
+    episodes: Option<usize>,
+    timeouts: Timeouts,
+) -> Result<Trainer> {
     let config_path = run.file(folder::CONFIG);
     if !config_path.exists() {
         anyhow::bail!(
@@ -290,6 +366,10 @@ pub(crate) fn restart(run: &RunDir, episodes: Option<usize>) -> Result<Trainer> 
     let mut config = TrainConfig::from_file(&config_path)?;
     if let Some(n) = episodes {
         config.episodes = n;
+    }
+    if config.plant_cmd.is_some() {
+        // Nothing has trained yet: the command starts the plant afresh.
+        return Ok(Trainer::new_with(config, timeouts)?);
     }
     // The plant is recorded right after the config; a kill between the two leaves only the
     // config, and the task it names is then the plant (nothing has trained on it yet).
@@ -311,10 +391,13 @@ pub(crate) fn restart(run: &RunDir, episodes: Option<usize>) -> Result<Trainer> 
 /// run goes on with the plant it started with, which is what makes it one run.
 pub(crate) fn note_changed_plant(trainer: &Trainer) {
     let task = &trainer.config.task;
+    let Some(scenario) = trainer.plant.scenario() else {
+        return; // a plant process's hello was checked when it started again
+    };
     if Scenario::builtin(task).is_some() || !Path::new(task).exists() {
         return;
     }
-    if Scenario::resolve(task).ok().as_ref() != Some(&trainer.scenario) {
+    if Scenario::resolve(task).ok().as_ref() != Some(scenario) {
         eprintln!(
             "host-trainer: note: {task} has changed (or no longer loads) since the run started; the run continues on its recorded plant ({})",
             folder::SCENARIO

@@ -19,8 +19,13 @@ use crate::Error;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct TrainConfig {
-    /// Built-in scenario name (`nav-walls`, `nav-open`) or a scenario TOML file.
+    /// Built-in scenario name (`nav-walls`, `nav-open`) or a scenario TOML file; for a plant
+    /// of the user's (`plant_cmd`, or a plant given to `Trainer::with_plant`), the plant's name.
     pub task: String,
+    /// A plant process instead of a scenario: the command that starts it, speaking the plant
+    /// link on its standard input and output (docs/own-plant.md).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plant_cmd: Option<String>,
     /// The learning algorithm.
     pub algo: Algo,
     /// The reward, overriding the scenario's [paper: GR for the headline results].
@@ -83,6 +88,7 @@ impl Default for TrainConfig {
     fn default() -> Self {
         TrainConfig {
             task: "nav-walls".into(),
+            plant_cmd: None,
             algo: Algo::Dcp,
             reward: RewardKind::Gr,
             seed: 0,

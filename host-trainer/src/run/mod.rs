@@ -1,5 +1,6 @@
 //! A training run: its configuration, the episode loop, checkpoints, the run folder
-//! `{task}__{algo}__{seed}/` and what it holds (metrics, plots), and the progress bar.
+//! `{task}__{algo}__{seed}/` and what it holds (metrics, plots), the plant it trains on, and
+//! the progress bar.
 
 pub mod checkpoint;
 pub mod config;
@@ -7,6 +8,7 @@ pub(crate) mod crash_test;
 pub mod folder;
 pub mod lock;
 pub mod metrics;
+pub mod plant;
 pub mod plot;
 pub mod progress;
 pub mod trainer;

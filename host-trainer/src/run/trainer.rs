@@ -24,6 +24,7 @@ use std::time::Instant;
 use firmware_sim::env::Plant;
 use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::test_protocol::EvalConfig;
+use firmware_sim::plant_link::child::Timeouts;
 use firmware_sim::seed::{self, SimRng};
 use rand_core::Rng as _;
 
@@ -37,6 +38,7 @@ use crate::run::config::{one_line, TrainConfig};
 use crate::run::crash_test;
 use crate::run::folder::{self, RunDir};
 use crate::run::metrics::{learning_curve, metrics_csv, EpisodeRow};
+use crate::run::plant::{self, RunPlant};
 use crate::Error;
 
 /// The plant of a task: a built-in scenario name or a scenario file.
@@ -75,8 +77,9 @@ pub struct Trainer {
     pub total_steps: u64,
     /// One row per completed episode.
     pub metrics: Vec<EpisodeRow>,
-    /// The plant, as resolved when the run started (before the reward and γ overrides).
-    pub scenario: Scenario,
+    /// The plant, as resolved when the run started (a scenario before the reward and γ
+    /// overrides, or a plant of the user's by its hello).
+    pub plant: RunPlant,
     /// Also keep a copy of every checkpoint, `checkpoints/episode-NNNNNNN.postcard` in the run
     /// folder, to study how the run learned (`examples/margin_diagnosis.rs`). Not part of the
     /// run: it changes no bit, and is not saved.
@@ -87,11 +90,25 @@ pub struct Trainer {
 }
 
 impl Trainer {
-    /// A fresh run on the plant `config.task` names: networks initialised from
-    /// `seed::training_stream(seed, "init")`.
+    /// A fresh run on the plant `config.task` names (or `config.plant_cmd` starts): networks
+    /// initialised from `seed::training_stream(seed, "init")`.
     pub fn new(config: TrainConfig) -> Result<Trainer, Error> {
-        let scenario = scenario(&config.task)?;
-        Trainer::on(config, scenario)
+        Trainer::new_with(config, Timeouts::default())
+    }
+
+    /// [`Trainer::new`] with the plant process's time-outs (`--plant-timeout`).
+    pub fn new_with(mut config: TrainConfig, timeouts: Timeouts) -> Result<Trainer, Error> {
+        let Some(command) = config.plant_cmd.clone() else {
+            let scenario = scenario(&config.task)?;
+            return Trainer::on(config, scenario);
+        };
+        let (child, hello) = RunPlant::start_process(&command, timeouts)?;
+        config.task = plant::folder_safe(&hello.name);
+        Trainer::build(
+            config,
+            RunPlant::Process { command, hello },
+            Box::new(child),
+        )
     }
 
     /// A fresh run on a given plant (a run folder's recorded `scenario.toml`). Every limit is
@@ -100,7 +117,43 @@ impl Trainer {
         config.validate()?;
         check_eval_episodes(&config, &scenario)?;
         let env = make_env(&config, &scenario)?;
-        let agent = &env.agents()[0];
+        Trainer::build(config, RunPlant::Scenario(scenario), env)
+    }
+
+    /// A fresh run on a plant of the caller's own: any one-agent [`Plant`] (every
+    /// [`firmware_sim::env::Env`] is one), named by `config.task`. The run records the plant's
+    /// boxes; it is resumed with [`Trainer::resume_with_plant`] and the same plant.
+    ///
+    /// ```
+    /// use firmware_sim::nav::NavEnv;
+    /// use firmware_sim::nav::scenario::Scenario;
+    /// use host_trainer::algorithms::Algo;
+    /// use host_trainer::run::config::TrainConfig;
+    /// use host_trainer::run::trainer::Trainer;
+    /// // Any Env of the caller's: here firmware-sim's own navigation plant, given as one.
+    /// let plant = NavEnv::new(&Scenario::builtin("nav-open").unwrap()).unwrap();
+    /// let config = TrainConfig { task: "my-plant".into(), ..TrainConfig::smoke(Algo::Dcp, 0) };
+    /// let mut trainer = Trainer::with_plant(config, Box::new(plant)).unwrap();
+    /// trainer.run_episode().unwrap();
+    /// assert_eq!(trainer.config.run_name(), "my-plant__dcp__0");
+    /// ```
+    pub fn with_plant(config: TrainConfig, plant: Box<dyn Plant>) -> Result<Trainer, Error> {
+        let hello = plant::hello_of(&config.task, plant.as_ref());
+        Trainer::build(config, RunPlant::Given { hello }, plant)
+    }
+
+    fn build(config: TrainConfig, record: RunPlant, env: Box<dyn Plant>) -> Result<Trainer, Error> {
+        config.validate()?;
+        let agents = env.agents();
+        let [agent] = agents.as_slice() else {
+            return Err(Error::Sim {
+                context: format!("plant {:?}", record.name()),
+                message: format!(
+                    "the trainer trains one agent; this plant has {}",
+                    agents.len()
+                ),
+            });
+        };
         let (observations, space) = (agent.observation_space.dim(), &agent.action_space);
         export::check_supported(observations, space.dim(), config.agent.hidden)?;
         let learner = Learner::new(&config.sections(), observations, &space.low, &space.high)?;
@@ -108,7 +161,7 @@ impl Trainer {
             learner,
             env_rng: seed::training_stream(config.seed, "env"),
             env,
-            scenario,
+            plant: record,
             keep_checkpoints: false,
             config,
             episode: 0,
@@ -118,10 +171,43 @@ impl Trainer {
     }
 
     /// Continues a run from its checkpoint; `episodes` (if given) replaces the episode budget.
+    /// A run on a plant process starts the recorded command again and refuses it if its hello
+    /// has changed.
     pub fn resume(
         checkpoint: Checkpoint,
         episodes: Option<usize>,
         path: &Path,
+    ) -> Result<Trainer, Error> {
+        Trainer::resume_on(checkpoint, episodes, path, None, Timeouts::default())
+    }
+
+    /// [`Trainer::resume`] with the plant process's time-outs (`--plant-timeout`).
+    pub fn resume_with(
+        checkpoint: Checkpoint,
+        episodes: Option<usize>,
+        path: &Path,
+        timeouts: Timeouts,
+    ) -> Result<Trainer, Error> {
+        Trainer::resume_on(checkpoint, episodes, path, None, timeouts)
+    }
+
+    /// Continues a run started by [`Trainer::with_plant`], on the same plant; refused if the
+    /// plant's boxes have changed.
+    pub fn resume_with_plant(
+        checkpoint: Checkpoint,
+        episodes: Option<usize>,
+        path: &Path,
+        plant: Box<dyn Plant>,
+    ) -> Result<Trainer, Error> {
+        Trainer::resume_on(checkpoint, episodes, path, Some(plant), Timeouts::default())
+    }
+
+    fn resume_on(
+        checkpoint: Checkpoint,
+        episodes: Option<usize>,
+        path: &Path,
+        given: Option<Box<dyn Plant>>,
+        timeouts: Timeouts,
     ) -> Result<Trainer, Error> {
         let bad = |message: String| Error::Checkpoint {
             path: path.to_path_buf(),
@@ -145,15 +231,16 @@ impl Trainer {
             config.episodes = n;
         }
         config.validate()?;
-        let scenario = Scenario::from_toml_str(&checkpoint.scenario_toml)
+        let record = RunPlant::from_toml(&checkpoint.scenario_toml)
             .map_err(|e| bad(format!("its recorded plant does not load: {e}")))?;
+        let env = resume_env(&config, &record, given, timeouts)?;
         let mut learner = checkpoint.learner;
         learner.configure(&config.sections()).map_err(bad)?;
         Ok(Trainer {
             learner,
-            env: make_env(&config, &scenario)?,
+            env,
             env_rng: checkpoint.env_rng.restore(),
-            scenario,
+            plant: record,
             keep_checkpoints: false,
             episode: checkpoint.episode,
             total_steps: checkpoint.total_steps,
@@ -176,7 +263,7 @@ impl Trainer {
     pub fn checkpoint(&self) -> Checkpoint {
         Checkpoint {
             config_toml: self.config.to_toml(),
-            scenario_toml: scenario_toml(&self.scenario),
+            scenario_toml: self.plant.to_toml(),
             learner: self.learner.clone(),
             episode: self.episode,
             total_steps: self.total_steps,
@@ -214,11 +301,18 @@ impl Trainer {
     pub fn run_episode(&mut self) -> Result<&EpisodeRow, Error> {
         let started = Instant::now();
         let mut turn = self.env.reset(self.env_rng.next_u64());
+        if let Some(e) = self.env.failure() {
+            return Err(plant::plant_error(e));
+        }
         let (mut ret, mut steps) = (0.0f32, 0usize);
+        // A plant of the user's says itself whether the episode succeeded (its flag on the
+        // last step); a scenario by its settled rule below.
+        let mut flag = false;
         let (mut reached, mut final_distance) = (false, 0.0);
         // The success rule is the scenario's (firmware-sim's `Metrics::settled`), on the
         // distances of the last `settle_window` steps.
-        let rule = &self.scenario.metrics;
+        let default_rule = firmware_sim::nav::scenario::Metrics::default();
+        let rule = self.plant.scenario().map_or(&default_rule, |s| &s.metrics);
         let window = rule.settle_window as usize;
         let mut recent = VecDeque::with_capacity(window);
         let algo = self.learner.algorithm();
@@ -226,6 +320,10 @@ impl Trainer {
         while let Some(decision) = turn.decide.take() {
             let action = algo.act(&decision.observation);
             turn = self.env.act(&action);
+            if let Some(e) = self.env.failure() {
+                return Err(plant::plant_error(e));
+            }
+            flag = turn.info.success == Some(true);
             // One agent: its transition from this decision closes with this action.
             for outcome in &turn.closed {
                 self.total_steps += 1;
@@ -254,13 +352,16 @@ impl Trainer {
             return Err(diverged(self.episode, "network weights"));
         }
         let stats = algo.episode_stats();
-        let settled = rule.settled(recent.iter().map(|&d| f64::from(d)));
+        let settled = match self.plant {
+            RunPlant::Scenario(_) => rule.settled(recent.iter().map(|&d| f64::from(d))),
+            _ => flag,
+        };
         self.episode += 1;
         self.metrics.push(EpisodeRow {
             episode: self.episode,
             ret,
             steps,
-            success: reached || settled,
+            success: (reached && self.plant.scenario().is_some()) || settled,
             final_distance,
             stats,
             total_steps: self.total_steps,
@@ -297,6 +398,12 @@ impl Trainer {
         )
     }
 
+    /// The plant the run trains on, for an evaluation on it after training (a plant process
+    /// is then not started twice).
+    pub fn plant_mut(&mut self) -> &mut dyn Plant {
+        self.env.as_mut()
+    }
+
     /// The policy blob (what gets flashed), from the current networks.
     pub fn policy_blob(&self, label: &str) -> Result<Vec<u8>, Error> {
         self.algorithm().policy_blob(label)
@@ -320,6 +427,44 @@ fn diverged(done: usize, what: &str) -> Error {
         episode: done + 1,
         what: what.into(),
         checkpoint: None,
+    }
+}
+
+/// The plant a resumed run trains on: its scenario, its plant process started again (refused
+/// if its hello changed), or the plant its caller gives again.
+fn resume_env(
+    config: &TrainConfig,
+    record: &RunPlant,
+    given: Option<Box<dyn Plant>>,
+    timeouts: Timeouts,
+) -> Result<Box<dyn Plant>, Error> {
+    match (record, given) {
+        (RunPlant::Scenario(scenario), None) => make_env(config, scenario),
+        (RunPlant::Process { command, hello }, None) => {
+            let (child, now) = RunPlant::start_process(command, timeouts)?;
+            plant::check_same_hello(hello, &now, command)?;
+            Ok(Box::new(child))
+        }
+        (RunPlant::Given { hello }, Some(plant)) => {
+            plant::check_same_hello(
+                hello,
+                &plant::hello_of(&hello.name, plant.as_ref()),
+                &hello.name,
+            )?;
+            Ok(plant)
+        }
+        (RunPlant::Given { hello }, None) => Err(Error::Sim {
+            context: format!("plant {:?}", hello.name),
+            message: "the run trains on a plant its program gave (Trainer::with_plant): resume \
+                      it there with Trainer::resume_with_plant"
+                .into(),
+        }),
+        (_, Some(_)) => Err(Error::Sim {
+            context: format!("plant {:?}", record.name()),
+            message: "the run trains on a recorded scenario or plant command, not on a plant \
+                      given in process: resume it with Trainer::resume"
+                .into(),
+        }),
     }
 }
 
@@ -394,10 +539,7 @@ pub fn run(
 ) -> Result<Outcome, Error> {
     if trainer.episode == 0 {
         run.write(folder::CONFIG, trainer.config.to_toml().as_bytes())?;
-        run.write(
-            folder::SCENARIO,
-            scenario_toml(&trainer.scenario).as_bytes(),
-        )?;
+        run.write(folder::SCENARIO, trainer.plant.to_toml().as_bytes())?;
         trainer.save(run)?;
     }
     while !trainer.done() {
