@@ -7,6 +7,9 @@ mod cli;
 mod crash;
 /// Ctrl-C during training: a checkpoint, a clean exit, a hint how to resume.
 mod interrupt;
+/// Plants in another process (`--plant-cmd`) and given in process: the same bytes as a
+/// scenario, recorded and checked on resume.
+mod plant_link;
 /// `host-trainer reproduce`: an experiment's grid in slices, merged into its page.
 mod reproduce;
 /// Shared helpers: scratch folders, running the binary, tiny configs.

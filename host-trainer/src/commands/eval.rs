@@ -12,7 +12,8 @@ use firmware_sim::heads::HeadsPolicy;
 use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::test_protocol::{self, EvalConfig, Report};
 use firmware_sim::outln;
-use firmware_sim::plant_test::PlantReport;
+use firmware_sim::plant_link::child::ChildPlant;
+use firmware_sim::plant_test::{evaluate_plant, PlantReport, PlantTestConfig};
 use host_trainer::run::trainer;
 
 #[derive(Debug, Args)]
@@ -26,6 +27,14 @@ pub(crate) struct EvalArgs {
     /// Built-in scenario or scenario file.
     #[arg(long, default_value = "nav-walls")]
     task: String,
+    /// A plant of your own instead of a scenario: "CMD ARGS" starts it as a child process that
+    /// speaks the plant link (docs/own-plant.md); the test is then the protocol for any plant
+    /// (`firmware-sim run --plant-cmd` has its criteria and faults).
+    #[arg(long, conflicts_with_all = ["task", "critic"])]
+    plant_cmd: Option<String>,
+    /// The longest wait, in seconds, for the plant's answer to a reset or step.
+    #[arg(long, default_value_t = 10.0)]
+    plant_timeout: f64,
     /// Test starts.
     #[arg(long, default_value_t = 100)]
     episodes: usize,
@@ -42,9 +51,12 @@ pub(crate) fn eval_command(args: EvalArgs) -> Result<()> {
     if let Some(path) = &args.json {
         files::check_output(path).with_context(|| format!("cannot write {}", path.display()))?;
     }
-    let scenario = trainer::scenario(&args.task)?;
     let blob = files::read_blob(&args.blob)
         .with_context(|| format!("cannot read blob {}", args.blob.display()))?;
+    if let Some(command) = &args.plant_cmd {
+        return eval_on_plant(&args, command, &blob);
+    }
+    let scenario = trainer::scenario(&args.task)?;
     let critic = match &args.critic {
         Some(path) => Some(
             files::read_blob(path)
@@ -63,6 +75,28 @@ pub(crate) fn eval_command(args: EvalArgs) -> Result<()> {
     print_summary(&report);
     if let Some(path) = &args.json {
         files::write_atomic(path, report_json(&report)?.as_bytes())
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(())
+}
+
+/// `eval --plant-cmd`: the blob through the test protocol for any plant, on a plant process.
+fn eval_on_plant(args: &EvalArgs, command: &str, blob: &[u8]) -> Result<()> {
+    let timeouts = super::train::plant_timeouts(args.plant_timeout)?;
+    let mut plant = ChildPlant::spawn(command, timeouts)?;
+    let sizes = PlantSizes::of_env(&plant);
+    let mut policy = boot::boot(blob, &sizes)
+        .with_context(|| format!("{} does not boot on this plant", args.blob.display()))?;
+    let cfg = PlantTestConfig {
+        episodes: args.episodes,
+        seed: args.seed,
+        ..PlantTestConfig::default()
+    };
+    let name = plant.hello().name.clone();
+    let report = evaluate_plant(&mut policy, &mut plant, &name, &cfg)?;
+    print_summary_text(&plant_summary_line(&report));
+    if let Some(path) = &args.json {
+        files::write_atomic(path, plant_report_json(&report)?.as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
     Ok(())

@@ -1,0 +1,148 @@
+//! Training on a plant in another process (`--plant-cmd`, the plant link) and on a plant given
+//! in process (`Trainer::with_plant`): the same bytes as training on the scenario itself, the
+//! plant recorded and checked on resume, a plant that fails stopping the run with its reason
+//! and leaving the checkpoint as it was.
+
+use std::path::PathBuf;
+
+use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::NavEnv;
+use host_trainer::algorithms::Algo;
+use host_trainer::run::checkpoint::Checkpoint;
+use host_trainer::run::config::TrainConfig;
+use host_trainer::run::folder::{self, RunDir};
+use host_trainer::run::plant::RunPlant;
+use host_trainer::run::trainer::{self, Trainer};
+
+use crate::support::{assert_one_line_error, host_trainer, s, scratch};
+
+/// firmware-sim's binary, which `cargo test --workspace` builds beside this test's.
+fn firmware_sim() -> PathBuf {
+    let exe = std::env::current_exe().expect("test binary path");
+    // target/<profile>/deps/integration-HASH -> target/<profile>/firmware-sim
+    let path = exe
+        .parent()
+        .and_then(|deps| deps.parent())
+        .map(|profile| profile.join("firmware-sim"))
+        .expect("target folder");
+    assert!(
+        path.is_file(),
+        "{} is missing: build it with `cargo build -p firmware-sim` (cargo test --workspace does)",
+        path.display()
+    );
+    path
+}
+
+/// nav-walls with the trainer's reward (gr) rather than the scenario file's (lr): the same
+/// plant the trainer builds in process.
+fn serve_nav_walls() -> String {
+    format!(
+        "{} serve-plant --scenario nav-walls --reward gr",
+        firmware_sim().display()
+    )
+}
+
+fn train(mut trainer: Trainer, out: &std::path::Path) -> (Trainer, RunDir) {
+    let run = RunDir::create(out, &trainer.config.run_name()).expect("run dir");
+    trainer::run(&mut trainer, &run, &mut |_, _| {
+        std::ops::ControlFlow::Continue(())
+    })
+    .expect("training");
+    (trainer, run)
+}
+
+#[test]
+fn a_plant_served_through_the_link_trains_to_the_same_bytes_as_in_process() {
+    let config = TrainConfig::smoke(Algo::Dcp, 4);
+    let (direct, _) = train(
+        Trainer::new(config.clone()).expect("direct"),
+        &scratch("link-direct"),
+    );
+    let linked_config = TrainConfig {
+        plant_cmd: Some(serve_nav_walls()),
+        ..config.clone()
+    };
+    let linked = Trainer::new(linked_config).expect("a plant process");
+    assert!(matches!(&linked.plant, RunPlant::Process { hello, .. } if hello.name == "nav-walls"));
+    let (linked, _) = train(linked, &scratch("link-process"));
+    let mut scenario = Scenario::builtin("nav-walls").expect("builtin");
+    scenario.reward = firmware_sim::nav::Reward::Gr;
+    let given = NavEnv::new(&scenario).expect("plant");
+    let with_plant = TrainConfig {
+        task: "nav-walls".into(),
+        ..config
+    };
+    let (given, _) = train(
+        Trainer::with_plant(with_plant, Box::new(given)).expect("a plant in process"),
+        &scratch("link-given"),
+    );
+    let blob = |t: &Trainer| t.policy_blob("same").expect("blob");
+    // Every column but the wall-clock speed.
+    let rows = |t: &Trainer| {
+        let mut rows = t.metrics.clone();
+        rows.iter_mut().for_each(|r| r.steps_per_s = 0.0);
+        rows
+    };
+    assert_eq!(rows(&linked), rows(&direct));
+    assert!(blob(&linked) == blob(&direct), "the blobs differ");
+    assert!(blob(&given) == blob(&direct), "the blobs differ");
+    assert_eq!(rows(&given), rows(&direct));
+}
+
+#[test]
+fn a_run_on_a_plant_process_resumes_and_refuses_a_plant_whose_hello_changed() {
+    let out = scratch("link-resume");
+    let config = TrainConfig {
+        plant_cmd: Some(serve_nav_walls()),
+        episodes: 2,
+        ..TrainConfig::smoke(Algo::Dcp, 0)
+    };
+    let (_, run) = train(Trainer::new(config).expect("trainer"), &out);
+    let path = run.file(folder::CHECKPOINT);
+    let resumed = Trainer::resume(Checkpoint::load(&path).expect("load"), Some(3), &path);
+    assert_eq!(resumed.expect("resume").episode, 2);
+    // The same command now serves another plant: its boxes differ (nav-open's arena is the
+    // same size, so the name tells them apart).
+    let mut checkpoint = Checkpoint::load(&path).expect("load");
+    checkpoint.scenario_toml = checkpoint
+        .scenario_toml
+        .replace("--scenario nav-walls", "--scenario nav-open");
+    assert!(checkpoint.scenario_toml.contains("nav-open"));
+    let e = Trainer::resume(checkpoint, Some(3), &path).expect_err("refused");
+    let text = e.to_string();
+    assert!(
+        text.contains("its hello has changed since the run started") && text.contains("nav-open"),
+        "{text}"
+    );
+}
+
+#[test]
+fn train_plant_cmd_names_the_run_for_the_plant_and_a_missing_plant_is_one_line() {
+    let out = scratch("link-cli");
+    let cmd = serve_nav_walls();
+    let ok = host_trainer(&[
+        "train",
+        "--plant-cmd",
+        &cmd,
+        "--episodes",
+        "2",
+        "--out",
+        s(&out),
+        "--quiet",
+    ]);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&ok.stdout);
+    assert!(stdout.contains("on nav-walls, 100 test starts"), "{stdout}");
+    let config =
+        std::fs::read_to_string(out.join("nav-walls__dcp__0/config.toml")).expect("config");
+    assert!(config.contains(&format!("plant_cmd = {cmd:?}")), "{config}");
+    let missing = host_trainer(&["train", "--plant-cmd", "no-such-plant", "--out", s(&out)]);
+    assert_one_line_error(
+        &missing,
+        &["plant \"no-such-plant\": cannot start: no program no-such-plant on PATH"],
+    );
+}
