@@ -55,3 +55,9 @@ pub mod sweep;
 pub mod team;
 
 pub use error::Error;
+
+/// The Rust route of docs/own-plant.md (a plant of the caller's trained through the library),
+/// run as a doctest so the page cannot drift from the API.
+#[cfg(doctest)]
+#[doc = include_str!("../../docs/own-plant.md")]
+pub struct OwnPlantPageDoctests;
