@@ -8,6 +8,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::{NavEnv, Reward};
+use firmware_sim::plant_link::null::NullPlant;
 use firmware_sim::plant_link::serve::serve;
 
 #[derive(Args, Debug)]
@@ -19,6 +20,22 @@ pub(crate) struct ServePlantArgs {
     /// by default; serve the same to train on the same plant through the link).
     #[arg(long, value_parser = parse_reward)]
     reward: Option<Reward>,
+    /// OBS,ACT: serve a plant that does nothing, of these sizes, instead (the link's own cost,
+    /// for the plant-link bench).
+    #[arg(long, value_parser = parse_sizes, conflicts_with_all = ["scenario", "reward"])]
+    null: Option<(usize, usize)>,
+}
+
+fn parse_sizes(s: &str) -> Result<(usize, usize), String> {
+    let sizes = s
+        .split_once(',')
+        .and_then(|(o, a)| Some((o.trim().parse().ok()?, a.trim().parse().ok()?)));
+    match sizes {
+        Some((o, a)) if (1..=4096).contains(&o) && (1..=256).contains(&a) => Ok((o, a)),
+        _ => Err(format!(
+            "expected OBS,ACT with OBS in 1..=4096 and ACT in 1..=256, found {s:?}"
+        )),
+    }
 }
 
 fn parse_reward(s: &str) -> Result<Reward, String> {
@@ -32,13 +49,19 @@ fn parse_reward(s: &str) -> Result<Reward, String> {
 
 /// Serves until the client closes the link or its input ends; `Ok(true)`.
 pub(crate) fn serve_plant(args: &ServePlantArgs) -> Result<bool> {
+    let mut input = BufReader::new(std::io::stdin().lock());
+    let mut output = BufWriter::new(std::io::stdout().lock());
+    if let Some((observations, actions)) = args.null {
+        let mut null = NullPlant::new(observations, actions);
+        serve("null", &mut null, &mut input, &mut output)
+            .context("the plant link to the client broke")?;
+        return Ok(true);
+    }
     let mut scenario = Scenario::resolve(&args.scenario)?;
     if let Some(reward) = args.reward {
         scenario.reward = reward;
     }
     let mut env = NavEnv::new(&scenario)?;
-    let mut input = BufReader::new(std::io::stdin().lock());
-    let mut output = BufWriter::new(std::io::stdout().lock());
     serve(&scenario.name, &mut env, &mut input, &mut output)
         .context("the plant link to the client broke")?;
     Ok(true)

@@ -5,7 +5,9 @@
 //!   plant protocol's own version).
 //! - [`child`]: the host's side, a plant process as an [`crate::env::Env`].
 //! - [`serve`]: the plant's side, any `Env` served over a stream (`firmware-sim serve-plant`).
+//! - [`null`]: a plant that does nothing, to measure the link's own cost.
 
 pub mod child;
 pub mod messages;
+pub mod null;
 pub mod serve;
