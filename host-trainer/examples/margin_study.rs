@@ -301,8 +301,11 @@ fn read_folders(root: &Path) -> Result<Arms> {
                 continue; // not finished
             }
             let e = read_eval(&run)?;
-            let outcome =
-                Outcome::new(e.success_rate, e.mean_error, e.stuck_rate, e.near_pass_rate);
+            // The study's runs are navigation's: their reports have the navigation columns.
+            let (Some(error), Some(near)) = (e.mean_error, e.near_pass_rate) else {
+                bail!("{}: not a navigation run's report", run.display());
+            };
+            let outcome = Outcome::new(e.success_rate, error, e.stuck_rate, near);
             if runs.insert((task.to_string(), seed), outcome).is_some() {
                 bail!("{}: two runs of {task}, seed {seed}", arm.display());
             }

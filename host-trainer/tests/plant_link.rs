@@ -146,3 +146,44 @@ fn train_plant_cmd_names_the_run_for_the_plant_and_a_missing_plant_is_one_line()
         &["plant \"no-such-plant\": cannot start: no program no-such-plant on PATH"],
     );
 }
+
+#[test]
+fn a_sweep_on_a_plant_process_names_its_runs_for_the_plant_and_summarises_them() {
+    let out = scratch("link-sweep");
+    let config = crate::support::smoke_config_file(&out, 2);
+    let cmd = serve_nav_walls();
+    let args = [
+        "sweep",
+        "--config",
+        s(&config),
+        "--plant-cmd",
+        &cmd,
+        "--seeds",
+        "0-1",
+        "--jobs",
+        "2",
+        "--out",
+        s(&out),
+        "--quiet",
+    ];
+    let swept = host_trainer(&args);
+    assert!(
+        swept.status.success(),
+        "{}",
+        String::from_utf8_lossy(&swept.stderr)
+    );
+    let summary = std::fs::read_to_string(out.join("sweep.md")).expect("sweep.md");
+    for seed in 0..2 {
+        assert!(out
+            .join(format!("nav-walls__dcp__{seed}/policy.postcard"))
+            .is_file());
+    }
+    assert!(summary.contains("nav-walls"), "{summary}");
+    // Finished runs are skipped on the second call, as for scenarios.
+    let again = host_trainer(&args);
+    assert!(
+        again.status.success(),
+        "{}",
+        String::from_utf8_lossy(&again.stderr)
+    );
+}

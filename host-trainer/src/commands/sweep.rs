@@ -11,6 +11,7 @@ use firmware_sim::out;
 use host_trainer::algorithms::Algo;
 use host_trainer::run::config::TrainConfig;
 use host_trainer::run::lock;
+use host_trainer::run::trainer::Trainer;
 use host_trainer::sweep::plan::{self, Seeds};
 use host_trainer::sweep::record::Status;
 use host_trainer::sweep::{report, supervise};
@@ -33,6 +34,10 @@ pub(crate) struct SweepArgs {
     /// [default: the config's].
     #[arg(long)]
     task: Option<String>,
+    /// A plant of your own for every run instead of a scenario: "CMD ARGS" starts it as a
+    /// child process speaking the plant link (docs/own-plant.md); each run starts its own.
+    #[arg(long, conflicts_with = "task")]
+    plant_cmd: Option<String>,
     /// Most runs at once [default: the number of cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     jobs: Option<u32>,
@@ -54,8 +59,15 @@ pub(crate) fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
     if let Some(task) = &args.task {
         base.task = task.clone();
     }
-    // Checked before the folder is locked: a refused sweep leaves nothing behind.
-    host_trainer::run::trainer::scenario(&base.task)?;
+    if let Some(command) = &args.plant_cmd {
+        base.plant_cmd = Some(command.clone());
+    }
+    // Checked before the folder is locked: a refused sweep leaves nothing behind. A plant
+    // process is started once to name the runs for its hello (as `train` names them).
+    match &base.plant_cmd {
+        Some(_) => base.task = Trainer::new(base.clone())?.config.task.clone(),
+        None => drop(host_trainer::run::trainer::scenario(&base.task)?),
+    }
     let mut algos = Vec::new();
     for algo in if args.algo.is_empty() {
         vec![base.algo]

@@ -10,18 +10,23 @@ use crate::run::folder;
 use crate::Error;
 
 /// The columns of a finished run's `eval.json` (firmware-sim's report) that the summary shows.
+/// A run on a plant of the user's (`--plant-cmd`) has the test for any plant's report, which
+/// knows no distance to a goal: its navigation columns are absent.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EvalSummary {
-    /// Fraction of test starts that settled within 2 of the centre.
+    /// Fraction of successful test starts (navigation: settled within 2 of the centre).
     pub success_rate: f64,
-    /// Mean settled distance from the centre.
-    pub mean_error: f64,
+    /// Mean settled distance from the centre (navigation).
+    #[serde(default)]
+    pub mean_error: Option<f64>,
     /// Fraction flagged stuck at a margin.
     pub stuck_rate: f64,
-    /// Fraction that came within 0.25 of the centre.
-    pub near_pass_rate: f64,
-    /// Fraction that held within 0.1 of the centre for 10 steps.
-    pub strict_reach_rate: f64,
+    /// Fraction that came within 0.25 of the centre (navigation).
+    #[serde(default)]
+    pub near_pass_rate: Option<f64>,
+    /// Fraction that held within 0.1 of the centre for 10 steps (navigation).
+    #[serde(default)]
+    pub strict_reach_rate: Option<f64>,
 }
 
 /// The summary columns of `DIR/eval.json`, the report of a finished run.

@@ -42,7 +42,7 @@ const COLUMNS: [Column; 6] = [
     Column {
         header: "settled error",
         key: "mean_error",
-        value: |r| r.eval.map(|e| e.mean_error),
+        value: |r| r.eval.and_then(|e| e.mean_error),
         decimals: 3,
     },
     Column {
@@ -54,13 +54,13 @@ const COLUMNS: [Column; 6] = [
     Column {
         header: "pass within 0.25 %",
         key: "near_pass_pct",
-        value: |r| r.eval.map(|e| 100.0 * e.near_pass_rate),
+        value: |r| r.eval.and_then(|e| e.near_pass_rate).map(|v| 100.0 * v),
         decimals: 1,
     },
     Column {
         header: "strict reach %",
         key: "strict_reach_pct",
-        value: |r| r.eval.map(|e| 100.0 * e.strict_reach_rate),
+        value: |r| r.eval.and_then(|e| e.strict_reach_rate).map(|v| 100.0 * v),
         decimals: 1,
     },
 ];
@@ -243,10 +243,10 @@ mod tests {
             last_line: (status == Status::Failed).then(|| "host-trainer: a | b".into()),
             eval: success.map(|s| EvalSummary {
                 success_rate: s,
-                mean_error: 1.0,
+                mean_error: Some(1.0),
                 stuck_rate: 0.0,
-                near_pass_rate: 0.0,
-                strict_reach_rate: 0.0,
+                near_pass_rate: Some(0.0),
+                strict_reach_rate: Some(0.0),
             }),
         }
     }

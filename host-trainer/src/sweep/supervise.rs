@@ -332,12 +332,14 @@ fn announce(bar: &ProgressBar, record: &RunRecord, run: &PlannedRun) {
     let (Status::Finished, Some(eval)) = (record.status, &record.eval) else {
         return;
     };
+    let settled = eval
+        .mean_error
+        .map_or(String::new(), |e| format!(", settled error {e:.3}"));
     let line = format!(
-        "finished {} in {:.0} s: success {:.2}, settled error {:.3}, stuck {:.2}",
+        "finished {} in {:.0} s: success {:.2}{settled}, stuck {:.2}",
         run.dir.display(),
         record.wall_seconds.unwrap_or(0.0),
         eval.success_rate,
-        eval.mean_error,
         eval.stuck_rate
     );
     bar.suspend(|| firmware_sim::outln!("{line}"));
