@@ -14,10 +14,10 @@
 //! - **contact fraction**: the share of steps on which the plant reported a margin touched.
 //! - **saturation**: per action dimension, the share of steps whose command reached the box.
 //! - **stuck at margin**, the one definition the toolkit uses (docs/own-plant.md): for
-//!   `window` consecutive steps the plant touched a margin on every step, the command was at
-//!   least `min_command` of the action box's half-range on some dimension every step, and the
-//!   motion the plant carried out (`applied`, summed over the window, in half-ranges) is at
-//!   most `max_progress` long. Pushing into a limit and getting nowhere. Navigation's
+//!   `window` consecutive steps the plant touched a margin on every step, the command (measured
+//!   in half-ranges of the action box from its centre) was at least `min_command` long every
+//!   step, and the motion the plant carried out (`applied`, summed over the window, in
+//!   half-ranges) is at most `max_progress` long. Pushing into a limit and getting nowhere. Navigation's
 //!   detector is this rule with the position's displacement as the summed motion.
 //!
 //! ```
@@ -66,7 +66,7 @@ pub enum SuccessRule {
 pub struct StuckRule {
     /// Consecutive steps, at least 1.
     pub window: u32,
-    /// Smallest command, as a fraction of the action box's half-range, in `[0, 1]`.
+    /// Smallest command length, in half-ranges of the action box from its centre, in `[0, 1]`.
     pub min_command: f32,
     /// Largest summed motion over the window, in half-ranges, `>= 0`.
     pub max_progress: f32,
@@ -586,11 +586,13 @@ impl StuckDetector {
         if self.found.is_some() {
             return;
         }
+        // The command's length in half-ranges (navigation's: the step's length over max_step).
         let command = action
             .iter()
             .zip(self.mid.iter().zip(&self.half))
-            .map(|(a, (m, h))| (a - m).abs() / h)
-            .fold(0.0f32, f32::max);
+            .map(|(a, (m, h))| ((a - m) / h).powi(2))
+            .sum::<f32>()
+            .sqrt();
         let pushing = info.margin_touched && command >= self.rule.min_command;
         if !pushing {
             self.window.clear();

@@ -37,6 +37,9 @@ mod hil;
 mod layouts;
 /// `firmware-sim match`: summary, JSON and SVG, exit codes, one-line errors.
 mod match_cli;
+/// The test protocol for any plant and `run --plant-cmd`: navigation's figures under the one
+/// stuck rule, the served plant bit for bit with the plant in process, bad input.
+mod plant_test;
 /// Reference controllers: `straight` is caught stuck, `oracle` follows the gaps.
 mod reference;
 /// `firmware-sim teams`: team against team from player folders, and its bad input.
