@@ -187,3 +187,115 @@ fn a_sweep_on_a_plant_process_names_its_runs_for_the_plant_and_summarises_them()
         String::from_utf8_lossy(&again.stderr)
     );
 }
+
+/// The pids of `pid`'s children, from /proc.
+fn children(pid: u32) -> Vec<u32> {
+    let tasks = std::fs::read_dir(format!("/proc/{pid}/task"))
+        .into_iter()
+        .flatten();
+    tasks
+        .flatten()
+        .filter_map(|t| std::fs::read_to_string(t.path().join("children")).ok())
+        .flat_map(|c| {
+            c.split_whitespace()
+                .filter_map(|p| p.parse().ok())
+                .collect::<Vec<u32>>()
+        })
+        .collect()
+}
+
+/// Whether a process is still running (a zombie awaiting its reaper counts as gone).
+fn alive(pid: u32) -> bool {
+    std::fs::read_to_string(format!("/proc/{pid}/stat")).is_ok_and(|stat| {
+        !stat
+            .rsplit(')')
+            .next()
+            .is_some_and(|s| s.trim_start().starts_with('Z'))
+    })
+}
+
+/// A trainer on a plant process, far from done; its pid and the plant's.
+fn trainer_with_plant(base: &std::path::Path) -> (std::process::Child, u32) {
+    let config = crate::support::smoke_config_file(base, 100_000);
+    let cmd = serve_nav_walls();
+    let child = crate::support::command(&[
+        "train",
+        "--config",
+        s(&config),
+        "--plant-cmd",
+        &cmd,
+        "--out",
+        s(base),
+        "--quiet",
+    ])
+    .stdout(std::process::Stdio::null())
+    .stderr(std::process::Stdio::piped())
+    .spawn()
+    .expect("spawn");
+    let started = std::time::Instant::now();
+    let metrics = base.join("nav-walls__dcp__3").join(folder::METRICS);
+    loop {
+        let plants = children(child.id());
+        if metrics.exists() && !plants.is_empty() {
+            return (child, plants[0]);
+        }
+        assert!(started.elapsed().as_secs() < 60, "training never started");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
+
+fn assert_gone(plant: u32) {
+    let started = std::time::Instant::now();
+    while alive(plant) {
+        assert!(
+            started.elapsed().as_secs() < 10,
+            "the plant {plant} outlived its trainer"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn kill_9_of_the_trainer_leaves_no_plant_behind() {
+    let base = scratch("link-kill9");
+    let (mut trainer, plant) = trainer_with_plant(&base);
+    assert!(alive(plant));
+    trainer.kill().expect("kill -9");
+    trainer.wait().expect("reaped");
+    assert_gone(plant);
+}
+
+#[test]
+fn ctrl_c_of_the_trainer_checkpoints_closes_the_plant_and_resumes() {
+    let base = scratch("link-ctrl-c");
+    let (trainer, plant) = trainer_with_plant(&base);
+    let sent = std::process::Command::new("kill")
+        .args(["-INT", &trainer.id().to_string()])
+        .status()
+        .expect("kill");
+    assert!(sent.success());
+    let out = trainer.wait_with_output().expect("exits");
+    assert_eq!(
+        out.status.code(),
+        Some(130),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_gone(plant);
+    let run = base.join("nav-walls__dcp__3");
+    let path = run.join(folder::CHECKPOINT);
+    let episode = Checkpoint::load(&path).expect("checkpoint").episode;
+    let resumed = host_trainer(&[
+        "train",
+        "--resume",
+        s(&run),
+        "--episodes",
+        &(episode + 1).to_string(),
+        "--quiet",
+    ]);
+    assert!(
+        resumed.status.success(),
+        "{}",
+        String::from_utf8_lossy(&resumed.stderr)
+    );
+}
