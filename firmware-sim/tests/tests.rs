@@ -37,6 +37,8 @@ mod hil;
 mod layouts;
 /// `firmware-sim match`: summary, JSON and SVG, exit codes, one-line errors.
 mod match_cli;
+/// Golden plant link frames, the bytes the Python package's codec must write and read.
+mod plant_link_frames;
 /// The test protocol for any plant and `run --plant-cmd`: navigation's figures under the one
 /// stuck rule, the served plant bit for bit with the plant in process, bad input.
 mod plant_test;
