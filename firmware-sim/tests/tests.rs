@@ -39,6 +39,8 @@ mod layouts;
 mod match_cli;
 /// Golden plant link frames, the bytes the Python package's codec must write and read.
 mod plant_link_frames;
+/// The Rust host (`ChildPlant`) against the Python package's Gymnasium plant server.
+mod plant_link_python;
 /// A golden nav-walls trajectory, which the Python package's FirmwareSimEnv must reproduce.
 mod plant_link_trajectory;
 /// The test protocol for any plant and `run --plant-cmd`: navigation's figures under the one
