@@ -77,6 +77,7 @@ __all__ = [
     "Plant",
     "serve",
     "GymnasiumPlant",
+    "UnsupportedEnv",
     "PlantClient",
     "main",
 ]
@@ -649,8 +650,10 @@ class GymnasiumPlant:
         self.env = env
         self._name = name
         self._action_space = env.action_space
-        self._low = np.asarray(env.action_space.low, dtype=np.float64)
-        self._high = np.asarray(env.action_space.high, dtype=np.float64)
+        # Actions are clipped to the box the hello declares, in float32: an action on its edge
+        # is inside it, whatever the environment's own dtype rounds its bounds to.
+        declared = lambda x: np.asarray(x, dtype=np.float32).astype(np.float64)  # noqa: E731
+        self._low, self._high = declared(env.action_space.low), declared(env.action_space.high)
 
     def hello(self) -> HelloReply:
         o, a = self.env.observation_space, self.env.action_space
@@ -669,8 +672,10 @@ class GymnasiumPlant:
         np = self._np
         wanted = np.asarray(action, dtype=np.float64).reshape(self._action_space.shape)
         clipped = np.clip(wanted, self._low, self._high)
-        applied = clipped.astype(self._action_space.dtype)
-        observation, reward, terminated, truncated, info = self.env.step(applied)
+        space = self._action_space
+        # The float32 edge may lie a rounding beyond a float64 bound: that is no margin.
+        inside = np.clip(clipped, space.low, space.high).astype(space.dtype)
+        observation, reward, terminated, truncated, info = self.env.step(inside)
         success = info.get("is_success") if isinstance(info, dict) else None
         return StepReply(
             observation=self._float32s(observation),
@@ -678,7 +683,7 @@ class GymnasiumPlant:
             terminated=bool(terminated),
             truncated=bool(truncated),
             margin_touched=bool(np.any(clipped != wanted)),
-            applied=self._float32s(applied),
+            applied=self._float32s(clipped),
             success=bool(success) if isinstance(success, (bool, np.bool_)) else None,
         )
 

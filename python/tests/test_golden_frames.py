@@ -4,6 +4,7 @@ the committed bytes and the committed bytes decode to the message, floats compar
 
 from __future__ import annotations
 
+import re
 import struct
 from typing import Any
 
@@ -140,3 +141,18 @@ def test_frame_reader_refuses_a_frame_too_long_and_reads_on() -> None:
         reader.read()
     assert reader.read() == good[:-1]
     assert reader.read() is None  # a half frame before the end is no frame
+
+
+def test_the_byte_by_byte_exchange_in_docs_reads_and_writes_back() -> None:
+    """docs/own-plant.md's exchange with serve-plant: each frame decodes and encodes again to
+    the same bytes, so the page and the Python codec agree."""
+    from paths import REPO
+
+    page = (REPO / "docs" / "own-plant.md").read_text(encoding="utf-8")
+    rows = re.findall(r"^\| (host|plant) \| `([0-9a-f ]+)` \|", page, re.M)
+    assert len(rows) >= 4
+    for side, text in rows:
+        frame = bytes.fromhex(text)
+        decode = pl.decode_request if side == "host" else pl.decode_reply
+        message = decode(frame[:-1])
+        assert pl.encode(message) == frame, (side, text, message)

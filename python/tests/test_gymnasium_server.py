@@ -4,8 +4,11 @@ checked against the same server by its tests/plant_link_python.rs)."""
 
 from __future__ import annotations
 
+import os
+import struct
 import subprocess
 import sys
+from pathlib import Path
 from typing import Iterator
 
 import pytest
@@ -91,6 +94,32 @@ def test_bad_requests_get_error_answers_and_the_link_goes_on(
     with pytest.raises(pl.PlantError, match="the plant says: an action of 2 values, expected 1"):
         pendulum.step([0.0, 0.0])
     assert len(pendulum.reset(0)) == 3
+
+
+def test_a_step_before_any_reset_is_an_error_answer(pendulum: pl.PlantClient) -> None:
+    with pytest.raises(pl.PlantError, match="the plant says: ResetNeeded"):
+        pendulum.step([0.0])
+    assert len(pendulum.reset(0)) == 3
+
+
+def test_a_chatty_env_keeps_the_link_clean_and_reports_success(
+    python_env: dict[str, str],
+) -> None:
+    tests = str(Path(__file__).resolve().parent)
+    environ = {**python_env, "PYTHONPATH": os.pathsep.join([python_env["PYTHONPATH"], tests])}
+    client = pl.PlantClient([*SERVE, "chatty_env:Chatty-v0"], environ=environ)
+    try:
+        # 0.1 as float32 is a little above the environment's float64 bound 0.1.
+        tenth = struct.unpack("<f", struct.pack("<f", 0.1))[0]
+        assert client.hello.agents[0].action_high == (1.0, tenth)
+        assert len(client.reset(3)) == 2
+        clipped = client.step([0.25, 0.75])
+        assert clipped.margin_touched and clipped.applied == (0.25, tenth)
+        assert isinstance(clipped.success, bool)
+        at_the_edge = client.step([-1.0, tenth])
+        assert not at_the_edge.margin_touched, "an action on the declared edge needs no clipping"
+    finally:
+        assert client.close() == 0
 
 
 def test_a_discrete_env_is_refused_with_status_2(python_env: dict[str, str]) -> None:
