@@ -41,6 +41,8 @@ class FirmwareSimEnv(gymnasium.Env[np.ndarray, np.ndarray]):
 
     Args:
         scenario: firmware-sim's scenario name or TOML file (``nav-walls``, ``nav-open``, ...).
+        reward: the reward form instead of the scenario's (``lr``, ``gr``, ``lr-gr``);
+            host-trainer trains with ``gr`` by default.
         binary: the firmware-sim program (default: ``$FIRMWARE_SIM``, else on ``PATH``).
         command: a whole plant command instead (a string split as a shell would, or a list).
         timeout: seconds to wait for each answer.
@@ -51,6 +53,7 @@ class FirmwareSimEnv(gymnasium.Env[np.ndarray, np.ndarray]):
     def __init__(
         self,
         scenario: str = "nav-walls",
+        reward: Optional[str] = None,
         binary: Optional[str] = None,
         command: Union[str, Sequence[str], None] = None,
         timeout: float = 10.0,
@@ -60,6 +63,7 @@ class FirmwareSimEnv(gymnasium.Env[np.ndarray, np.ndarray]):
             raise ValueError(f"render_mode {render_mode!r}: firmware-sim plants do not render")
         if command is None:
             argv = [firmware_sim_binary(binary), "serve-plant", "--scenario", scenario]
+            argv += [] if reward is None else ["--reward", reward]
         elif isinstance(command, str):
             argv = shlex.split(command)
         else:

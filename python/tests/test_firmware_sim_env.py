@@ -30,6 +30,8 @@ def test_gymnasium_check_env_passes(env: FirmwareSimEnv) -> None:
         check_env(env, skip_render_check=True)
 
 
+# The plant's box is ±0.25 per step, not SB3's preferred [-1, 1] (README: RescaleAction).
+@pytest.mark.filterwarnings("ignore:We recommend you to use a symmetric and normalized Box")
 def test_stable_baselines3_check_env_passes(env: FirmwareSimEnv) -> None:
     sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
     sb3_checker.check_env(env, warn=True)
@@ -83,6 +85,18 @@ def test_step_reports_the_margin_and_the_motion(env: FirmwareSimEnv) -> None:
         assert info["applied"].dtype == np.float32 and isinstance(info["success"], bool)
         touched |= info["margin_touched"]
     assert touched, "heading for the centre from seed 0 meets a wall"
+
+
+def test_reward_form_is_passed_to_the_plant(firmware_sim: str) -> None:
+    rewards = {}
+    for form in ("lr", "gr"):
+        env = FirmwareSimEnv("nav-walls", reward=form, binary=firmware_sim)
+        try:
+            env.reset(seed=0)
+            rewards[form] = env.step(np.zeros(2, dtype=np.float32))[1]
+        finally:
+            env.close()
+    assert rewards["lr"] != rewards["gr"]
 
 
 def test_wrong_action_size_is_a_value_error(env: FirmwareSimEnv) -> None:
