@@ -461,7 +461,7 @@ fn a_missing_subcommand_is_named() {
     assert_eq!(o.status.code(), Some(2));
     assert_eq!(
         stderr(&o),
-        "firmware-sim: missing a subcommand: run, match, scenario, teams, heatmap (see --help)\n"
+        "firmware-sim: missing a subcommand: run, match, scenario, teams, heatmap, serve-plant (see --help)\n"
     );
 }
 

@@ -295,12 +295,19 @@ pub fn frame_body<'b>(body: &[u8], version: u16, out: &'b mut [u8]) -> Result<&'
 pub fn unframe(frame: &mut [u8]) -> Result<(u16, &[u8]), Error> {
     let n = cobs::decode_in_place(frame).map_err(|_| Error::Framing)?;
     let bytes: &[u8] = &frame[..n];
-    let envelope: Envelope<'_> = postcard::de_flavors::crc::from_bytes_u32(bytes, CRC.digest())
-        .map_err(|e| match e {
-            postcard::Error::DeserializeBadCrc => Error::Crc,
-            postcard::Error::DeserializeUnexpectedEnd => Error::Truncated,
-            _ => Error::Crc,
-        })?;
+    let (envelope, rest): (Envelope<'_>, &[u8]) =
+        postcard::de_flavors::crc::take_from_bytes_u32(bytes, CRC.digest()).map_err(
+            |e| match e {
+                postcard::Error::DeserializeBadCrc => Error::Crc,
+                postcard::Error::DeserializeUnexpectedEnd => Error::Truncated,
+                _ => Error::Crc,
+            },
+        )?;
+    // Bytes after the CRC are no part of any frame: a frame with a tail is refused, not read
+    // as if it ended at its CRC.
+    if !rest.is_empty() {
+        return Err(Error::Malformed);
+    }
     Ok((envelope.version, envelope.body))
 }
 

@@ -193,3 +193,22 @@ fn an_overlong_frame_is_dropped_up_to_its_delimiter_and_the_next_one_reads() {
     }
     assert_eq!(out, Some(Ok(ToChip::Hello)));
 }
+
+/// Regression: bytes after a frame's CRC were ignored (postcard's `from_bytes_u32` drops the
+/// remainder), so a frame with a tail was read as if it ended at its CRC.
+#[test]
+fn a_frame_with_bytes_after_its_crc_is_refused() {
+    let mut plain = vec![0u8; MAX_FRAME];
+    // The envelope and CRC of a Hello request, then two more bytes, framed by hand.
+    let frame = hil_protocol::frame_body(&[0], VERSION, &mut plain).expect("fits");
+    let mut decoded = frame[..frame.len() - 1].to_vec();
+    let n = cobs::decode_in_place(&mut decoded).expect("cobs");
+    decoded.truncate(n);
+    decoded.extend_from_slice(&[0x2a, 0x2a]);
+    let mut tailed = vec![0u8; decoded.len() + decoded.len() / 254 + 2];
+    let len = cobs::encode(&decoded, &mut tailed);
+    tailed.truncate(len);
+    assert_eq!(decode::<ToChip>(&mut tailed), Err(Error::Malformed));
+    let mut whole = frame[..frame.len() - 1].to_vec();
+    assert_eq!(decode::<ToChip>(&mut whole), Ok(ToChip::Hello));
+}

@@ -39,7 +39,8 @@ def test_stable_baselines3_check_env_passes(env: FirmwareSimEnv) -> None:
 
 def test_spaces_are_the_plants_float32_boxes(env: FirmwareSimEnv) -> None:
     assert env.plant_name == "nav-walls"
-    assert env.observation_space == gymnasium.spaces.Box(-6.0, 6.0, (2,), np.float32)
+    # The arena is ±6; the step that leaves it ends up to one step (0.25) past its edge.
+    assert env.observation_space == gymnasium.spaces.Box(-6.25, 6.25, (2,), np.float32)
     assert env.action_space == gymnasium.spaces.Box(-0.25, 0.25, (2,), np.float32)
 
 

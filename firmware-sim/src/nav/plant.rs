@@ -52,11 +52,14 @@ impl NavEnv {
         scenario.validate()?;
         let h = scenario.arena_half_size as f32;
         let m = scenario.max_step;
+        // The step that leaves the arena ends up to one step past its edge: the box holds every
+        // observation the plant gives, as Gymnasium's contract asks.
+        let reach = h + m;
         Ok(NavEnv {
             walls: scenario.segments(),
             observation_space: BoxSpace {
-                low: vec![-h; 2],
-                high: vec![h; 2],
+                low: vec![-reach; 2],
+                high: vec![reach; 2],
             },
             action_space: BoxSpace {
                 low: vec![-m; 2],
