@@ -20,7 +20,10 @@
 # and two saves never take the same number.
 #
 # `restore` unpacks every archive in number order into OUT, which must be empty or absent: it
-# never writes over runs that are already there, and a corrupt archive leaves OUT as it was.
+# never writes over runs that are already there, and a corrupt archive leaves OUT as it was. It
+# unpacks only regular files and folders: an archive holding anything else (a symbolic link, a
+# hard link, a device, a fifo) or a name that is absolute or climbs with `..` is refused before
+# anything is unpacked, naming the archive and the member.
 #
 # Exit codes: 0 done, 1 a command failed, 2 bad arguments.
 set -euo pipefail
@@ -38,6 +41,45 @@ die() {
 # The archives of a folder, in number order (NNN.tar.xz only).
 archives_in() {
     find "$1" -maxdepth 1 -type f -name '[0-9][0-9][0-9].tar.xz' -printf '%f\n' | sort
+}
+
+# What a member of type letter $1 (as `tar -tv` shows it) is, in words.
+member_kind() {
+    case "$1" in
+    l) echo "a symbolic link" ;;
+    h) echo "a hard link" ;;
+    c) echo "a character device" ;;
+    b) echo "a block device" ;;
+    p) echo "a fifo" ;;
+    *) echo "a member of type '$1'" ;;
+    esac
+}
+
+# Refuses (exit 1) archive $1 unless every member is a regular file or a folder with a relative
+# name that stays inside OUT. Checked for every archive before the first is unpacked: a symbolic
+# link one archive plants (`runs -> /elsewhere`) would carry the next archive's files out of OUT,
+# and tar follows such a link when it unpacks through it.
+check_members() {
+    local a=$1 listing line type name
+    listing="$(LC_ALL=C tar -tvJf "$a" 2>/dev/null)" || {
+        echo "runs-archive: $a does not unpack; nothing restored" >&2
+        exit 1
+    }
+    while IFS= read -r line; do
+        type="${line:0:1}"
+        # The name follows five columns: mode, owner/group, size, date, time.
+        name="$(sed -E 's/^([^ ]+ +){5}//' <<<"$line")"
+        if [[ "$type" != "-" && "$type" != "d" ]]; then
+            echo "runs-archive: $a holds $(member_kind "$type") ($name): only files and" \
+                "folders are restored; nothing restored" >&2
+            exit 1
+        fi
+        if [[ "$name" == /* || "/$name/" == */../* ]]; then
+            echo "runs-archive: $a holds $name, a name outside the folder it unpacks into;" \
+                "nothing restored" >&2
+            exit 1
+        fi
+    done <<<"$listing"
 }
 
 save() {
@@ -110,13 +152,14 @@ restore() {
         [[ -z "$(ls -A "$out")" ]] ||
             die "$out is not empty: restore writes only into a fresh folder"
     fi
+    local a
+    for a in $names; do check_members "$dir/$a"; done
     # Unpacked beside OUT and moved into place whole: a corrupt archive leaves OUT as it was.
     # OUT's parent is made first: on a fresh clone `runs/` does not exist yet.
     mkdir -p "$(dirname "$out")" || die "cannot create the folder that holds $out"
     staging="$(mktemp -d "$(dirname "$out")/.restore.XXXXXX")" || die "cannot write beside $out"
     trap 'rm -rf "$staging"' EXIT
     chmod go+rx "$staging"
-    local a
     for a in $names; do
         tar -xJf "$dir/$a" -C "$staging" || {
             echo "runs-archive: $dir/$a does not unpack; $out left as it was" >&2

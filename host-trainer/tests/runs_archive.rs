@@ -1,0 +1,111 @@
+//! `scripts/runs-archive.sh`, the script that carries a `reproduce` grid's runs between
+//! machines: archives that must not be trusted, and the refusals they get. Archives are built
+//! with `tar` in a scratch folder; the script runs under `bash` as a user would run it.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use crate::support::scratch;
+
+/// The script, from the repository root.
+fn script() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../scripts/runs-archive.sh")
+}
+
+/// Runs the script with `args` to the end.
+fn runs_archive(args: &[&Path]) -> Output {
+    Command::new("bash")
+        .arg(script())
+        .args(args)
+        .output()
+        .expect("bash runs")
+}
+
+/// Packs `members` of `from` (names relative to it, kept as they are) into `archive` with xz.
+fn pack(from: &Path, archive: &Path, members: &[&str]) {
+    let status = Command::new("tar")
+        .arg("-cJf")
+        .arg(archive)
+        .arg("-C")
+        .arg(from)
+        .args(members)
+        .status()
+        .expect("tar runs");
+    assert!(status.success(), "tar packs {members:?}");
+}
+
+/// Asserts the script failed with exit 1 and one line on stderr naming every `needle`.
+fn assert_refused(out: &Output, needles: &[&str]) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "stderr: {stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "one line:\n{stderr}");
+    assert!(stderr.starts_with("runs-archive: "), "{stderr}");
+    for n in needles {
+        assert!(stderr.contains(n), "stderr should name {n:?}: {stderr}");
+    }
+}
+
+/// A restore must not write outside OUT through a symbolic link an earlier archive planted:
+/// `001.tar.xz` holding `runs -> VICTIM` (absolute) or `parts -> ../../VICTIM` (relative) and
+/// `002.tar.xz` holding `runs/x` or `parts/x` once wrote `VICTIM/x` and exited 0. Every member
+/// is checked before anything is unpacked, and the refusal names the archive and the member.
+#[test]
+fn restore_refuses_a_symbolic_link_member() {
+    let dir = scratch("archive-symlink");
+    let victim = dir.join("victim");
+    std::fs::create_dir(&victim).unwrap();
+    for (link, target) in [
+        ("runs", victim.clone()),
+        ("parts", PathBuf::from("../../victim")),
+    ] {
+        let (first, second, archives) = (
+            dir.join(format!("{link}-1")),
+            dir.join(format!("{link}-2")),
+            dir.join(format!("{link}-archives")),
+        );
+        for d in [&first, &second.join(link), &archives] {
+            std::fs::create_dir_all(d).unwrap();
+        }
+        std::fs::write(first.join("grid.json"), "{}").unwrap();
+        std::os::unix::fs::symlink(&target, first.join(link)).unwrap();
+        pack(&first, &archives.join("001.tar.xz"), &["grid.json", link]);
+        std::fs::write(second.join(link).join("x"), "planted").unwrap();
+        pack(&second, &archives.join("002.tar.xz"), &[&format!("{link}/x")]);
+
+        let out = dir.join(format!("{link}-restored"));
+        let result = runs_archive(&[Path::new("restore"), &archives, &out]);
+        assert_refused(&result, &["001.tar.xz", "symbolic link", link]);
+        assert!(!out.exists(), "nothing restored");
+        assert!(
+            std::fs::read_dir(&victim).unwrap().next().is_none(),
+            "nothing written through the link"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Hard links and fifos have no place in a run either: refused by name like a symbolic link
+/// (a hard link could name a file an earlier archive made a link), nothing restored.
+#[test]
+fn restore_refuses_a_hard_link_or_fifo_member() {
+    let dir = scratch("archive-special");
+    let (from, archives) = (dir.join("from"), dir.join("archives"));
+    std::fs::create_dir_all(&from).unwrap();
+    std::fs::create_dir_all(&archives).unwrap();
+    std::fs::write(from.join("grid.json"), "{}").unwrap();
+    std::fs::hard_link(from.join("grid.json"), from.join("again.json")).unwrap();
+    pack(&from, &archives.join("001.tar.xz"), &["grid.json", "again.json"]);
+    let out = dir.join("restored");
+    let result = runs_archive(&[Path::new("restore"), &archives, &out]);
+    assert_refused(&result, &["001.tar.xz", "hard link", "again.json"]);
+    assert!(!out.exists());
+
+    let status = Command::new("mkfifo").arg(from.join("pipe")).status().unwrap();
+    assert!(status.success());
+    std::fs::remove_file(archives.join("001.tar.xz")).unwrap();
+    pack(&from, &archives.join("001.tar.xz"), &["grid.json", "pipe"]);
+    let result = runs_archive(&[Path::new("restore"), &archives, &out]);
+    assert_refused(&result, &["001.tar.xz", "fifo", "pipe"]);
+    assert!(!out.exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
