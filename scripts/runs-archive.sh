@@ -43,6 +43,12 @@ archives_in() {
     find "$1" -maxdepth 1 -type f -name '[0-9][0-9][0-9].tar.xz' -printf '%f\n' | sort
 }
 
+# The member names of archive $1, once xz has checked the whole stream (its checksums and
+# index, which tar alone may stop reading before) and tar has listed it to its end.
+members_of() {
+    xz -tq "$1" 2>/dev/null && LC_ALL=C tar -tJf "$1" 2>/dev/null
+}
+
 # What a member of type letter $1 (as `tar -tv` shows it) is, in words.
 member_kind() {
     case "$1" in
@@ -61,7 +67,7 @@ member_kind() {
 # and tar follows such a link when it unpacks through it.
 check_members() {
     local a=$1 listing line type name
-    listing="$(LC_ALL=C tar -tvJf "$a" 2>/dev/null)" || {
+    listing="$(xz -tq "$a" 2>/dev/null && LC_ALL=C tar -tvJf "$a" 2>/dev/null)" || {
         echo "runs-archive: $a does not unpack; nothing restored" >&2
         exit 1
     }
@@ -95,10 +101,17 @@ save() {
     saved="$(mktemp)"
     list="$(mktemp)"
     trap 'rm -f "$saved" "$list" "${tmp:-}"' EXIT
-    local a
+    # Each earlier archive is verified whole first: a corrupt one would hide the runs it holds
+    # from this list, so they would be saved again, and restore refuses the whole set anyway.
+    local a names
     while read -r a; do
         [[ -n "$a" ]] || continue
-        tar -tJf "$dir/$a" | grep -E '/eval\.json$|\.failed$' >>"$saved" || true
+        names="$(members_of "$dir/$a")" || {
+            echo "runs-archive: $dir/$a is corrupt or truncated (xz -t or tar -t fails):" \
+                "replace it with a good copy before saving again; nothing saved" >&2
+            exit 1
+        }
+        grep -E '/eval\.json$|\.failed$' <<<"$names" >>"$saved" || true
     done < <(archives_in "$dir")
 
     local eval run cell name new=0

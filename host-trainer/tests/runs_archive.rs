@@ -109,3 +109,46 @@ fn restore_refuses_a_hard_link_or_fifo_member() {
     assert!(!out.exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A minimal `reproduce --out` folder as `save` reads it: a grid record and `runs` finished
+/// runs (each with its config and eval.json) in one cell, with the cell's sweep logs folder.
+fn grid_folder(dir: &Path, runs: usize) -> PathBuf {
+    let out = dir.join("grid");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("grid.json"), "{}").unwrap();
+    std::fs::create_dir_all(out.join("runs/cell/sweep-logs")).unwrap();
+    for seed in 0..runs {
+        let run = out.join(format!("runs/cell/nav-walls__dcp__{seed}"));
+        std::fs::create_dir_all(&run).unwrap();
+        std::fs::write(run.join("config.toml"), "").unwrap();
+        std::fs::write(run.join("eval.json"), "{}").unwrap();
+    }
+    out
+}
+
+/// `save` over an earlier archive that is truncated once printed xz's message, exited 0 and
+/// wrote a new archive saving those runs again, a set `restore` then refused whole. Every
+/// earlier archive is verified first: its name, exit 1, nothing written.
+#[test]
+fn save_refuses_a_corrupt_earlier_archive() {
+    let dir = scratch("archive-corrupt");
+    let out = grid_folder(&dir, 2);
+    let archives = dir.join("archives");
+    let saved = runs_archive(&[Path::new("save"), &out, &archives]);
+    assert!(saved.status.success(), "{saved:?}");
+    let first = archives.join("001.tar.xz");
+    let bytes = std::fs::read(&first).unwrap();
+    std::fs::write(&first, &bytes[..bytes.len() / 2]).unwrap();
+    let run = out.join("runs/cell/nav-walls__dcp__2");
+    std::fs::create_dir_all(&run).unwrap();
+    std::fs::write(run.join("eval.json"), "{}").unwrap();
+
+    let result = runs_archive(&[Path::new("save"), &out, &archives]);
+    assert_refused(&result, &["001.tar.xz", "corrupt"]);
+    assert_eq!(
+        crate::support::entries(&archives),
+        ["001.tar.xz"],
+        "no new archive"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
