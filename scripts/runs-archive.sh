@@ -17,7 +17,8 @@
 # checkpoints (about 20 MB a run, for resuming), locks and the learning-curve SVG (metrics.csv
 # holds its numbers). Nothing new finished or failed: it says so and writes nothing. The archive is
 # written under a temporary name and linked into place, so a killed save leaves no half archive
-# and two saves never take the same number.
+# and two saves never take the same number; tar and xz die with the script, and the next save
+# removes a killed save's temporary.
 #
 # `restore` unpacks every archive in number order into OUT, which must be empty or absent: it
 # never writes over runs that are already there, and a corrupt archive leaves OUT as it was. It
@@ -37,6 +38,30 @@ die() {
     exit 2
 }
 [[ $# -eq 3 ]] || usage
+
+# tar and xz die with this script: killed with SIGKILL it runs no trap, and a pipeline left
+# behind would go on writing a full-size temporary archive nobody will link into place. Each is
+# a simple command of the script itself (not of a function or subshell), so its parent is this
+# shell and the death signal follows the shell.
+with_us=()
+if setpriv --pdeathsig KILL true 2>/dev/null; then with_us=(setpriv --pdeathsig KILL); fi
+
+# Temporaries are named for this machine and the writer's pid (`.HOST.PID.`), and only this
+# machine's are judged by pid: an archive folder on shared storage may hold another node's save
+# under way, whose pid means nothing here.
+host="$(uname -n)"
+
+# Removes the temporaries ($1: a glob of this machine's names, `.HOST.PID.`) whose writer is
+# gone: a save or restore killed with SIGKILL runs no trap.
+remove_stale() {
+    local f pid
+    for f in $1; do
+        [[ -e "$f" ]] || continue
+        pid="$(sed -E 's/.*\.([0-9]+)\.[^/]*$/\1/' <<<"$f")"
+        [[ "$pid" =~ ^[0-9]+$ ]] && ! kill -0 "$pid" 2>/dev/null && rm -rf "$f"
+    done
+    return 0
+}
 
 # The archives of a folder, in number order (NNN.tar.xz only).
 archives_in() {
@@ -92,7 +117,8 @@ save() {
     local out=$1 dir=$2
     [[ -f "$out/grid.json" ]] ||
         die "$out holds no grid (no grid.json): not a reproduce --out folder"
-    mkdir -p "$dir" || die "cannot create $dir"
+    [[ ! -e "$dir" || -d "$dir" ]] || die "$dir exists and is not a folder"
+    mkdir -p "$dir" 2>/dev/null || die "cannot create $dir"
     [[ -w "$dir" ]] || die "cannot write to $dir"
     dir="$(realpath "$dir")"
     cd "$out"
@@ -122,7 +148,9 @@ save() {
         name="$(basename "$run")"
         find "$run" -maxdepth 1 -type f ! -name 'checkpoint*' ! -name '.*' ! -name '*.svg' \
             ! -name '*.tmp' | sort >>"$list"
-        find "$cell/sweep-logs" -maxdepth 1 -type f -name "$name.*" 2>/dev/null | sort >>"$list"
+        # A cell without sweep logs is no error (pipefail would make it one, silently).
+        { find "$cell/sweep-logs" -maxdepth 1 -type f -name "$name.*" 2>/dev/null || true; } |
+            sort >>"$list"
         new=$((new + 1))
     done < <(find runs -mindepth 3 -maxdepth 3 -type f -name eval.json | sort)
     # Failed runs not saved yet: their markers and logs, so they still count as failed.
@@ -144,8 +172,9 @@ save() {
     last="$(archives_in "$dir" | tail -n 1)"
     last="${last%.tar.xz}"
     next="$(printf '%03d' $((10#${last:-000} + 1)))"
-    tmp="$dir/.$next.tar.xz.$$.tmp"
-    tar -cf - --no-recursion -T "$list" | xz -9 >"$tmp"
+    remove_stale "$dir/.[0-9][0-9][0-9].tar.xz.$host.*.tmp"
+    tmp="$dir/.$next.tar.xz.$host.$$.tmp"
+    "${with_us[@]}" tar -cf - --no-recursion -T "$list" | "${with_us[@]}" xz -9 >"$tmp"
     # A hard link fails if the name is taken: a save racing this one keeps its own archive.
     ln "$tmp" "$dir/$next.tar.xz" 2>/dev/null ||
         die "$dir/$next.tar.xz appeared while saving (another save?); run save again"
@@ -167,20 +196,30 @@ restore() {
     fi
     local a
     for a in $names; do check_members "$dir/$a"; done
-    # Unpacked beside OUT and moved into place whole: a corrupt archive leaves OUT as it was.
-    # OUT's parent is made first: on a fresh clone `runs/` does not exist yet.
-    mkdir -p "$(dirname "$out")" || die "cannot create the folder that holds $out"
-    staging="$(mktemp -d "$(dirname "$out")/.restore.XXXXXX")" || die "cannot write beside $out"
+    # Unpacked into a staging folder and moved into place whole: a corrupt archive leaves OUT as
+    # it was. An absent OUT is staged beside it and renamed into place; its parent is made
+    # first, since on a fresh clone `runs/` does not exist yet. An existing (empty) OUT is
+    # staged inside itself and its entries moved up, so OUT may be `.` or a mount point.
+    local parent
+    if [[ -d "$out" ]]; then parent="$out"; else parent="$(dirname "$out")"; fi
+    mkdir -p "$parent" 2>/dev/null || die "cannot create $parent, the folder that holds $out"
+    remove_stale "$parent/.restore.$host.*"
+    staging="$(mktemp -d "$parent/.restore.$host.$$.XXXXXX" 2>/dev/null)" ||
+        die "cannot write in $parent"
     trap 'rm -rf "$staging"' EXIT
     chmod go+rx "$staging"
     for a in $names; do
-        tar -xJf "$dir/$a" -C "$staging" || {
+        "${with_us[@]}" tar -xJf "$dir/$a" -C "$staging" || {
             echo "runs-archive: $dir/$a does not unpack; $out left as it was" >&2
             exit 1
         }
     done
-    if [[ -d "$out" ]]; then rmdir "$out"; fi
-    mv -T "$staging" "$out"
+    if [[ -d "$out" ]]; then
+        find "$staging" -mindepth 1 -maxdepth 1 -exec mv -t "$out" {} +
+        rmdir "$staging"
+    else
+        mv -T "$staging" "$out"
+    fi
     echo "runs-archive: $(find "$out/runs" -mindepth 3 -maxdepth 3 -name eval.json | wc -l)" \
         "finished runs restored into $out from $(wc -w <<<"$names") archives"
 }

@@ -152,3 +152,107 @@ fn save_refuses_a_corrupt_earlier_archive() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The processes of process group `pgid` still alive (zombies, dead but not reaped, excluded).
+fn live_members(pgid: u32) -> Vec<String> {
+    let mut live = Vec::new();
+    for entry in std::fs::read_dir("/proc").unwrap().flatten() {
+        let Ok(stat) = std::fs::read_to_string(entry.path().join("stat")) else {
+            continue;
+        };
+        // After the command name in parentheses: state, parent pid, process group.
+        let Some((_, rest)) = stat.rsplit_once(") ") else {
+            continue;
+        };
+        let fields: Vec<&str> = rest.split(' ').collect();
+        if fields.len() > 2 && fields[2] == pgid.to_string() && fields[0] != "Z" {
+            live.push(stat);
+        }
+    }
+    live
+}
+
+/// A save killed with SIGKILL (no trap runs) once left its `tar | xz` pipeline running, which
+/// went on writing a full-size hidden temporary archive. Now the pipeline dies with the script
+/// and the next save removes the dead save's temporary.
+#[test]
+fn a_killed_save_leaves_no_pipeline_and_its_temporary_is_removed() {
+    use std::os::unix::process::CommandExt;
+    let dir = scratch("archive-killed");
+    let out = grid_folder(&dir, 1);
+    // Incompressible bytes, enough to keep xz -9 busy for seconds.
+    let mut x = 0x9E37_79B9_7F4A_7C15_u64;
+    let noise: Vec<u8> = (0..24_000_000)
+        .map(|_| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x as u8
+        })
+        .collect();
+    let metrics = out.join("runs/cell/nav-walls__dcp__0/metrics.csv");
+    std::fs::write(&metrics, noise).unwrap();
+    let archives = dir.join("archives");
+    let mut save = Command::new("bash")
+        .arg(script())
+        .args([Path::new("save"), &out, &archives])
+        .process_group(0)
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    while !archives.is_dir() || crate::support::entries(&archives).is_empty() {
+        assert!(started.elapsed().as_secs() < 60, "no temporary archive appeared");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    save.kill().unwrap();
+    save.wait().unwrap();
+    let mut live = live_members(save.id());
+    for _ in 0..50 {
+        if live.is_empty() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        live = live_members(save.id());
+    }
+    assert!(live.is_empty(), "still running after the save died: {live:?}");
+
+    std::fs::write(&metrics, "small").unwrap();
+    let again = runs_archive(&[Path::new("save"), &out, &archives]);
+    assert!(again.status.success(), "{again:?}");
+    assert_eq!(crate::support::entries(&archives), ["001.tar.xz"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `restore ARCHIVES .` (an empty current folder) once failed with rmdir's raw message; it
+/// restores into the folder. `save OUT FILE` once printed mkdir's message above its own: one
+/// line now, exit 2.
+#[test]
+fn restore_into_the_current_folder_and_save_into_a_file_are_one_line() {
+    let dir = scratch("archive-paths");
+    let out = grid_folder(&dir, 1);
+    let archives = dir.join("archives");
+    assert!(runs_archive(&[Path::new("save"), &out, &archives])
+        .status
+        .success());
+    let here = dir.join("here");
+    std::fs::create_dir(&here).unwrap();
+    let restored = Command::new("bash")
+        .arg(script())
+        .args([Path::new("restore"), &archives, Path::new(".")])
+        .current_dir(&here)
+        .output()
+        .unwrap();
+    assert!(restored.status.success(), "{restored:?}");
+    assert!(here.join("runs/cell/nav-walls__dcp__0/eval.json").is_file());
+    assert_eq!(crate::support::entries(&here), ["grid.json", "runs"]);
+
+    let file = dir.join("file");
+    std::fs::write(&file, "").unwrap();
+    let result = runs_archive(&[Path::new("save"), &out, &file]);
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert_eq!(result.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("not a folder"), "{stderr}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
