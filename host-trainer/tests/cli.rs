@@ -1204,3 +1204,21 @@ fn team_bad_input_is_one_line_and_writes_nothing() {
     assert_one_line_error(&again, &["already holds a run"]);
     std::fs::remove_dir_all(&out_dir).expect("cleanup");
 }
+
+/// `--threads` had no upper bound: 100,000 started threads one by one for over a minute. Above
+/// the cap (1024, the same on every machine) it is refused when the command line is parsed,
+/// in one line naming the range, before anything starts or is written.
+#[test]
+fn threads_above_the_cap_are_refused_at_parse_time() {
+    let out_dir = scratch("threads-cap");
+    let dir = out_dir.to_str().expect("utf-8");
+    let started = std::time::Instant::now();
+    let out = host_trainer(&["train", "--threads", "100000", "--out", dir, "--episodes", "1"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert_one_line_error(&out, &["100000", "1024"]);
+    assert!(started.elapsed().as_secs() < 10, "{:?}", started.elapsed());
+    assert!(entries(&out_dir).is_empty());
+    let out = host_trainer(&["train", "--threads", "1025", "--out", dir, "--episodes", "1"]);
+    assert_one_line_error(&out, &["1025"]);
+    std::fs::remove_dir_all(&out_dir).expect("cleanup");
+}

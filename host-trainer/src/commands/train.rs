@@ -18,7 +18,7 @@ use firmware_sim::plant_test::{evaluate_plant, PlantReport, PlantTestConfig};
 use host_trainer::algorithms::noise::Noise;
 use host_trainer::algorithms::{self, Algo};
 use host_trainer::nn::hidden::Hidden;
-use host_trainer::nn::workers::Workers;
+use host_trainer::nn::workers::{Workers, MAX_THREADS};
 use host_trainer::run::checkpoint::Checkpoint;
 use host_trainer::run::config::{RewardKind, TrainConfig};
 use host_trainer::run::folder::{self, RunDir};
@@ -87,9 +87,9 @@ pub(crate) struct TrainArgs {
     /// Continue the run in this folder from its checkpoint (--episodes may raise the budget).
     #[arg(long, conflicts_with_all = ["task", "plant_cmd", "algo", "hidden", "reward", "t", "sigma", "noise", "dropout", "reward_scale", "seed", "out", "config"])]
     resume: Option<PathBuf>,
-    /// Worker threads of the updates; any count trains to the same bytes [default: the cores
-    /// available].
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    /// Worker threads of the updates, 1 to 1024; any count trains to the same bytes [default:
+    /// the cores available].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_THREADS)))]
     threads: Option<u32>,
     /// Also keep a copy of every checkpoint in RUN/checkpoints/ (to study how the run
     /// learned; each holds the whole replay buffer, tens of MB).
