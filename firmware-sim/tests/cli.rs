@@ -810,3 +810,25 @@ fn a_reader_that_goes_away_ends_the_run_quietly() {
     assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
     assert_eq!(o.status.code(), Some(141), "{}", stderr(&o));
 }
+
+/// `scenario generate --out A --svg B` once replaced A before B failed (B on a full disk, here
+/// `/dev/full`): both are written before either is put in place, so a failed picture leaves the
+/// old scenario file as it was and no temporary beside it.
+#[test]
+fn scenario_generate_writes_both_files_or_neither() {
+    let dir = scratch("generate-both");
+    let a = dir.join("a.toml");
+    std::fs::write(&a, "# the old scenario\n").expect("old file");
+    let o = Command::new(BIN)
+        .args(["scenario", "generate", "--kind", "rings", "--out"])
+        .arg(&a)
+        .args(["--svg", "/dev/full"])
+        .output()
+        .expect("spawn firmware-sim");
+    assert_bad_input(&o, &["/dev/full"]);
+    assert_eq!(
+        std::fs::read_to_string(&a).expect("kept"),
+        "# the old scenario\n"
+    );
+    assert_eq!(names(&dir), ["a.toml"], "no temporary left");
+}
