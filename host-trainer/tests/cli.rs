@@ -1213,12 +1213,28 @@ fn threads_above_the_cap_are_refused_at_parse_time() {
     let out_dir = scratch("threads-cap");
     let dir = out_dir.to_str().expect("utf-8");
     let started = std::time::Instant::now();
-    let out = host_trainer(&["train", "--threads", "100000", "--out", dir, "--episodes", "1"]);
+    let out = host_trainer(&[
+        "train",
+        "--threads",
+        "100000",
+        "--out",
+        dir,
+        "--episodes",
+        "1",
+    ]);
     assert_eq!(out.status.code(), Some(2));
     assert_one_line_error(&out, &["100000", "1024"]);
     assert!(started.elapsed().as_secs() < 10, "{:?}", started.elapsed());
     assert!(entries(&out_dir).is_empty());
-    let out = host_trainer(&["train", "--threads", "1025", "--out", dir, "--episodes", "1"]);
+    let out = host_trainer(&[
+        "train",
+        "--threads",
+        "1025",
+        "--out",
+        dir,
+        "--episodes",
+        "1",
+    ]);
     assert_one_line_error(&out, &["1025"]);
     std::fs::remove_dir_all(&out_dir).expect("cleanup");
 }

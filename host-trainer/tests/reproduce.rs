@@ -301,3 +301,41 @@ fn a_second_process_of_the_same_part_is_refused() {
     drop(held);
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
+
+/// A damaged finished run once blocked the whole grid with "config file …/eval.json: …" and no
+/// hint, and a success rate of 7.5 went into the tables; an unknown key in `grid.json` passed.
+/// Each is now one line naming the run (or the record) and what to do.
+#[test]
+fn a_damaged_run_or_grid_record_is_named_with_the_way_out() {
+    let out = scratch("reproduce-damaged");
+    std::fs::write(
+        out.join("grid.json"),
+        r#"{"experiment": "exp1", "seeds": 1, "quick": true}"#,
+    )
+    .expect("grid");
+    let victim = &GRID.runs()[0];
+    let run = Grid::cell_dir(&out, &victim.cell).join("nav-walls__dcp__0");
+    std::fs::create_dir_all(&run).expect("run");
+    let run_name = run.display().to_string();
+
+    std::fs::write(run.join("eval.json"), r#"{"scenario": "nav-w"#).expect("cut");
+    let merged = reproduce(&out, &["--merge"]);
+    assert_one_line_error(&merged, &[&run_name, "damaged", "eval.json", "remove"]);
+    assert!(!String::from_utf8_lossy(&merged.stderr).contains("config file"));
+
+    let edited = r#"{"success_rate": 7.5, "stuck_rate": 0.0, "mean_error": 0.1}"#;
+    std::fs::write(run.join("eval.json"), edited).expect("edited");
+    let merged = reproduce(&out, &["--merge"]);
+    assert_one_line_error(&merged, &[&run_name, "success_rate = 7.5", "remove"]);
+    assert!(!out.join("exp1.md").exists(), "no page from a damaged run");
+
+    std::fs::remove_dir_all(&run).expect("remove the run");
+    std::fs::write(
+        out.join("grid.json"),
+        r#"{"experiment": "exp1", "seeds": 1, "quick": true, "quik": false}"#,
+    )
+    .expect("grid");
+    let merged = reproduce(&out, &["--merge"]);
+    assert_one_line_error(&merged, &["grid.json", "not a grid record", "quik"]);
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}

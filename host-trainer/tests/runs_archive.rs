@@ -70,7 +70,11 @@ fn restore_refuses_a_symbolic_link_member() {
         std::os::unix::fs::symlink(&target, first.join(link)).unwrap();
         pack(&first, &archives.join("001.tar.xz"), &["grid.json", link]);
         std::fs::write(second.join(link).join("x"), "planted").unwrap();
-        pack(&second, &archives.join("002.tar.xz"), &[&format!("{link}/x")]);
+        pack(
+            &second,
+            &archives.join("002.tar.xz"),
+            &[&format!("{link}/x")],
+        );
 
         let out = dir.join(format!("{link}-restored"));
         let result = runs_archive(&[Path::new("restore"), &archives, &out]);
@@ -94,13 +98,20 @@ fn restore_refuses_a_hard_link_or_fifo_member() {
     std::fs::create_dir_all(&archives).unwrap();
     std::fs::write(from.join("grid.json"), "{}").unwrap();
     std::fs::hard_link(from.join("grid.json"), from.join("again.json")).unwrap();
-    pack(&from, &archives.join("001.tar.xz"), &["grid.json", "again.json"]);
+    pack(
+        &from,
+        &archives.join("001.tar.xz"),
+        &["grid.json", "again.json"],
+    );
     let out = dir.join("restored");
     let result = runs_archive(&[Path::new("restore"), &archives, &out]);
     assert_refused(&result, &["001.tar.xz", "hard link", "again.json"]);
     assert!(!out.exists());
 
-    let status = Command::new("mkfifo").arg(from.join("pipe")).status().unwrap();
+    let status = Command::new("mkfifo")
+        .arg(from.join("pipe"))
+        .status()
+        .unwrap();
     assert!(status.success());
     std::fs::remove_file(archives.join("001.tar.xz")).unwrap();
     pack(&from, &archives.join("001.tar.xz"), &["grid.json", "pipe"]);
@@ -202,7 +213,10 @@ fn a_killed_save_leaves_no_pipeline_and_its_temporary_is_removed() {
         .unwrap();
     let started = std::time::Instant::now();
     while !archives.is_dir() || crate::support::entries(&archives).is_empty() {
-        assert!(started.elapsed().as_secs() < 60, "no temporary archive appeared");
+        assert!(
+            started.elapsed().as_secs() < 60,
+            "no temporary archive appeared"
+        );
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
     save.kill().unwrap();
@@ -215,7 +229,10 @@ fn a_killed_save_leaves_no_pipeline_and_its_temporary_is_removed() {
         std::thread::sleep(std::time::Duration::from_millis(20));
         live = live_members(save.id());
     }
-    assert!(live.is_empty(), "still running after the save died: {live:?}");
+    assert!(
+        live.is_empty(),
+        "still running after the save died: {live:?}"
+    );
 
     std::fs::write(&metrics, "small").unwrap();
     let again = runs_archive(&[Path::new("save"), &out, &archives]);

@@ -20,7 +20,7 @@ use super::grid::{Cell, Grid, GridRun, Slice};
 use crate::run::config::TrainConfig;
 use crate::run::folder;
 use crate::sweep::plan::{self, PlannedRun};
-use crate::sweep::record::{RunRecord, Status};
+use crate::sweep::record::{read_report, RunRecord, Status};
 use crate::sweep::supervise::logs_of;
 use crate::Error;
 
@@ -33,9 +33,9 @@ pub fn recorded(out: &Path) -> Result<Option<Grid>, Error> {
     match fs::read_to_string(&path) {
         Ok(text) => serde_json::from_str(&text)
             .map(Some)
-            .map_err(|e| Error::ConfigFile {
+            .map_err(|e| Error::GridRecord {
                 path,
-                message: format!("not a grid record: {e}"),
+                message: e.to_string(),
             }),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
         Err(source) => Err(Error::Io { path, source }),
@@ -231,14 +231,7 @@ pub fn outcome(out: &Path, grid: &Grid, run: &GridRun) -> Result<Outcome, Error>
     let dir = cell_dir.join(config.run_name());
     let eval = dir.join(folder::EVAL);
     if eval.exists() {
-        let text = fs::read_to_string(&eval).map_err(|source| Error::Io {
-            path: eval.clone(),
-            source,
-        })?;
-        let report: Report = serde_json::from_str(&text).map_err(|e| Error::ConfigFile {
-            path: eval.clone(),
-            message: format!("not a firmware-sim report: {e}"),
-        })?;
+        let report: Report = read_report(&dir)?;
         let recorded = TrainConfig::from_file(&dir.join(folder::CONFIG))?;
         let recorded = recorded.for_algo(recorded.algo)?;
         if recorded != config {
