@@ -1238,3 +1238,39 @@ fn threads_above_the_cap_are_refused_at_parse_time() {
     assert_one_line_error(&out, &["1025"]);
     std::fs::remove_dir_all(&out_dir).expect("cleanup");
 }
+
+/// `team` accepted what `train` refuses: `--algo ddpg --t 4` recorded `dcp.t = 4` in the team's
+/// config (a setting nothing reads), and `--resume --points` below the points already played
+/// marked the team finished past its budget. Both are one line now, as in `train`.
+#[test]
+fn team_refuses_an_unread_t_and_a_budget_below_its_checkpoint() {
+    let out_dir = scratch("team-as-train");
+    let dir = out_dir.to_str().expect("utf-8");
+    let out = host_trainer(&[
+        "team", "--algo", "ddpg", "--t", "4", "--out", dir, "--quiet",
+    ]);
+    assert_one_line_error(&out, &["--t", "ddpg", "dcp"]);
+    assert!(entries(&out_dir).is_empty(), "nothing written");
+
+    let tiny = [
+        "team",
+        "--players",
+        "2",
+        "--points",
+        "6",
+        "--out",
+        dir,
+        "--quiet",
+    ];
+    assert_ok(&host_trainer(&tiny));
+    let team = out_dir.join("badminton__dcp-t16__0");
+    let config = std::fs::read_to_string(team.join("config.toml")).expect("config");
+    let out = host_trainer(&["team", "--resume", s(&team), "--points", "3", "--quiet"]);
+    assert_one_line_error(&out, &["--points", "at least the 6 points", "3"]);
+    assert_eq!(
+        std::fs::read_to_string(team.join("config.toml")).expect("config"),
+        config,
+        "the budget is not changed"
+    );
+    std::fs::remove_dir_all(&out_dir).expect("cleanup");
+}
