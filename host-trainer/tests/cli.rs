@@ -1181,7 +1181,7 @@ fn team_bad_input_is_one_line_and_writes_nothing() {
         assert_one_line_error(&out, &[needle]);
         assert!(entries(&out_dir).is_empty(), "{all:?} wrote something");
     }
-    let missing = out_dir.join("missing");
+    let missing = out_dir.join("missing").join("deeper");
     let out = host_trainer(&["team", "--out", missing.to_str().expect("utf-8")]);
     assert_one_line_error(&out, &["does not exist"]);
     let out = host_trainer(&["team", "--resume", dir]);
@@ -1273,4 +1273,103 @@ fn team_refuses_an_unread_t_and_a_budget_below_its_checkpoint() {
         "the budget is not changed"
     );
     std::fs::remove_dir_all(&out_dir).expect("cleanup");
+}
+
+/// The README's first command (`train --out /tmp/runs`) failed on a fresh machine, and
+/// `reproduce` wanted its `--out` made first while `train` made its run folder: `train`,
+/// `sweep`, `reproduce` and `team` now make a missing output folder whose parent exists (a
+/// mistyped parent is still refused); `--out FILE` says "not a folder", not `Not a directory
+/// (os error 20)`.
+#[test]
+fn a_missing_output_folder_is_created_and_a_file_is_not_a_folder() {
+    let base = scratch("out-created");
+    let config = smoke_config_file(&base, 1);
+    let c = s(&config);
+    let made = |name: &str| base.join(name);
+    let (m, r) = (made("m"), made("r"));
+    assert_ok(&host_trainer(&[
+        "train",
+        "--config",
+        c,
+        "--out",
+        s(&made("t")),
+        "--quiet",
+    ]));
+    assert_eq!(entries(&made("t")).len(), 1, "the run's folder");
+    assert_ok(&host_trainer(&[
+        "sweep",
+        "--config",
+        c,
+        "--seeds",
+        "0",
+        "--out",
+        s(&made("s")),
+        "--quiet",
+    ]));
+    assert!(made("s/sweep.md").is_file());
+    let team = [
+        "team",
+        "--players",
+        "2",
+        "--points",
+        "6",
+        "--out",
+        s(&m),
+        "--quiet",
+    ];
+    assert_ok(&host_trainer(&team));
+    assert!(made("m/badminton__dcp-t16__0").is_dir());
+    let part = [
+        "reproduce",
+        "exp1",
+        "--quick",
+        "--seeds",
+        "1",
+        "--slice",
+        "0/56",
+        "--out",
+        s(&r),
+        "--quiet",
+    ];
+    let o = host_trainer(&part);
+    assert!(
+        o.status.code() == Some(0) || o.status.code() == Some(1),
+        "{o:?}"
+    );
+    assert!(made("r/grid.json").is_file());
+
+    let deeper = made("no/such");
+    let out = host_trainer(&["train", "--config", c, "--out", s(&deeper), "--quiet"]);
+    assert_one_line_error(&out, &["does not exist", "holds it"]);
+    assert!(!made("no").exists());
+
+    let file = made("file");
+    std::fs::write(&file, "").expect("file");
+    for args in [
+        vec![
+            "reproduce",
+            "exp1",
+            "--quick",
+            "--seeds",
+            "1",
+            "--out",
+            s(&file),
+        ],
+        vec![
+            "reproduce",
+            "exp1",
+            "--quick",
+            "--seeds",
+            "1",
+            "--merge",
+            "--out",
+            s(&file),
+        ],
+        vec!["team", "--out", s(&file), "--quiet"],
+    ] {
+        let out = host_trainer(&args);
+        let stderr = assert_one_line_error(&out, &["not a folder"]);
+        assert!(!stderr.contains("os error"), "{stderr}");
+    }
+    std::fs::remove_dir_all(&base).expect("cleanup");
 }

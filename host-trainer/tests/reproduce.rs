@@ -138,7 +138,7 @@ fn bad_input_is_one_line_and_writes_nothing() {
     let out = base.join("out");
     std::fs::create_dir_all(&out).expect("dir");
     let o = s(&out);
-    let missing = base.join("missing");
+    let missing = base.join("missing").join("deeper");
     for (args, needle, code) in [
         (vec!["exp3", "--out", o], "exp3", 2),
         (

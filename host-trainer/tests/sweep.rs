@@ -358,7 +358,7 @@ fn bad_arguments_are_one_line_and_create_nothing() {
     std::fs::write(&bad_config, "episodes = 3\nlearning_rat = 0.1\n").expect("write");
     let out = base.join("out");
     std::fs::create_dir_all(&out).expect("dir");
-    let missing = base.join("no-such-folder");
+    let missing = base.join("no-such-folder").join("deeper");
     let (c, o) = (s(&config), s(&out));
     for (args, needle, code) in [
         (vec!["--config", c, "--seeds", "4-2", "--out", o], "4-2", 2),

@@ -26,7 +26,8 @@ pub(crate) struct ReproduceArgs {
     /// (badminton teams: tables 5–7, team scores, influence of T, heat maps).
     #[arg(value_enum)]
     experiment: Experiment,
-    /// Existing output folder: the grid's runs, its page and figures go there.
+    /// Output folder: the grid's runs, its page and figures go there (created if missing; its
+    /// parent must exist).
     #[arg(long)]
     out: PathBuf,
     /// Seeds 0..N of every cell (at least 5 unless --quick).
@@ -66,6 +67,8 @@ pub(crate) fn reproduce_command(args: ReproduceArgs) -> Result<ExitCode> {
             grid::MIN_SEEDS
         );
     }
+    // A file as --out is named as such, not as the system's "Not a directory" on OUT/grid.json.
+    host_trainer::run::folder::check_output_folder(&args.out)?;
     if args.merge {
         reproduce::folder::check(&args.out, &grid)?;
         return merge(&args.out, &grid);

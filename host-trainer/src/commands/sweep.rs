@@ -10,8 +10,8 @@ use clap::Args;
 use firmware_sim::out;
 use host_trainer::algorithms::Algo;
 use host_trainer::run::config::TrainConfig;
-use host_trainer::run::lock;
 use host_trainer::run::trainer::Trainer;
+use host_trainer::run::{folder, lock};
 use host_trainer::sweep::plan::{self, Seeds};
 use host_trainer::sweep::record::Status;
 use host_trainer::sweep::{report, supervise};
@@ -41,7 +41,8 @@ pub(crate) struct SweepArgs {
     /// Most runs at once [default: the number of cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     jobs: Option<u32>,
-    /// Existing output folder: run folders, sweep-logs/, sweep.md and sweep.json go there.
+    /// Output folder, created if missing (its parent must exist): run folders, sweep-logs/,
+    /// sweep.md and sweep.json go there.
     #[arg(long)]
     out: PathBuf,
     /// No progress bar.
@@ -78,12 +79,15 @@ pub(crate) fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
             algos.push(algo);
         }
     }
-    // One sweep per folder: a second one would resume the first one's runs under it. (A
-    // missing folder is reported by the plan.)
+    // One sweep per folder: a second one would resume the first one's runs under it. A
+    // missing folder is made once the plan is checked (a refused sweep leaves nothing), then
+    // locked, and planned again in case another sweep got there between the two.
     let _lock = if args.out.is_dir() {
-        Some(lock::acquire(&args.out)?)
+        lock::acquire(&args.out)?
     } else {
-        None
+        plan::runs(&base, &algos, &args.seeds.0, &args.out)?;
+        folder::create_output_folder(&args.out)?;
+        lock::acquire(&args.out)?
     };
     let plan = plan::runs(&base, &algos, &args.seeds.0, &args.out)?;
     let runner = runner(&plan, args.jobs, args.quiet, false)?;

@@ -40,7 +40,8 @@ pub(crate) struct TeamArgs {
     /// Badminton scenario: badminton or a scenario TOML file [default: badminton].
     #[arg(long, conflicts_with = "resume")]
     scenario: Option<String>,
-    /// Existing output folder; the team's folder is created in it.
+    /// Output folder, created if missing (its parent must exist); the team's folder is created
+    /// in it.
     #[arg(long, required_unless_present = "resume", conflicts_with = "resume")]
     out: Option<PathBuf>,
     /// Continue the team in this folder from its checkpoint.

@@ -78,7 +78,7 @@ pub(crate) struct TrainArgs {
     /// The run's seed [default: 0].
     #[arg(long)]
     seed: Option<u64>,
-    /// Existing output folder [default: ./runs, created if missing].
+    /// Output folder, created if missing (its parent must exist) [default: ./runs].
     #[arg(long)]
     out: Option<PathBuf>,
     /// Config file (TOML, or JSON if it ends in .json); see config.toml in any run folder.

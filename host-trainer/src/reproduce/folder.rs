@@ -42,18 +42,11 @@ pub fn recorded(out: &Path) -> Result<Option<Grid>, Error> {
     }
 }
 
-/// Records `grid` in `out` (the first part to come), or checks that `out` holds this grid: a
+/// Records `grid` in `out` (the first part to come; `out` is created if missing), or checks that `out` holds this grid: a
 /// folder of another grid is refused before anything is written, whatever its runs.
 pub fn claim(out: &Path, grid: &Grid) -> Result<(), Error> {
-    if !out.is_dir() {
-        return Err(Error::Io {
-            path: out.to_path_buf(),
-            source: std::io::Error::new(
-                std::io::ErrorKind::NotFound,
-                "output folder does not exist (create it first)",
-            ),
-        });
-    }
+    // A missing --out is made here, once every check has passed (its parent must exist).
+    crate::run::folder::create_output_folder(out)?;
     let path = out.join(GRID_FILE);
     let text = serde_json::to_string_pretty(grid).unwrap_or_default() + "\n";
     // One part wins the race to create the record, and publishes it whole: a part that loses
