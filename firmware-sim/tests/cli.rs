@@ -459,9 +459,27 @@ fn scratch_width_without_slots_is_refused() {
 fn a_missing_subcommand_is_named() {
     let o = Command::new(BIN).output().expect("spawn firmware-sim");
     assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).starts_with(
+            "firmware-sim: missing a subcommand: run, match, scenario, teams, heatmap"
+        ),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// `firmware-sim scenario` without its subcommand listed the binary's commands (run, match,
+/// …) instead of its own: the message names the command that lacks one and its choices.
+#[test]
+fn a_missing_scenario_subcommand_lists_the_scenario_commands() {
+    let o = Command::new(BIN)
+        .arg("scenario")
+        .output()
+        .expect("spawn firmware-sim");
+    assert_bad_input(&o, &[]);
     assert_eq!(
         stderr(&o),
-        "firmware-sim: missing a subcommand: run, match, scenario, teams, heatmap (see --help)\n"
+        "firmware-sim scenario: missing a subcommand: generate (see firmware-sim scenario --help)\n"
     );
 }
 
