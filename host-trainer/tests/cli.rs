@@ -1373,3 +1373,30 @@ fn a_missing_output_folder_is_created_and_a_file_is_not_a_folder() {
     }
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+/// `--keep-checkpoints` over a run whose `checkpoints` is a file failed with `File exists (os
+/// error 17)` at the first checkpoint; it is refused by name before anything is written.
+#[test]
+fn keep_checkpoints_over_a_file_named_checkpoints_is_not_a_folder() {
+    let base = scratch("keep-ckpt-file");
+    assert_ok(&train_smoke(&base, 2, &[]));
+    let run = base.join("nav-walls__dcp__3");
+    std::fs::write(run.join(folder::KEPT_CHECKPOINTS), "in the way").expect("file");
+    let out = host_trainer(&[
+        "train",
+        "--resume",
+        s(&run),
+        "--episodes",
+        "3",
+        "--keep-checkpoints",
+        "--quiet",
+    ]);
+    let stderr = assert_one_line_error(&out, &["checkpoints", "not a folder"]);
+    assert!(!stderr.contains("os error"), "{stderr}");
+    let config = std::fs::read_to_string(run.join(folder::CONFIG)).expect("config");
+    assert!(
+        config.contains("episodes = 2"),
+        "the budget is unchanged:\n{config}"
+    );
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}

@@ -111,6 +111,9 @@ pub(crate) fn train_command(args: TrainArgs) -> Result<ExitCode> {
     let keep_checkpoints = args.keep_checkpoints;
     let workers = workers(args.threads)?;
     let timeouts = plant_timeouts(args.plant_timeout)?;
+    if let (true, Some(dir)) = (keep_checkpoints, &args.resume) {
+        folder::check_kept_checkpoints(dir)?;
+    }
     let (mut trainer, run, _lock) = match &args.resume {
         Some(dir) => resume(dir, args.episodes, timeouts)?,
         None => fresh(args, timeouts)?,

@@ -128,6 +128,33 @@ pub fn run_file_in(dir: &Path) -> Option<&'static str> {
     RUN_FILES.iter().copied().find(|f| dir.join(f).exists())
 }
 
+/// The folder of a run's kept checkpoints (`train --keep-checkpoints`), made if missing, after
+/// [`check_kept_checkpoints`].
+pub fn kept_checkpoints(run: &RunDir) -> Result<PathBuf, Error> {
+    check_kept_checkpoints(run.path())?;
+    let kept = run.file(KEPT_CHECKPOINTS);
+    fs::create_dir_all(&kept).map_err(|source| Error::Io {
+        path: kept.clone(),
+        source,
+    })?;
+    Ok(kept)
+}
+
+/// Refuses a file named `checkpoints` in the run folder `run` by name (the system would say only
+/// `File exists` at the first checkpoint); `train --resume --keep-checkpoints` checks it before
+/// anything is written.
+pub fn check_kept_checkpoints(run: &Path) -> Result<(), Error> {
+    let kept = run.join(KEPT_CHECKPOINTS);
+    if kept.exists() && !kept.is_dir() {
+        return Err(io_error(
+            &kept,
+            std::io::ErrorKind::NotADirectory,
+            "not a folder: --keep-checkpoints keeps its copies in a folder of this name; move the file away",
+        ));
+    }
+    Ok(())
+}
+
 /// Checks that `out` can be a command's output folder (`--out`): a folder, or a name not yet
 /// taken inside a folder that exists. Only that last folder is ever created
 /// ([`create_output_folder`]): the README's first command names `/tmp/runs`, which a fresh
