@@ -63,5 +63,9 @@ pub(crate) fn teams(args: &TeamsArgs) -> Result<bool> {
         let text = serde_json::to_string_pretty(&score)? + "\n";
         written(files::write_atomic(path, text.as_bytes()), path)?;
     }
+    // As `match`: an exit 1 says why on stderr, where a script that keeps only stderr looks.
+    if !booted {
+        eprintln!("FAIL: a player played the safe state (its blob did not boot)");
+    }
     Ok(booted)
 }
