@@ -850,3 +850,26 @@ fn scenario_generate_writes_both_files_or_neither() {
     );
     assert_eq!(names(&dir), ["a.toml"], "no temporary left");
 }
+
+/// `firmware-sim run --slot-a A --slot-b B 2>&1 | head -4` exited 101: the reader had gone when
+/// the closing `error:` line went to standard error, and `eprintln!` panicked. Standard error's
+/// reader gone ends the run with 141, as standard output's does.
+#[test]
+fn a_reader_of_standard_error_that_goes_away_ends_the_run_with_141() {
+    let dir = scratch("stderr-closed");
+    let (a, b) = (dir.join("a.bin"), dir.join("b.bin"));
+    std::fs::write(&a, [0x48_u8; 300]).expect("slot a");
+    std::fs::write(&b, [0x48_u8; 300]).expect("slot b");
+    let mut child = Command::new(BIN)
+        .args(["run", "--slot-a"])
+        .arg(&a)
+        .arg("--slot-b")
+        .arg(&b)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    drop(child.stderr.take()); // the reader goes away before the closing line
+    let status = child.wait().expect("wait");
+    assert_eq!(status.code(), Some(141));
+}

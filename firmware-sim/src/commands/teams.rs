@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use firmware_sim::{out, outln};
+use firmware_sim::{errln, out, outln};
 
 use firmware_sim::badminton;
 use firmware_sim::files;
@@ -65,7 +65,7 @@ pub(crate) fn teams(args: &TeamsArgs) -> Result<bool> {
     }
     // As `match`: an exit 1 says why on stderr, where a script that keeps only stderr looks.
     if !booted {
-        eprintln!("FAIL: a player played the safe state (its blob did not boot)");
+        errln!("FAIL: a player played the safe state (its blob did not boot)");
     }
     Ok(booted)
 }
