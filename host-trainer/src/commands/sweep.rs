@@ -38,6 +38,10 @@ pub(crate) struct SweepArgs {
     /// child process speaking the plant link (docs/own-plant.md); each run starts its own.
     #[arg(long, conflicts_with = "task")]
     plant_cmd: Option<String>,
+    /// Training episodes of every run, over the config's budget (recorded in each run's
+    /// config.toml) [default: the config's].
+    #[arg(long)]
+    episodes: Option<usize>,
     /// Most runs at once [default: the number of cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     jobs: Option<u32>,
@@ -59,6 +63,9 @@ pub(crate) fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
     };
     if let Some(task) = &args.task {
         base.task = task.clone();
+    }
+    if let Some(episodes) = args.episodes {
+        base.episodes = episodes;
     }
     if let Some(command) = &args.plant_cmd {
         base.plant_cmd = Some(command.clone());
