@@ -1400,3 +1400,27 @@ fn keep_checkpoints_over_a_file_named_checkpoints_is_not_a_folder() {
     );
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+/// `train --resume`'s summary counted only the resumed part's environment steps as if they
+/// were the run's: it gives the run's total (the checkpoint's) and says how many were this
+/// part's.
+#[test]
+fn the_summary_after_resume_gives_the_runs_total_steps_and_this_parts() {
+    let base = scratch("resume-summary");
+    assert_ok(&train_smoke(&base, 2, &[]));
+    let run = base.join("nav-walls__dcp__3");
+    let before = Checkpoint::load(&run.join(folder::CHECKPOINT)).expect("checkpoint");
+    let out = host_trainer(&["train", "--resume", s(&run), "--episodes", "4", "--quiet"]);
+    assert_ok(&out);
+    let after = Checkpoint::load(&run.join(folder::CHECKPOINT)).expect("checkpoint");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let part = after.total_steps - before.total_steps;
+    assert!(
+        stdout.contains(&format!(
+            "(4 episodes, {} env steps in all; this part: 2 episodes, {part} env steps in",
+            after.total_steps
+        )),
+        "{stdout}"
+    );
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}

@@ -128,6 +128,7 @@ pub(crate) fn train_command(args: TrainArgs) -> Result<ExitCode> {
     bar.set_position(trainer.episode as u64);
     let started = Instant::now();
     let steps_before = trainer.total_steps;
+    let episodes_before = trainer.episode;
     let outcome = trainer::run(&mut trainer, &run, &mut |row, t| {
         bar.set_position(row.episode as u64);
         bar.set_message(format!(
@@ -181,7 +182,14 @@ pub(crate) fn train_command(args: TrainArgs) -> Result<ExitCode> {
             plant_summary_line(&report)
         }
     };
-    outln!("trained {} ({} episodes, {steps} env steps in {seconds:.1} s, {:.0} steps/s incl. updates)", run.path().display(), trainer.episode, steps as f64 / seconds.max(1e-9));
+    let rate = steps as f64 / seconds.max(1e-9);
+    if episodes_before == 0 && steps_before == 0 {
+        outln!("trained {} ({} episodes, {steps} env steps in {seconds:.1} s, {rate:.0} steps/s incl. updates)", run.path().display(), trainer.episode);
+    } else {
+        // A resumed run: the run's totals first (what its metrics and checkpoint hold), then
+        // this part's, whose speed alone was measured here.
+        outln!("trained {} ({} episodes, {} env steps in all; this part: {} episodes, {steps} env steps in {seconds:.1} s, {rate:.0} steps/s incl. updates)", run.path().display(), trainer.episode, trainer.total_steps, trainer.episode - episodes_before);
+    }
     print_summary_text(&summary);
     outln!("wrote {}", run.path().display());
     Ok(ExitCode::SUCCESS)
