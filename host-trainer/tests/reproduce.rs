@@ -339,3 +339,26 @@ fn a_damaged_run_or_grid_record_is_named_with_the_way_out() {
     assert_one_line_error(&merged, &["grid.json", "not a grid record", "quik"]);
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
+
+/// The whole grid and `--slice 0/2` on one `--out` at once were not refused (each part locks
+/// only its own folder), so both trained the same runs. A part whose runs overlap a running
+/// part's is refused naming it; a part that shares no run with it goes ahead.
+#[test]
+fn a_part_overlapping_a_running_part_is_refused() {
+    let out = scratch("reproduce-overlap");
+    let whole = out.join("parts").join("0-of-1");
+    std::fs::create_dir_all(&whole).expect("part dir");
+    let held = host_trainer::run::lock::acquire(&whole).expect("the lock");
+    let refused = reproduce(&out, &["--slice", "0/2"]);
+    assert_one_line_error(&refused, &["part 0/1", "shares runs with part 0/2"]);
+    assert!(!out.join("runs").exists(), "no run started");
+    drop(held);
+
+    let half = out.join("parts").join("0-of-2");
+    std::fs::create_dir_all(&half).expect("part dir");
+    let held = host_trainer::run::lock::acquire(&half).expect("the lock");
+    // Slice 1/56 holds odd runs only, none of slice 0/2's.
+    assert_ok(&reproduce(&out, &["--slice", "1/56"]));
+    drop(held);
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}

@@ -89,6 +89,8 @@ pub(crate) fn reproduce_command(args: ReproduceArgs) -> Result<ExitCode> {
         .with_context(|| format!("cannot create {}", part_dir.display()))?;
     // One process per part: a second one would run the same runs beside the first.
     let _lock = lock::acquire(&part_dir)?;
+    // Another part's runs may be this part's too (the whole grid beside `--slice 0/2`).
+    reproduce::folder::refuse_overlapping_parts(&args.out, slice)?;
     let plan = reproduce::plan(&args.out, &grid, slice)?;
     reproduce::folder::create_cells(&plan)?;
     let runner = runner(&plan, args.jobs, args.quiet, true)?;

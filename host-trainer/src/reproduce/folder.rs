@@ -244,6 +244,57 @@ pub fn outcome(out: &Path, grid: &Grid, run: &GridRun) -> Result<Outcome, Error>
     Ok(failed_line(&dir).map_or(Outcome::Missing, Outcome::Failed))
 }
 
+/// Refuses to run `slice` in `out` while another part whose runs overlap it is running there
+/// (holds its part's lock): each part locks only its own folder, so the whole grid and
+/// `--slice 0/2` started together once both trained the same runs. Slices `a/n` and `b/m` share
+/// a run when some index `i` has `i mod n = a` and `i mod m = b`, which (for a grid long enough,
+/// and refusing is the safe side) is when `a` and `b` agree modulo gcd(n, m).
+pub fn refuse_overlapping_parts(out: &Path, slice: Slice) -> Result<(), Error> {
+    let Ok(entries) = fs::read_dir(out.join(super::PARTS)) else {
+        return Ok(());
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let Some(other) = name.split_once("-of-").and_then(|(i, n)| {
+            Some(Slice {
+                index: i.parse().ok()?,
+                count: n.parse().ok()?,
+            })
+        }) else {
+            continue;
+        };
+        if other == slice || !overlap(other, slice) {
+            continue;
+        }
+        if let Some(holder) = crate::run::lock::holder(&entry.path()) {
+            let holder = if holder.is_empty() {
+                "another process".to_string()
+            } else {
+                format!("process {holder}")
+            };
+            return Err(Error::Locked {
+                path: out.to_path_buf(),
+                holder: format!(
+                    "part {}/{} (host-trainer {holder}), which shares runs with part {}/{}",
+                    other.index, other.count, slice.index, slice.count
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+fn overlap(a: Slice, b: Slice) -> bool {
+    fn gcd(x: u64, y: u64) -> u64 {
+        if y == 0 {
+            x
+        } else {
+            gcd(y, x % y)
+        }
+    }
+    a.index.abs_diff(b.index) % gcd(a.count, b.count) == 0
+}
+
 /// Every run's outcome, in grid order.
 pub fn outcomes(out: &Path, grid: &Grid) -> Result<Vec<(GridRun, Outcome)>, Error> {
     grid.runs()
