@@ -53,7 +53,7 @@ fn assert_refused(out: &Output, needles: &[&str]) {
 fn restore_refuses_a_symbolic_link_member() {
     let dir = scratch("archive-symlink");
     let victim = dir.join("victim");
-    std::fs::create_dir(&victim).unwrap();
+    std::fs::create_dir(&victim).expect("scratch files");
     for (link, target) in [
         ("runs", victim.clone()),
         ("parts", PathBuf::from("../../victim")),
@@ -64,12 +64,12 @@ fn restore_refuses_a_symbolic_link_member() {
             dir.join(format!("{link}-archives")),
         );
         for d in [&first, &second.join(link), &archives] {
-            std::fs::create_dir_all(d).unwrap();
+            std::fs::create_dir_all(d).expect("scratch files");
         }
-        std::fs::write(first.join("grid.json"), "{}").unwrap();
-        std::os::unix::fs::symlink(&target, first.join(link)).unwrap();
+        std::fs::write(first.join("grid.json"), "{}").expect("scratch files");
+        std::os::unix::fs::symlink(&target, first.join(link)).expect("scratch files");
         pack(&first, &archives.join("001.tar.xz"), &["grid.json", link]);
-        std::fs::write(second.join(link).join("x"), "planted").unwrap();
+        std::fs::write(second.join(link).join("x"), "planted").expect("scratch files");
         pack(
             &second,
             &archives.join("002.tar.xz"),
@@ -81,11 +81,14 @@ fn restore_refuses_a_symbolic_link_member() {
         assert_refused(&result, &["001.tar.xz", "symbolic link", link]);
         assert!(!out.exists(), "nothing restored");
         assert!(
-            std::fs::read_dir(&victim).unwrap().next().is_none(),
+            std::fs::read_dir(&victim)
+                .expect("scratch files")
+                .next()
+                .is_none(),
             "nothing written through the link"
         );
     }
-    std::fs::remove_dir_all(&dir).unwrap();
+    std::fs::remove_dir_all(&dir).expect("scratch files");
 }
 
 /// Hard links and fifos have no place in a run either: refused by name like a symbolic link
@@ -94,10 +97,10 @@ fn restore_refuses_a_symbolic_link_member() {
 fn restore_refuses_a_hard_link_or_fifo_member() {
     let dir = scratch("archive-special");
     let (from, archives) = (dir.join("from"), dir.join("archives"));
-    std::fs::create_dir_all(&from).unwrap();
-    std::fs::create_dir_all(&archives).unwrap();
-    std::fs::write(from.join("grid.json"), "{}").unwrap();
-    std::fs::hard_link(from.join("grid.json"), from.join("again.json")).unwrap();
+    std::fs::create_dir_all(&from).expect("scratch files");
+    std::fs::create_dir_all(&archives).expect("scratch files");
+    std::fs::write(from.join("grid.json"), "{}").expect("scratch files");
+    std::fs::hard_link(from.join("grid.json"), from.join("again.json")).expect("scratch files");
     pack(
         &from,
         &archives.join("001.tar.xz"),
@@ -111,28 +114,28 @@ fn restore_refuses_a_hard_link_or_fifo_member() {
     let status = Command::new("mkfifo")
         .arg(from.join("pipe"))
         .status()
-        .unwrap();
+        .expect("mkfifo runs");
     assert!(status.success());
-    std::fs::remove_file(archives.join("001.tar.xz")).unwrap();
+    std::fs::remove_file(archives.join("001.tar.xz")).expect("scratch files");
     pack(&from, &archives.join("001.tar.xz"), &["grid.json", "pipe"]);
     let result = runs_archive(&[Path::new("restore"), &archives, &out]);
     assert_refused(&result, &["001.tar.xz", "fifo", "pipe"]);
     assert!(!out.exists());
-    std::fs::remove_dir_all(&dir).unwrap();
+    std::fs::remove_dir_all(&dir).expect("scratch files");
 }
 
 /// A minimal `reproduce --out` folder as `save` reads it: a grid record and `runs` finished
 /// runs (each with its config and eval.json) in one cell, with the cell's sweep logs folder.
 fn grid_folder(dir: &Path, runs: usize) -> PathBuf {
     let out = dir.join("grid");
-    std::fs::create_dir_all(&out).unwrap();
-    std::fs::write(out.join("grid.json"), "{}").unwrap();
-    std::fs::create_dir_all(out.join("runs/cell/sweep-logs")).unwrap();
+    std::fs::create_dir_all(&out).expect("scratch files");
+    std::fs::write(out.join("grid.json"), "{}").expect("scratch files");
+    std::fs::create_dir_all(out.join("runs/cell/sweep-logs")).expect("scratch files");
     for seed in 0..runs {
         let run = out.join(format!("runs/cell/nav-walls__dcp__{seed}"));
-        std::fs::create_dir_all(&run).unwrap();
-        std::fs::write(run.join("config.toml"), "").unwrap();
-        std::fs::write(run.join("eval.json"), "{}").unwrap();
+        std::fs::create_dir_all(&run).expect("scratch files");
+        std::fs::write(run.join("config.toml"), "").expect("scratch files");
+        std::fs::write(run.join("eval.json"), "{}").expect("scratch files");
     }
     out
 }
@@ -148,11 +151,11 @@ fn save_refuses_a_corrupt_earlier_archive() {
     let saved = runs_archive(&[Path::new("save"), &out, &archives]);
     assert!(saved.status.success(), "{saved:?}");
     let first = archives.join("001.tar.xz");
-    let bytes = std::fs::read(&first).unwrap();
-    std::fs::write(&first, &bytes[..bytes.len() / 2]).unwrap();
+    let bytes = std::fs::read(&first).expect("scratch files");
+    std::fs::write(&first, &bytes[..bytes.len() / 2]).expect("scratch files");
     let run = out.join("runs/cell/nav-walls__dcp__2");
-    std::fs::create_dir_all(&run).unwrap();
-    std::fs::write(run.join("eval.json"), "{}").unwrap();
+    std::fs::create_dir_all(&run).expect("scratch files");
+    std::fs::write(run.join("eval.json"), "{}").expect("scratch files");
 
     let result = runs_archive(&[Path::new("save"), &out, &archives]);
     assert_refused(&result, &["001.tar.xz", "corrupt"]);
@@ -161,13 +164,16 @@ fn save_refuses_a_corrupt_earlier_archive() {
         ["001.tar.xz"],
         "no new archive"
     );
-    std::fs::remove_dir_all(&dir).unwrap();
+    std::fs::remove_dir_all(&dir).expect("scratch files");
 }
 
 /// The processes of process group `pgid` still alive (zombies, dead but not reaped, excluded).
 fn live_members(pgid: u32) -> Vec<String> {
     let mut live = Vec::new();
-    for entry in std::fs::read_dir("/proc").unwrap().flatten() {
+    for entry in std::fs::read_dir("/proc")
+        .expect("/proc lists processes")
+        .flatten()
+    {
         let Ok(stat) = std::fs::read_to_string(entry.path().join("stat")) else {
             continue;
         };
@@ -202,7 +208,7 @@ fn a_killed_save_leaves_no_pipeline_and_its_temporary_is_removed() {
         })
         .collect();
     let metrics = out.join("runs/cell/nav-walls__dcp__0/metrics.csv");
-    std::fs::write(&metrics, noise).unwrap();
+    std::fs::write(&metrics, noise).expect("scratch files");
     let archives = dir.join("archives");
     let mut save = Command::new("bash")
         .arg(script())
@@ -210,7 +216,7 @@ fn a_killed_save_leaves_no_pipeline_and_its_temporary_is_removed() {
         .process_group(0)
         .stdout(std::process::Stdio::null())
         .spawn()
-        .unwrap();
+        .expect("bash runs");
     let started = std::time::Instant::now();
     while !archives.is_dir() || crate::support::entries(&archives).is_empty() {
         assert!(
@@ -219,8 +225,8 @@ fn a_killed_save_leaves_no_pipeline_and_its_temporary_is_removed() {
         );
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
-    save.kill().unwrap();
-    save.wait().unwrap();
+    save.kill().expect("kill the save");
+    save.wait().expect("reap the save");
     let mut live = live_members(save.id());
     for _ in 0..50 {
         if live.is_empty() {
@@ -234,11 +240,11 @@ fn a_killed_save_leaves_no_pipeline_and_its_temporary_is_removed() {
         "still running after the save died: {live:?}"
     );
 
-    std::fs::write(&metrics, "small").unwrap();
+    std::fs::write(&metrics, "small").expect("scratch files");
     let again = runs_archive(&[Path::new("save"), &out, &archives]);
     assert!(again.status.success(), "{again:?}");
     assert_eq!(crate::support::entries(&archives), ["001.tar.xz"]);
-    std::fs::remove_dir_all(&dir).unwrap();
+    std::fs::remove_dir_all(&dir).expect("scratch files");
 }
 
 /// `restore ARCHIVES .` (an empty current folder) once failed with rmdir's raw message; it
@@ -253,23 +259,23 @@ fn restore_into_the_current_folder_and_save_into_a_file_are_one_line() {
         .status
         .success());
     let here = dir.join("here");
-    std::fs::create_dir(&here).unwrap();
+    std::fs::create_dir(&here).expect("scratch files");
     let restored = Command::new("bash")
         .arg(script())
         .args([Path::new("restore"), &archives, Path::new(".")])
         .current_dir(&here)
         .output()
-        .unwrap();
+        .expect("bash runs");
     assert!(restored.status.success(), "{restored:?}");
     assert!(here.join("runs/cell/nav-walls__dcp__0/eval.json").is_file());
     assert_eq!(crate::support::entries(&here), ["grid.json", "runs"]);
 
     let file = dir.join("file");
-    std::fs::write(&file, "").unwrap();
+    std::fs::write(&file, "").expect("scratch files");
     let result = runs_archive(&[Path::new("save"), &out, &file]);
     let stderr = String::from_utf8_lossy(&result.stderr);
     assert_eq!(result.status.code(), Some(2), "{stderr}");
     assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
     assert!(stderr.contains("not a folder"), "{stderr}");
-    std::fs::remove_dir_all(&dir).unwrap();
+    std::fs::remove_dir_all(&dir).expect("scratch files");
 }
