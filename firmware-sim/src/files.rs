@@ -505,6 +505,16 @@ macro_rules! out {
     };
 }
 
+/// `eprintln!` for the binaries: [`write_stderr`], so a reader of standard error that goes
+/// away (`firmware-sim run ... 2>&1 | head -4`) ends the program as a closed standard output
+/// does, with status 141, instead of a panic (status 101).
+#[macro_export]
+macro_rules! errln {
+    ($($arg:tt)*) => {
+        $crate::files::write_stderr(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
 /// The exit status after standard output's reader went away: a shell's status for a process
 /// killed by SIGPIPE.
 pub const BROKEN_PIPE_STATUS: i32 = 141;
@@ -530,6 +540,20 @@ pub fn write_stdout(args: std::fmt::Arguments<'_>) {
                     "warning: cannot write to standard output: {e}"
                 );
             }
+        }
+    }
+}
+
+/// Writes to standard error. If its reader has gone away (it shares standard output's pipe,
+/// `2>&1 | head`), the process ends with status 141, as [`write_stdout`] does: `eprintln!`
+/// panics there instead, and its panic message has nowhere to go either. Any other error is
+/// ignored: there is nowhere left to report it.
+pub fn write_stderr(args: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    let mut stderr = io::stderr().lock();
+    if let Err(e) = stderr.write_fmt(args).and_then(|()| stderr.flush()) {
+        if e.kind() == io::ErrorKind::BrokenPipe {
+            std::process::exit(BROKEN_PIPE_STATUS);
         }
     }
 }

@@ -16,6 +16,7 @@ mod commands;
 use std::process::ExitCode;
 
 use clap::{CommandFactory, Parser, Subcommand};
+use firmware_sim::errln;
 
 use commands::heatmap::{heatmap, HeatmapArgs};
 use commands::play::{play, MatchArgs};
@@ -64,7 +65,7 @@ fn main() -> ExitCode {
             return ExitCode::SUCCESS;
         }
         Err(e) => {
-            eprintln!("{}", usage_error(&e));
+            errln!("{}", usage_error(&e));
             return ExitCode::from(2);
         }
     };
@@ -80,7 +81,7 @@ fn main() -> ExitCode {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::from(1),
         Err(e) => {
-            eprintln!("error: {e:#}");
+            errln!("error: {e:#}");
             ExitCode::from(2)
         }
     }
@@ -93,12 +94,22 @@ fn usage_error(e: &clap::Error) -> String {
         e.kind(),
         ErrorKind::MissingSubcommand | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
     ) {
-        // clap prints the whole help here, whose first line does not say what is wrong.
-        let cli = Cli::command();
-        let names: Vec<&str> = cli.get_subcommands().map(|c| c.get_name()).collect();
+        // clap prints the whole help here, whose first line does not say what is wrong. The
+        // command that lacks one is the deepest the arguments name (`scenario`, not the
+        // binary): its own subcommands are what the user can choose from.
+        let mut cmd = Cli::command();
+        let mut path = vec![cmd.get_name().to_string()];
+        for arg in std::env::args().skip(1) {
+            let Some(sub) = cmd.find_subcommand(&arg).cloned() else {
+                break;
+            };
+            path.push(sub.get_name().to_string());
+            cmd = sub;
+        }
+        let names: Vec<&str> = cmd.get_subcommands().map(|c| c.get_name()).collect();
+        let path = path.join(" ");
         return format!(
-            "{}: missing a subcommand: {} (see --help)",
-            cli.get_name(),
+            "{path}: missing a subcommand: {} (see {path} --help)",
             names.join(", ")
         );
     }

@@ -459,9 +459,27 @@ fn scratch_width_without_slots_is_refused() {
 fn a_missing_subcommand_is_named() {
     let o = Command::new(BIN).output().expect("spawn firmware-sim");
     assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).starts_with(
+            "firmware-sim: missing a subcommand: run, match, scenario, teams, heatmap, serve-plant"
+        ),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// `firmware-sim scenario` without its subcommand listed the binary's commands (run, match,
+/// …) instead of its own: the message names the command that lacks one and its choices.
+#[test]
+fn a_missing_scenario_subcommand_lists_the_scenario_commands() {
+    let o = Command::new(BIN)
+        .arg("scenario")
+        .output()
+        .expect("spawn firmware-sim");
+    assert_bad_input(&o, &[]);
     assert_eq!(
         stderr(&o),
-        "firmware-sim: missing a subcommand: run, match, scenario, teams, heatmap, serve-plant (see --help)\n"
+        "firmware-sim scenario: missing a subcommand: generate (see firmware-sim scenario --help)\n"
     );
 }
 
@@ -809,4 +827,49 @@ fn a_reader_that_goes_away_ends_the_run_quietly() {
     let o = child.wait_with_output().expect("wait");
     assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
     assert_eq!(o.status.code(), Some(141), "{}", stderr(&o));
+}
+
+/// `scenario generate --out A --svg B` once replaced A before B failed (B on a full disk, here
+/// `/dev/full`): both are written before either is put in place, so a failed picture leaves the
+/// old scenario file as it was and no temporary beside it.
+#[test]
+fn scenario_generate_writes_both_files_or_neither() {
+    let dir = scratch("generate-both");
+    let a = dir.join("a.toml");
+    std::fs::write(&a, "# the old scenario\n").expect("old file");
+    let o = Command::new(BIN)
+        .args(["scenario", "generate", "--kind", "rings", "--out"])
+        .arg(&a)
+        .args(["--svg", "/dev/full"])
+        .output()
+        .expect("spawn firmware-sim");
+    assert_bad_input(&o, &["/dev/full"]);
+    assert_eq!(
+        std::fs::read_to_string(&a).expect("kept"),
+        "# the old scenario\n"
+    );
+    assert_eq!(names(&dir), ["a.toml"], "no temporary left");
+}
+
+/// `firmware-sim run --slot-a A --slot-b B 2>&1 | head -4` exited 101: the reader had gone when
+/// the closing `error:` line went to standard error, and `eprintln!` panicked. Standard error's
+/// reader gone ends the run with 141, as standard output's does.
+#[test]
+fn a_reader_of_standard_error_that_goes_away_ends_the_run_with_141() {
+    let dir = scratch("stderr-closed");
+    let (a, b) = (dir.join("a.bin"), dir.join("b.bin"));
+    std::fs::write(&a, [0x48_u8; 300]).expect("slot a");
+    std::fs::write(&b, [0x48_u8; 300]).expect("slot b");
+    let mut child = Command::new(BIN)
+        .args(["run", "--slot-a"])
+        .arg(&a)
+        .arg("--slot-b")
+        .arg(&b)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    drop(child.stderr.take()); // the reader goes away before the closing line
+    let status = child.wait().expect("wait");
+    assert_eq!(status.code(), Some(141));
 }

@@ -80,3 +80,22 @@ fn teams_play_pairings_and_refuse_bad_input() {
         assert!(!Path::new(&bad).exists(), "{all:?} wrote its output");
     }
 }
+
+/// `teams` exited 1 with nothing on stderr when a player's blob did not boot, where `match`
+/// prints `FAIL:`; now it says why on stderr too.
+#[test]
+fn teams_with_a_blob_that_does_not_boot_says_fail_on_stderr() {
+    let dir = Scratch::new("teams-cli", "fail");
+    let team = team_folder(&dir.path("team"));
+    let blob = Path::new(&team).join("players/p00/catch.postcard");
+    let mut bytes = std::fs::read(&blob).expect("blob");
+    let last = bytes.len() - 1;
+    bytes[last] ^= 0xFF;
+    std::fs::write(&blob, bytes).expect("corrupt");
+    let o = teams(&["--a", &team, "--b", "scripted", "--points", "4"]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("FAIL: "), "{err}");
+    assert!(err.contains("did not boot"), "{err}");
+}

@@ -88,6 +88,21 @@ pub enum Error {
         /// How, e.g. "it holds the grid `exp1 --seeds 5`, not `exp1 --seeds 6`".
         difference: String,
     },
+    /// A finished run's result file does not read, or holds values no evaluation gives (a
+    /// success rate of 7.5): the run is damaged, and training it again is the way out.
+    DamagedRun {
+        /// The run folder.
+        path: PathBuf,
+        /// What is wrong, e.g. "eval.json is cut short (EOF while parsing ...)".
+        problem: String,
+    },
+    /// A `reproduce` folder's `grid.json` does not read as a grid record.
+    GridRecord {
+        /// The file.
+        path: PathBuf,
+        /// The parser's message (one line).
+        message: String,
+    },
     /// Another process writes into the folder (it holds the folder's lock).
     Locked {
         /// The run or sweep folder.
@@ -179,6 +194,16 @@ impl fmt::Display for Error {
             Error::GridDiffers { path, difference } => write!(
                 f,
                 "{}: {difference}; give the same experiment, --seeds and --quick as the runs there, or another --out",
+                path.display()
+            ),
+            Error::DamagedRun { path, problem } => write!(
+                f,
+                "run {} is damaged: {problem}; remove that folder and run the same command again to train it anew",
+                path.display()
+            ),
+            Error::GridRecord { path, message } => write!(
+                f,
+                "{} is not a grid record ({message}); it must hold experiment, seeds and quick as reproduce wrote them: restore it from the command that made the runs, or use another --out",
                 path.display()
             ),
             Error::Locked { path, holder } => write!(

@@ -1181,7 +1181,7 @@ fn team_bad_input_is_one_line_and_writes_nothing() {
         assert_one_line_error(&out, &[needle]);
         assert!(entries(&out_dir).is_empty(), "{all:?} wrote something");
     }
-    let missing = out_dir.join("missing");
+    let missing = out_dir.join("missing").join("deeper");
     let out = host_trainer(&["team", "--out", missing.to_str().expect("utf-8")]);
     assert_one_line_error(&out, &["does not exist"]);
     let out = host_trainer(&["team", "--resume", dir]);
@@ -1203,4 +1203,224 @@ fn team_bad_input_is_one_line_and_writes_nothing() {
     let again = host_trainer(&tiny);
     assert_one_line_error(&again, &["already holds a run"]);
     std::fs::remove_dir_all(&out_dir).expect("cleanup");
+}
+
+/// `--threads` had no upper bound: 100,000 started threads one by one for over a minute. Above
+/// the cap (1024, the same on every machine) it is refused when the command line is parsed,
+/// in one line naming the range, before anything starts or is written.
+#[test]
+fn threads_above_the_cap_are_refused_at_parse_time() {
+    let out_dir = scratch("threads-cap");
+    let dir = out_dir.to_str().expect("utf-8");
+    let started = std::time::Instant::now();
+    let out = host_trainer(&[
+        "train",
+        "--threads",
+        "100000",
+        "--out",
+        dir,
+        "--episodes",
+        "1",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert_one_line_error(&out, &["100000", "1024"]);
+    assert!(started.elapsed().as_secs() < 10, "{:?}", started.elapsed());
+    assert!(entries(&out_dir).is_empty());
+    let out = host_trainer(&[
+        "train",
+        "--threads",
+        "1025",
+        "--out",
+        dir,
+        "--episodes",
+        "1",
+    ]);
+    assert_one_line_error(&out, &["1025"]);
+    std::fs::remove_dir_all(&out_dir).expect("cleanup");
+}
+
+/// `team` accepted what `train` refuses: `--algo ddpg --t 4` recorded `dcp.t = 4` in the team's
+/// config (a setting nothing reads), and `--resume --points` below the points already played
+/// marked the team finished past its budget. Both are one line now, as in `train`.
+#[test]
+fn team_refuses_an_unread_t_and_a_budget_below_its_checkpoint() {
+    let out_dir = scratch("team-as-train");
+    let dir = out_dir.to_str().expect("utf-8");
+    let out = host_trainer(&[
+        "team", "--algo", "ddpg", "--t", "4", "--out", dir, "--quiet",
+    ]);
+    assert_one_line_error(&out, &["--t", "ddpg", "dcp"]);
+    assert!(entries(&out_dir).is_empty(), "nothing written");
+
+    let tiny = [
+        "team",
+        "--players",
+        "2",
+        "--points",
+        "6",
+        "--out",
+        dir,
+        "--quiet",
+    ];
+    assert_ok(&host_trainer(&tiny));
+    let team = out_dir.join("badminton__dcp-t16__0");
+    let config = std::fs::read_to_string(team.join("config.toml")).expect("config");
+    let out = host_trainer(&["team", "--resume", s(&team), "--points", "3", "--quiet"]);
+    assert_one_line_error(&out, &["--points", "at least the 6 points", "3"]);
+    assert_eq!(
+        std::fs::read_to_string(team.join("config.toml")).expect("config"),
+        config,
+        "the budget is not changed"
+    );
+    std::fs::remove_dir_all(&out_dir).expect("cleanup");
+}
+
+/// The README's first command (`train --out /tmp/runs`) failed on a fresh machine, and
+/// `reproduce` wanted its `--out` made first while `train` made its run folder: `train`,
+/// `sweep`, `reproduce` and `team` now make a missing output folder whose parent exists (a
+/// mistyped parent is still refused); `--out FILE` says "not a folder", not `Not a directory
+/// (os error 20)`.
+#[test]
+fn a_missing_output_folder_is_created_and_a_file_is_not_a_folder() {
+    let base = scratch("out-created");
+    let config = smoke_config_file(&base, 1);
+    let c = s(&config);
+    let made = |name: &str| base.join(name);
+    let (m, r) = (made("m"), made("r"));
+    assert_ok(&host_trainer(&[
+        "train",
+        "--config",
+        c,
+        "--out",
+        s(&made("t")),
+        "--quiet",
+    ]));
+    assert_eq!(entries(&made("t")).len(), 1, "the run's folder");
+    assert_ok(&host_trainer(&[
+        "sweep",
+        "--config",
+        c,
+        "--seeds",
+        "0",
+        "--out",
+        s(&made("s")),
+        "--quiet",
+    ]));
+    assert!(made("s/sweep.md").is_file());
+    let team = [
+        "team",
+        "--players",
+        "2",
+        "--points",
+        "6",
+        "--out",
+        s(&m),
+        "--quiet",
+    ];
+    assert_ok(&host_trainer(&team));
+    assert!(made("m/badminton__dcp-t16__0").is_dir());
+    let part = [
+        "reproduce",
+        "exp1",
+        "--quick",
+        "--seeds",
+        "1",
+        "--slice",
+        "0/56",
+        "--out",
+        s(&r),
+        "--quiet",
+    ];
+    let o = host_trainer(&part);
+    assert!(
+        o.status.code() == Some(0) || o.status.code() == Some(1),
+        "{o:?}"
+    );
+    assert!(made("r/grid.json").is_file());
+
+    let deeper = made("no/such");
+    let out = host_trainer(&["train", "--config", c, "--out", s(&deeper), "--quiet"]);
+    assert_one_line_error(&out, &["does not exist", "holds it"]);
+    assert!(!made("no").exists());
+
+    let file = made("file");
+    std::fs::write(&file, "").expect("file");
+    for args in [
+        vec![
+            "reproduce",
+            "exp1",
+            "--quick",
+            "--seeds",
+            "1",
+            "--out",
+            s(&file),
+        ],
+        vec![
+            "reproduce",
+            "exp1",
+            "--quick",
+            "--seeds",
+            "1",
+            "--merge",
+            "--out",
+            s(&file),
+        ],
+        vec!["team", "--out", s(&file), "--quiet"],
+    ] {
+        let out = host_trainer(&args);
+        let stderr = assert_one_line_error(&out, &["not a folder"]);
+        assert!(!stderr.contains("os error"), "{stderr}");
+    }
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// `--keep-checkpoints` over a run whose `checkpoints` is a file failed with `File exists (os
+/// error 17)` at the first checkpoint; it is refused by name before anything is written.
+#[test]
+fn keep_checkpoints_over_a_file_named_checkpoints_is_not_a_folder() {
+    let base = scratch("keep-ckpt-file");
+    assert_ok(&train_smoke(&base, 2, &[]));
+    let run = base.join("nav-walls__dcp__3");
+    std::fs::write(run.join(folder::KEPT_CHECKPOINTS), "in the way").expect("file");
+    let out = host_trainer(&[
+        "train",
+        "--resume",
+        s(&run),
+        "--episodes",
+        "3",
+        "--keep-checkpoints",
+        "--quiet",
+    ]);
+    let stderr = assert_one_line_error(&out, &["checkpoints", "not a folder"]);
+    assert!(!stderr.contains("os error"), "{stderr}");
+    let config = std::fs::read_to_string(run.join(folder::CONFIG)).expect("config");
+    assert!(
+        config.contains("episodes = 2"),
+        "the budget is unchanged:\n{config}"
+    );
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// `train --resume`'s summary counted only the resumed part's environment steps as if they
+/// were the run's: it gives the run's total (the checkpoint's) and says how many were this
+/// part's.
+#[test]
+fn the_summary_after_resume_gives_the_runs_total_steps_and_this_parts() {
+    let base = scratch("resume-summary");
+    assert_ok(&train_smoke(&base, 2, &[]));
+    let run = base.join("nav-walls__dcp__3");
+    let before = Checkpoint::load(&run.join(folder::CHECKPOINT)).expect("checkpoint");
+    let out = host_trainer(&["train", "--resume", s(&run), "--episodes", "4", "--quiet"]);
+    assert_ok(&out);
+    let after = Checkpoint::load(&run.join(folder::CHECKPOINT)).expect("checkpoint");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let part = after.total_steps - before.total_steps;
+    assert!(
+        stdout.contains(&format!(
+            "(4 episodes, {} env steps in all; this part: 2 episodes, {part} env steps in",
+            after.total_steps
+        )),
+        "{stdout}"
+    );
+    std::fs::remove_dir_all(&base).expect("cleanup");
 }

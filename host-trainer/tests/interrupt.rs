@@ -23,7 +23,25 @@ impl Drop for KillOnDrop {
 
 #[test]
 fn ctrl_c_checkpoints_and_says_how_to_resume() {
-    let base = scratch("ctrl-c");
+    let stderr = stop_training_with("INT", "ctrl-c");
+    assert!(stderr.contains("Ctrl-C: stopping"), "{stderr}");
+}
+
+/// SIGTERM (a job scheduler's stop) and SIGHUP (a closed terminal) stop a run as Ctrl-C does,
+/// but were reported as Ctrl-C; the message names the signal that came.
+#[test]
+fn sigterm_and_sighup_are_named_not_reported_as_ctrl_c() {
+    for (signal, name) in [("TERM", "SIGTERM"), ("HUP", "SIGHUP")] {
+        let stderr = stop_training_with(signal, &format!("sig-{signal}"));
+        assert!(stderr.contains(name), "{stderr}");
+        assert!(!stderr.contains("Ctrl-C"), "{stderr}");
+    }
+}
+
+/// Starts a long training run, sends it `signal` once it trains, checks it stopped at a
+/// checkpoint with exit 130 and the way to resume, and returns its stderr.
+fn stop_training_with(signal: &str, tag: &str) -> String {
+    let base = scratch(tag);
     // Far more episodes than the test waits for: the run is still training when Ctrl-C comes.
     let config = smoke_config_file(&base, 100_000);
     let mut child = KillOnDrop(Some(
@@ -52,7 +70,7 @@ fn ctrl_c_checkpoints_and_says_how_to_resume() {
         std::thread::sleep(Duration::from_millis(20));
     }
     let sent = std::process::Command::new("kill")
-        .args(["-INT", &pid.to_string()])
+        .args([&format!("-{signal}"), &pid.to_string()])
         .status()
         .expect("kill");
     assert!(sent.success());
@@ -75,4 +93,5 @@ fn ctrl_c_checkpoints_and_says_how_to_resume() {
     assert_eq!(kept.metrics.len(), kept.episode);
     assert_eq!(temporaries(&run), Vec::<String>::new());
     std::fs::remove_dir_all(&base).expect("cleanup");
+    stderr.into_owned()
 }

@@ -138,7 +138,7 @@ fn bad_input_is_one_line_and_writes_nothing() {
     let out = base.join("out");
     std::fs::create_dir_all(&out).expect("dir");
     let o = s(&out);
-    let missing = base.join("missing");
+    let missing = base.join("missing").join("deeper");
     for (args, needle, code) in [
         (vec!["exp3", "--out", o], "exp3", 2),
         (
@@ -298,6 +298,67 @@ fn a_second_process_of_the_same_part_is_refused() {
     let refused = reproduce(&out, &[]);
     assert_one_line_error(&refused, &["is in use by"]);
     assert!(!out.join("runs").exists(), "no run started");
+    drop(held);
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+/// A damaged finished run once blocked the whole grid with "config file …/eval.json: …" and no
+/// hint, and a success rate of 7.5 went into the tables; an unknown key in `grid.json` passed.
+/// Each is now one line naming the run (or the record) and what to do.
+#[test]
+fn a_damaged_run_or_grid_record_is_named_with_the_way_out() {
+    let out = scratch("reproduce-damaged");
+    std::fs::write(
+        out.join("grid.json"),
+        r#"{"experiment": "exp1", "seeds": 1, "quick": true}"#,
+    )
+    .expect("grid");
+    let victim = &GRID.runs()[0];
+    let run = Grid::cell_dir(&out, &victim.cell).join("nav-walls__dcp__0");
+    std::fs::create_dir_all(&run).expect("run");
+    let run_name = run.display().to_string();
+
+    std::fs::write(run.join("eval.json"), r#"{"scenario": "nav-w"#).expect("cut");
+    let merged = reproduce(&out, &["--merge"]);
+    assert_one_line_error(&merged, &[&run_name, "damaged", "eval.json", "remove"]);
+    assert!(!String::from_utf8_lossy(&merged.stderr).contains("config file"));
+
+    let edited = r#"{"success_rate": 7.5, "stuck_rate": 0.0, "mean_error": 0.1}"#;
+    std::fs::write(run.join("eval.json"), edited).expect("edited");
+    let merged = reproduce(&out, &["--merge"]);
+    assert_one_line_error(&merged, &[&run_name, "success_rate = 7.5", "remove"]);
+    assert!(!out.join("exp1.md").exists(), "no page from a damaged run");
+
+    std::fs::remove_dir_all(&run).expect("remove the run");
+    std::fs::write(
+        out.join("grid.json"),
+        r#"{"experiment": "exp1", "seeds": 1, "quick": true, "quik": false}"#,
+    )
+    .expect("grid");
+    let merged = reproduce(&out, &["--merge"]);
+    assert_one_line_error(&merged, &["grid.json", "not a grid record", "quik"]);
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+/// The whole grid and `--slice 0/2` on one `--out` at once were not refused (each part locks
+/// only its own folder), so both trained the same runs. A part whose runs overlap a running
+/// part's is refused naming it; a part that shares no run with it goes ahead.
+#[test]
+fn a_part_overlapping_a_running_part_is_refused() {
+    let out = scratch("reproduce-overlap");
+    let whole = out.join("parts").join("0-of-1");
+    std::fs::create_dir_all(&whole).expect("part dir");
+    let held = host_trainer::run::lock::acquire(&whole).expect("the lock");
+    let refused = reproduce(&out, &["--slice", "0/2"]);
+    assert_one_line_error(&refused, &["part 0/1", "shares runs with part 0/2"]);
+    assert!(!out.join("runs").exists(), "no run started");
+    drop(held);
+
+    let half = out.join("parts").join("0-of-2");
+    std::fs::create_dir_all(&half).expect("part dir");
+    let held = host_trainer::run::lock::acquire(&half).expect("the lock");
+    // Slice 1/56 holds odd runs only, none of slice 0/2's.
+    assert_ok(&reproduce(&out, &["--slice", "1/56"]));
     drop(held);
     std::fs::remove_dir_all(&out).expect("cleanup");
 }

@@ -358,7 +358,7 @@ fn bad_arguments_are_one_line_and_create_nothing() {
     std::fs::write(&bad_config, "episodes = 3\nlearning_rat = 0.1\n").expect("write");
     let out = base.join("out");
     std::fs::create_dir_all(&out).expect("dir");
-    let missing = base.join("no-such-folder");
+    let missing = base.join("no-such-folder").join("deeper");
     let (c, o) = (s(&config), s(&out));
     for (args, needle, code) in [
         (vec!["--config", c, "--seeds", "4-2", "--out", o], "4-2", 2),
@@ -536,5 +536,28 @@ fn task_runs_every_run_of_the_sweep_on_that_scenario() {
         assert!(recorded.contains("rings-2-seed11.toml"), "{recorded}");
         assert!(run.join(folder::POLICY).exists());
     }
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// `sweep` had no `--episodes`: a short sweep needed a config file of its own. It overrides the
+/// config's budget, and each run records it in its config.toml (so the next sweep with the same
+/// flag skips the finished run).
+#[test]
+fn sweep_episodes_overrides_the_configs_budget_and_is_recorded() {
+    let base = scratch("sweep-episodes");
+    let config = smoke_config_file(&base, 3);
+    let out = base.join("out");
+    let sweep = run_sweep(&config, &out, &["--seeds", "0", "--episodes", "2"], &[]);
+    assert_ok(&sweep);
+    let run = out.join("nav-walls__dcp__0");
+    let recorded = std::fs::read_to_string(run.join(folder::CONFIG)).expect("config");
+    assert!(recorded.contains("episodes = 2\n"), "{recorded}");
+    let checkpoint = Checkpoint::load(&run.join(folder::CHECKPOINT)).expect("checkpoint");
+    assert_eq!(checkpoint.episode, 2);
+    let again = run_sweep(&config, &out, &["--seeds", "0", "--episodes", "2"], &[]);
+    assert_ok(&again);
+    assert_eq!(statuses(&out), status_pairs(&[(0, "skipped")]));
+    let out_of_range = run_sweep(&config, &out, &["--seeds", "0", "--episodes", "0"], &[]);
+    assert_one_line_error(&out_of_range, &["episodes"]);
     std::fs::remove_dir_all(&base).expect("cleanup");
 }

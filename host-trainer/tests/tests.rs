@@ -12,6 +12,8 @@ mod interrupt;
 mod plant_link;
 /// `host-trainer reproduce`: an experiment's grid in slices, merged into its page.
 mod reproduce;
+/// `scripts/runs-archive.sh`: archives that hold links or are corrupt are refused by name.
+mod runs_archive;
 /// Shared helpers: scratch folders, running the binary, tiny configs.
 mod support;
 /// `host-trainer sweep`: parallel runs, summary, and re-running after a kill, failure or Ctrl-C.

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use firmware_sim::out;
+use firmware_sim::{errln, out};
 
 use firmware_sim::badminton::play::{play_match, Length, MeasuresReport};
 use firmware_sim::badminton::{self, reference::PlayerKind};
@@ -105,7 +105,7 @@ pub(crate) fn play(args: &MatchArgs) -> Result<bool> {
         written(files::write_atomic(path, svg.as_bytes()), path)?;
     }
     if !report.pass.passed {
-        eprintln!("FAIL: {}", report.pass.failures.join("; "));
+        errln!("FAIL: {}", report.pass.failures.join("; "));
     }
     Ok(report.pass.passed)
 }
@@ -132,7 +132,7 @@ pub(crate) fn measures(
         written(files::write_atomic(path, text.as_bytes()), path)?;
     }
     if !report.booted() {
-        eprintln!("FAIL: an agent played the safe state (its blob did not boot)");
+        errln!("FAIL: an agent played the safe state (its blob did not boot)");
     }
     Ok(report.booted())
 }

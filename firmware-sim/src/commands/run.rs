@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use firmware_sim::{out, outln};
+use firmware_sim::{errln, out, outln};
 
 use firmware_sim::actuator::ActuatorModel;
 use firmware_sim::badminton;
@@ -334,9 +334,9 @@ pub(crate) fn run_on_plant(args: &RunArgs, command: &str) -> Result<bool> {
         written(files::write_atomic(path, text.as_bytes()), path)?;
     }
     if let Some(reason) = &report.boot_error {
-        eprintln!("error: {reason} (ran in the safe state: zero action)");
+        errln!("error: {reason} (ran in the safe state: zero action)");
     } else if !report.pass.passed {
-        eprintln!("FAIL: {}", report.pass.failures.join("; "));
+        errln!("FAIL: {}", report.pass.failures.join("; "));
     }
     Ok(report.pass.passed)
 }
@@ -710,8 +710,8 @@ pub(crate) fn report_failures(report: &Report, blob: Option<&Path>) {
         let from = blob
             .map(|p| format!("{}: ", p.display()))
             .unwrap_or_default();
-        eprintln!("error: {from}{reason} (ran in the safe state: zero action)");
+        errln!("error: {from}{reason} (ran in the safe state: zero action)");
     } else if !report.pass.passed {
-        eprintln!("FAIL: {}", report.pass.failures.join("; "));
+        errln!("FAIL: {}", report.pass.failures.join("; "));
     }
 }

@@ -1,7 +1,8 @@
 //! `firmware-sim scenario generate`: a navigation layout of a kind and difficulty as a
 //! scenario file, kept only if the oracle solves it from every check start.
 
-use std::path::PathBuf;
+use std::io::Write;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
@@ -46,6 +47,13 @@ pub(crate) enum LayoutKind {
     Maze,
 }
 
+/// `bytes` written and flushed to an [`files::AtomicFile`] for `path`, not yet committed.
+fn staged(path: &Path, bytes: &[u8]) -> Result<files::AtomicFile> {
+    let mut file = written(files::AtomicFile::create(path), path)?;
+    written(file.write_all(bytes).and_then(|()| file.flush()), path)?;
+    Ok(file)
+}
+
 /// Generates a layout, checks it, writes it (and its picture); always `Ok(true)` once written.
 pub(crate) fn generate_layout(args: &GenerateArgs) -> Result<bool> {
     outputs_ok(Some(&args.out), args.svg.as_deref())?;
@@ -71,19 +79,34 @@ pub(crate) fn generate_layout(args: &GenerateArgs) -> Result<bool> {
         back == *scenario,
         "the scenario does not round-trip through TOML"
     );
-    written(files::write_atomic(&args.out, text.as_bytes()), &args.out)?;
-    if let Some(path) = &args.svg {
-        let cfg = EvalConfig {
-            episodes: 20,
-            seed: args.seed,
-            record_trajectories: true,
-            ..EvalConfig::default()
-        };
-        let mut oracle = Oracle::new(scenario);
-        let report = evaluate_controller(&mut oracle, scenario, &cfg)?;
-        let svg = firmware_sim::nav::svg::render(scenario, &report);
-        written(files::write_atomic(path, svg.as_bytes()), path)?;
+    let svg = match &args.svg {
+        Some(_) => {
+            let cfg = EvalConfig {
+                episodes: 20,
+                seed: args.seed,
+                record_trajectories: true,
+                ..EvalConfig::default()
+            };
+            let mut oracle = Oracle::new(scenario);
+            let report = evaluate_controller(&mut oracle, scenario, &cfg)?;
+            Some(firmware_sim::nav::svg::render(scenario, &report))
+        }
+        None => None,
+    };
+    // Both files or neither: each is written and flushed to its temporary (or, for a device or
+    // FIFO, through to it, where a full disk or `/dev/full` fails) before either is renamed
+    // into place. The picture is committed first: a rename that fails after the scenario's
+    // would leave a new picture beside the old scenario, the lesser mismatch; a rename fails
+    // far more rarely than a write.
+    let scenario_file = staged(&args.out, text.as_bytes())?;
+    let picture = match (&args.svg, &svg) {
+        (Some(path), Some(svg)) => Some((path, staged(path, svg.as_bytes())?)),
+        _ => None,
+    };
+    if let Some((path, file)) = picture {
+        written(file.commit(), path)?;
     }
+    written(scenario_file.commit(), &args.out)?;
     outln!(
         "{}: {} ({} walls; the oracle reaches the goal from all {} check starts)",
         args.out.display(),

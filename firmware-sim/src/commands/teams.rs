@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use firmware_sim::{out, outln};
+use firmware_sim::{errln, out, outln};
 
 use firmware_sim::badminton;
 use firmware_sim::files;
@@ -62,6 +62,10 @@ pub(crate) fn teams(args: &TeamsArgs) -> Result<bool> {
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&score)? + "\n";
         written(files::write_atomic(path, text.as_bytes()), path)?;
+    }
+    // As `match`: an exit 1 says why on stderr, where a script that keeps only stderr looks.
+    if !booted {
+        errln!("FAIL: a player played the safe state (its blob did not boot)");
     }
     Ok(booted)
 }

@@ -26,7 +26,8 @@ pub(crate) struct ReproduceArgs {
     /// (badminton teams: tables 5–7, team scores, influence of T, heat maps).
     #[arg(value_enum)]
     experiment: Experiment,
-    /// Existing output folder: the grid's runs, its page and figures go there.
+    /// Output folder: the grid's runs, its page and figures go there (created if missing; its
+    /// parent must exist).
     #[arg(long)]
     out: PathBuf,
     /// Seeds 0..N of every cell (at least 5 unless --quick).
@@ -66,6 +67,8 @@ pub(crate) fn reproduce_command(args: ReproduceArgs) -> Result<ExitCode> {
             grid::MIN_SEEDS
         );
     }
+    // A file as --out is named as such, not as the system's "Not a directory" on OUT/grid.json.
+    host_trainer::run::folder::check_output_folder(&args.out)?;
     if args.merge {
         reproduce::folder::check(&args.out, &grid)?;
         return merge(&args.out, &grid);
@@ -86,6 +89,8 @@ pub(crate) fn reproduce_command(args: ReproduceArgs) -> Result<ExitCode> {
         .with_context(|| format!("cannot create {}", part_dir.display()))?;
     // One process per part: a second one would run the same runs beside the first.
     let _lock = lock::acquire(&part_dir)?;
+    // Another part's runs may be this part's too (the whole grid beside `--slice 0/2`).
+    reproduce::folder::refuse_overlapping_parts(&args.out, slice)?;
     let plan = reproduce::plan(&args.out, &grid, slice)?;
     reproduce::folder::create_cells(&plan)?;
     let runner = runner(&plan, args.jobs, args.quiet, true)?;

@@ -1,5 +1,7 @@
-//! Ctrl-C, and a parent that goes: how every command stops at a checkpoint, and the exit code
-//! it stops with.
+//! Ctrl-C (SIGINT), SIGTERM, SIGHUP, and a parent that goes: how every command stops at a
+//! checkpoint, and the exit code it stops with. Each is named in what the command says: a run
+//! stopped by a job scheduler's SIGTERM or a closed terminal's SIGHUP was once reported as a
+//! Ctrl-C nobody pressed.
 
 use std::io::Read as _;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -20,12 +22,19 @@ static FIRST_PRESS: OnceLock<Instant> = OnceLock::new();
 const SAME_PRESS: Duration = Duration::from_millis(500);
 
 pub(crate) fn install_ctrl_c_handler() {
-    set_ctrl_c_handler(|| {
+    set_ctrl_c_handler(|signal| {
         let first = *FIRST_PRESS.get_or_init(Instant::now);
         if INTERRUPTS.fetch_add(1, Ordering::SeqCst) == 0 {
-            eprintln!("\nhost-trainer: stopping after this episode and writing a checkpoint (Ctrl-C again to exit at once)");
+            eprintln!(
+                "\nhost-trainer: {}: stopping after this episode and writing a checkpoint ({} to exit at once)",
+                signal.name,
+                signal.again
+            );
         } else if first.elapsed() >= SAME_PRESS {
-            eprintln!("\nhost-trainer: interrupted; the last checkpoint is kept");
+            eprintln!(
+                "\nhost-trainer: {}: interrupted; the last checkpoint is kept",
+                signal.name
+            );
             std::process::exit(i32::from(INTERRUPTED));
         }
     });
@@ -34,9 +43,13 @@ pub(crate) fn install_ctrl_c_handler() {
 /// A sweep never exits from its handler: it forwards the press to its children and waits for
 /// them, so no run is left writing after the sweep has gone.
 pub(crate) fn install_sweep_ctrl_c_handler() {
-    set_ctrl_c_handler(|| {
+    set_ctrl_c_handler(|signal| {
         if INTERRUPTS.fetch_add(1, Ordering::SeqCst) == 0 {
-            eprintln!("\nhost-trainer: stopping the sweep: no new run starts, running runs write a checkpoint and stop (Ctrl-C again stops them at once)");
+            eprintln!(
+                "\nhost-trainer: {}: stopping the sweep: no new run starts, running runs write a checkpoint and stop ({} stops them at once)",
+                signal.name,
+                signal.again
+            );
         }
     });
 }
@@ -58,11 +71,52 @@ pub(crate) fn stop_when_parent_goes() {
     });
 }
 
-fn set_ctrl_c_handler(handler: fn()) {
-    // Without a handler (it can only fail if another one is installed) Ctrl-C still ends the
-    // process, losing at most `checkpoint_every` episodes: worth a warning, not a failure.
-    let installed = ctrlc::set_handler(handler);
-    if let Err(e) = installed {
-        eprintln!("host-trainer: warning: no Ctrl-C handler ({e}); Ctrl-C loses the episodes since the last checkpoint");
+/// A stopping signal as the messages name it.
+#[derive(Clone, Copy)]
+struct Stop {
+    /// The signal, e.g. "Ctrl-C" or "SIGTERM".
+    name: &'static str,
+    /// How to stop at once, e.g. "Ctrl-C again".
+    again: &'static str,
+}
+
+fn stop_of(signal: i32) -> Stop {
+    use signal_hook::consts::{SIGHUP, SIGTERM};
+    match signal {
+        SIGTERM => Stop {
+            name: "SIGTERM",
+            again: "a second SIGTERM",
+        },
+        SIGHUP => Stop {
+            name: "SIGHUP (the terminal closed)",
+            again: "a second signal",
+        },
+        _ => Stop {
+            name: "Ctrl-C",
+            again: "Ctrl-C again",
+        },
+    }
+}
+
+/// Calls `handler` on a thread of its own for each SIGINT, SIGTERM and SIGHUP, with the signal
+/// named. signal-hook's iterator rather than ctrlc: ctrlc calls one handler for all three and
+/// cannot say which came. Installed once per process; a second call adds nothing.
+fn set_ctrl_c_handler(handler: fn(Stop)) {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    static INSTALLED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+    if INSTALLED.swap(true, Ordering::SeqCst) {
+        return;
+    }
+    // Without a handler a signal still ends the process, losing at most `checkpoint_every`
+    // episodes: worth a warning, not a failure.
+    match signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) {
+        Ok(mut signals) => {
+            std::thread::spawn(move || {
+                for signal in signals.forever() {
+                    handler(stop_of(signal));
+                }
+            });
+        }
+        Err(e) => eprintln!("host-trainer: warning: no Ctrl-C handler ({e}); Ctrl-C loses the episodes since the last checkpoint"),
     }
 }

@@ -10,8 +10,8 @@ use clap::Args;
 use firmware_sim::out;
 use host_trainer::algorithms::Algo;
 use host_trainer::run::config::TrainConfig;
-use host_trainer::run::lock;
 use host_trainer::run::trainer::Trainer;
+use host_trainer::run::{folder, lock};
 use host_trainer::sweep::plan::{self, Seeds};
 use host_trainer::sweep::record::Status;
 use host_trainer::sweep::{report, supervise};
@@ -38,10 +38,15 @@ pub(crate) struct SweepArgs {
     /// child process speaking the plant link (docs/own-plant.md); each run starts its own.
     #[arg(long, conflicts_with = "task")]
     plant_cmd: Option<String>,
+    /// Training episodes of every run, over the config's budget (recorded in each run's
+    /// config.toml) [default: the config's].
+    #[arg(long)]
+    episodes: Option<usize>,
     /// Most runs at once [default: the number of cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     jobs: Option<u32>,
-    /// Existing output folder: run folders, sweep-logs/, sweep.md and sweep.json go there.
+    /// Output folder, created if missing (its parent must exist): run folders, sweep-logs/,
+    /// sweep.md and sweep.json go there.
     #[arg(long)]
     out: PathBuf,
     /// No progress bar.
@@ -58,6 +63,9 @@ pub(crate) fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
     };
     if let Some(task) = &args.task {
         base.task = task.clone();
+    }
+    if let Some(episodes) = args.episodes {
+        base.episodes = episodes;
     }
     if let Some(command) = &args.plant_cmd {
         base.plant_cmd = Some(command.clone());
@@ -78,12 +86,15 @@ pub(crate) fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
             algos.push(algo);
         }
     }
-    // One sweep per folder: a second one would resume the first one's runs under it. (A
-    // missing folder is reported by the plan.)
+    // One sweep per folder: a second one would resume the first one's runs under it. A
+    // missing folder is made once the plan is checked (a refused sweep leaves nothing), then
+    // locked, and planned again in case another sweep got there between the two.
     let _lock = if args.out.is_dir() {
-        Some(lock::acquire(&args.out)?)
+        lock::acquire(&args.out)?
     } else {
-        None
+        plan::runs(&base, &algos, &args.seeds.0, &args.out)?;
+        folder::create_output_folder(&args.out)?;
+        lock::acquire(&args.out)?
     };
     let plan = plan::runs(&base, &algos, &args.seeds.0, &args.out)?;
     let runner = runner(&plan, args.jobs, args.quiet, false)?;

@@ -9,7 +9,7 @@ use std::time::Instant;
 use anyhow::Result;
 use clap::Args;
 use firmware_sim::outln;
-use host_trainer::algorithms::Algo;
+use host_trainer::algorithms::{self, Algo};
 use host_trainer::run::lock;
 use host_trainer::run::progress;
 use host_trainer::team::{self, config::TeamConfig, folder::TeamRun};
@@ -40,7 +40,8 @@ pub(crate) struct TeamArgs {
     /// Badminton scenario: badminton or a scenario TOML file [default: badminton].
     #[arg(long, conflicts_with = "resume")]
     scenario: Option<String>,
-    /// Existing output folder; the team's folder is created in it.
+    /// Output folder, created if missing (its parent must exist); the team's folder is created
+    /// in it.
     #[arg(long, required_unless_present = "resume", conflicts_with = "resume")]
     out: Option<PathBuf>,
     /// Continue the team in this folder from its checkpoint.
@@ -68,6 +69,17 @@ pub(crate) fn team_command(args: TeamArgs) -> Result<ExitCode> {
                 None => TeamConfig::default(),
             };
             config.algo = args.algo.unwrap_or(config.algo);
+            // As train: a flag the team's algorithm does not read would be recorded in its
+            // config.toml and change nothing.
+            if args.t.is_some() && !algorithms::readers("dcp", "t").contains(&config.algo) {
+                return Err(host_trainer::Error::UnreadSetting {
+                    key: "--t".into(),
+                    value: String::new(),
+                    algos: config.algo.to_string(),
+                    readers: algorithms::names(algorithms::readers("dcp", "t")),
+                }
+                .into());
+            }
             config.dcp.t = args.t.unwrap_or(config.dcp.t);
             config.players = args.players.unwrap_or(config.players);
             config.points = args.points.unwrap_or(config.points);

@@ -18,7 +18,7 @@ use firmware_sim::plant_test::{evaluate_plant, PlantReport, PlantTestConfig};
 use host_trainer::algorithms::noise::Noise;
 use host_trainer::algorithms::{self, Algo};
 use host_trainer::nn::hidden::Hidden;
-use host_trainer::nn::workers::Workers;
+use host_trainer::nn::workers::{Workers, MAX_THREADS};
 use host_trainer::run::checkpoint::Checkpoint;
 use host_trainer::run::config::{RewardKind, TrainConfig};
 use host_trainer::run::folder::{self, RunDir};
@@ -78,7 +78,7 @@ pub(crate) struct TrainArgs {
     /// The run's seed [default: 0].
     #[arg(long)]
     seed: Option<u64>,
-    /// Existing output folder [default: ./runs, created if missing].
+    /// Output folder, created if missing (its parent must exist) [default: ./runs].
     #[arg(long)]
     out: Option<PathBuf>,
     /// Config file (TOML, or JSON if it ends in .json); see config.toml in any run folder.
@@ -87,9 +87,9 @@ pub(crate) struct TrainArgs {
     /// Continue the run in this folder from its checkpoint (--episodes may raise the budget).
     #[arg(long, conflicts_with_all = ["task", "plant_cmd", "algo", "hidden", "reward", "t", "sigma", "noise", "dropout", "reward_scale", "seed", "out", "config"])]
     resume: Option<PathBuf>,
-    /// Worker threads of the updates; any count trains to the same bytes [default: the cores
-    /// available].
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    /// Worker threads of the updates, 1 to 1024; any count trains to the same bytes [default:
+    /// the cores available].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_THREADS)))]
     threads: Option<u32>,
     /// Also keep a copy of every checkpoint in RUN/checkpoints/ (to study how the run
     /// learned; each holds the whole replay buffer, tens of MB).
@@ -111,6 +111,9 @@ pub(crate) fn train_command(args: TrainArgs) -> Result<ExitCode> {
     let keep_checkpoints = args.keep_checkpoints;
     let workers = workers(args.threads)?;
     let timeouts = plant_timeouts(args.plant_timeout)?;
+    if let (true, Some(dir)) = (keep_checkpoints, &args.resume) {
+        folder::check_kept_checkpoints(dir)?;
+    }
     let (mut trainer, run, _lock) = match &args.resume {
         Some(dir) => resume(dir, args.episodes, timeouts)?,
         None => fresh(args, timeouts)?,
@@ -125,6 +128,7 @@ pub(crate) fn train_command(args: TrainArgs) -> Result<ExitCode> {
     bar.set_position(trainer.episode as u64);
     let started = Instant::now();
     let steps_before = trainer.total_steps;
+    let episodes_before = trainer.episode;
     let outcome = trainer::run(&mut trainer, &run, &mut |row, t| {
         bar.set_position(row.episode as u64);
         bar.set_message(format!(
@@ -178,7 +182,14 @@ pub(crate) fn train_command(args: TrainArgs) -> Result<ExitCode> {
             plant_summary_line(&report)
         }
     };
-    outln!("trained {} ({} episodes, {steps} env steps in {seconds:.1} s, {:.0} steps/s incl. updates)", run.path().display(), trainer.episode, steps as f64 / seconds.max(1e-9));
+    let rate = steps as f64 / seconds.max(1e-9);
+    if episodes_before == 0 && steps_before == 0 {
+        outln!("trained {} ({} episodes, {steps} env steps in {seconds:.1} s, {rate:.0} steps/s incl. updates)", run.path().display(), trainer.episode);
+    } else {
+        // A resumed run: the run's totals first (what its metrics and checkpoint hold), then
+        // this part's, whose speed alone was measured here.
+        outln!("trained {} ({} episodes, {} env steps in all; this part: {} episodes, {steps} env steps in {seconds:.1} s, {rate:.0} steps/s incl. updates)", run.path().display(), trainer.episode, trainer.total_steps, trainer.episode - episodes_before);
+    }
     print_summary_text(&summary);
     outln!("wrote {}", run.path().display());
     Ok(ExitCode::SUCCESS)

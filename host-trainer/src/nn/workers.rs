@@ -17,6 +17,14 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
+/// The most worker threads a run may ask for (`train --threads`). A fixed number rather than a
+/// multiple of the cores, so a command line valid on one machine is valid on every machine a
+/// sweep or a Slurm array sends it to; well above today's largest single machines, and far above
+/// the pieces an update splits into (DCP's 64 × 17 proposal rows make 182 tiles of six), so no
+/// run is slowed by it. Without it `--threads 100000` started threads one by one for over a
+/// minute before failing or training.
+pub const MAX_THREADS: u32 = 1024;
+
 /// A run's worker threads: one means no pool, everything inline.
 #[derive(Clone, Debug, Default)]
 pub struct Workers {

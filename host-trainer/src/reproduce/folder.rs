@@ -20,7 +20,7 @@ use super::grid::{Cell, Grid, GridRun, Slice};
 use crate::run::config::TrainConfig;
 use crate::run::folder;
 use crate::sweep::plan::{self, PlannedRun};
-use crate::sweep::record::{RunRecord, Status};
+use crate::sweep::record::{read_report, RunRecord, Status};
 use crate::sweep::supervise::logs_of;
 use crate::Error;
 
@@ -33,27 +33,20 @@ pub fn recorded(out: &Path) -> Result<Option<Grid>, Error> {
     match fs::read_to_string(&path) {
         Ok(text) => serde_json::from_str(&text)
             .map(Some)
-            .map_err(|e| Error::ConfigFile {
+            .map_err(|e| Error::GridRecord {
                 path,
-                message: format!("not a grid record: {e}"),
+                message: e.to_string(),
             }),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
         Err(source) => Err(Error::Io { path, source }),
     }
 }
 
-/// Records `grid` in `out` (the first part to come), or checks that `out` holds this grid: a
+/// Records `grid` in `out` (the first part to come; `out` is created if missing), or checks that `out` holds this grid: a
 /// folder of another grid is refused before anything is written, whatever its runs.
 pub fn claim(out: &Path, grid: &Grid) -> Result<(), Error> {
-    if !out.is_dir() {
-        return Err(Error::Io {
-            path: out.to_path_buf(),
-            source: std::io::Error::new(
-                std::io::ErrorKind::NotFound,
-                "output folder does not exist (create it first)",
-            ),
-        });
-    }
+    // A missing --out is made here, once every check has passed (its parent must exist).
+    crate::run::folder::create_output_folder(out)?;
     let path = out.join(GRID_FILE);
     let text = serde_json::to_string_pretty(grid).unwrap_or_default() + "\n";
     // One part wins the race to create the record, and publishes it whole: a part that loses
@@ -231,14 +224,7 @@ pub fn outcome(out: &Path, grid: &Grid, run: &GridRun) -> Result<Outcome, Error>
     let dir = cell_dir.join(config.run_name());
     let eval = dir.join(folder::EVAL);
     if eval.exists() {
-        let text = fs::read_to_string(&eval).map_err(|source| Error::Io {
-            path: eval.clone(),
-            source,
-        })?;
-        let report: Report = serde_json::from_str(&text).map_err(|e| Error::ConfigFile {
-            path: eval.clone(),
-            message: format!("not a firmware-sim report: {e}"),
-        })?;
+        let report: Report = read_report(&dir)?;
         let recorded = TrainConfig::from_file(&dir.join(folder::CONFIG))?;
         let recorded = recorded.for_algo(recorded.algo)?;
         if recorded != config {
@@ -256,6 +242,57 @@ pub fn outcome(out: &Path, grid: &Grid, run: &GridRun) -> Result<Outcome, Error>
         })));
     }
     Ok(failed_line(&dir).map_or(Outcome::Missing, Outcome::Failed))
+}
+
+/// Refuses to run `slice` in `out` while another part whose runs overlap it is running there
+/// (holds its part's lock): each part locks only its own folder, so the whole grid and
+/// `--slice 0/2` started together once both trained the same runs. Slices `a/n` and `b/m` share
+/// a run when some index `i` has `i mod n = a` and `i mod m = b`, which (for a grid long enough,
+/// and refusing is the safe side) is when `a` and `b` agree modulo gcd(n, m).
+pub fn refuse_overlapping_parts(out: &Path, slice: Slice) -> Result<(), Error> {
+    let Ok(entries) = fs::read_dir(out.join(super::PARTS)) else {
+        return Ok(());
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let Some(other) = name.split_once("-of-").and_then(|(i, n)| {
+            Some(Slice {
+                index: i.parse().ok()?,
+                count: n.parse().ok()?,
+            })
+        }) else {
+            continue;
+        };
+        if other == slice || !overlap(other, slice) {
+            continue;
+        }
+        if let Some(holder) = crate::run::lock::holder(&entry.path()) {
+            let holder = if holder.is_empty() {
+                "another process".to_string()
+            } else {
+                format!("process {holder}")
+            };
+            return Err(Error::Locked {
+                path: out.to_path_buf(),
+                holder: format!(
+                    "part {}/{} (host-trainer {holder}), which shares runs with part {}/{}",
+                    other.index, other.count, slice.index, slice.count
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+fn overlap(a: Slice, b: Slice) -> bool {
+    fn gcd(x: u64, y: u64) -> u64 {
+        if y == 0 {
+            x
+        } else {
+            gcd(y, x % y)
+        }
+    }
+    a.index.abs_diff(b.index) % gcd(a.count, b.count) == 0
 }
 
 /// Every run's outcome, in grid order.

@@ -237,7 +237,10 @@ pub struct GridRun {
 }
 
 /// A grid: the experiment, its seeds and its budget.
+// An unknown key in `grid.json` is refused: a misspelt `seed` or `quik` would otherwise read as
+// a grid of other settings than the one written.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Grid {
     /// Which experiment.
     pub experiment: Experiment,

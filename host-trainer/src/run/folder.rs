@@ -128,6 +128,86 @@ pub fn run_file_in(dir: &Path) -> Option<&'static str> {
     RUN_FILES.iter().copied().find(|f| dir.join(f).exists())
 }
 
+/// The folder of a run's kept checkpoints (`train --keep-checkpoints`), made if missing, after
+/// [`check_kept_checkpoints`].
+pub fn kept_checkpoints(run: &RunDir) -> Result<PathBuf, Error> {
+    check_kept_checkpoints(run.path())?;
+    let kept = run.file(KEPT_CHECKPOINTS);
+    fs::create_dir_all(&kept).map_err(|source| Error::Io {
+        path: kept.clone(),
+        source,
+    })?;
+    Ok(kept)
+}
+
+/// Refuses a file named `checkpoints` in the run folder `run` by name (the system would say only
+/// `File exists` at the first checkpoint); `train --resume --keep-checkpoints` checks it before
+/// anything is written.
+pub fn check_kept_checkpoints(run: &Path) -> Result<(), Error> {
+    let kept = run.join(KEPT_CHECKPOINTS);
+    if kept.exists() && !kept.is_dir() {
+        return Err(io_error(
+            &kept,
+            std::io::ErrorKind::NotADirectory,
+            "not a folder: --keep-checkpoints keeps its copies in a folder of this name; move the file away",
+        ));
+    }
+    Ok(())
+}
+
+/// Checks that `out` can be a command's output folder (`--out`): a folder, or a name not yet
+/// taken inside a folder that exists. Only that last folder is ever created
+/// ([`create_output_folder`]): the README's first command names `/tmp/runs`, which a fresh
+/// machine does not have, while a mistyped parent (`/tmp/rnus/exp1`) is still refused rather
+/// than a tree of folders made where nobody will look. Writes nothing.
+pub fn check_output_folder(out: &Path) -> Result<(), Error> {
+    if out.is_dir() {
+        return Ok(());
+    }
+    if out.exists() {
+        return Err(io_error(
+            out,
+            std::io::ErrorKind::NotADirectory,
+            "not a folder: --out names a file (give the folder the runs go in)",
+        ));
+    }
+    let parent = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !parent.is_dir() {
+        return Err(io_error(
+            out,
+            std::io::ErrorKind::NotFound,
+            "output folder does not exist, nor the folder that holds it (only the last folder of --out is created)",
+        ));
+    }
+    Ok(())
+}
+
+/// Creates the output folder `out` if it is missing, after [`check_output_folder`].
+///
+/// ```
+/// let base = std::env::temp_dir().join(format!("output-folder-doc-{}", std::process::id()));
+/// std::fs::create_dir_all(&base).unwrap();
+/// host_trainer::run::folder::create_output_folder(&base.join("runs")).unwrap();
+/// assert!(base.join("runs").is_dir());
+/// assert!(host_trainer::run::folder::create_output_folder(&base.join("a/b")).is_err());
+/// # std::fs::remove_dir_all(&base).unwrap();
+/// ```
+pub fn create_output_folder(out: &Path) -> Result<(), Error> {
+    check_output_folder(out)?;
+    match fs::create_dir(out) {
+        Ok(()) => Ok(()),
+        // Another process of the same command (a second part of a grid) made it first.
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && out.is_dir() => Ok(()),
+        Err(source) => Err(Error::Io {
+            path: out.to_path_buf(),
+            source,
+        }),
+    }
+}
+
 /// An existing, writable run folder.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RunDir {
@@ -135,9 +215,10 @@ pub struct RunDir {
 }
 
 impl RunDir {
-    /// Creates `out/name` for a new run. `out` itself must already exist: a mistyped output
-    /// folder is an error, not something to create silently. A folder that already holds a run
-    /// is refused, so a finished run is never overwritten; continue it with `--resume`.
+    /// Creates `out/name` for a new run, and `out` itself if it is missing but its parent
+    /// exists ([`create_output_folder`]: a mistyped parent is an error, not a tree to create
+    /// silently). A folder that already holds a run is refused, so a finished run is never
+    /// overwritten; continue it with `--resume`.
     ///
     /// ```
     /// let out = std::env::temp_dir().join(format!("run-dir-doc-{}", std::process::id()));
@@ -147,13 +228,7 @@ impl RunDir {
     /// # std::fs::remove_dir_all(&out).unwrap();
     /// ```
     pub fn create(out: &Path, name: &str) -> Result<RunDir, Error> {
-        if !out.is_dir() {
-            return Err(io_error(
-                out,
-                std::io::ErrorKind::NotFound,
-                "output folder does not exist (create it first)",
-            ));
-        }
+        check_output_folder(out)?;
         let path = out.join(name);
         if let Some(found) = run_file_in(&path) {
             return Err(Error::RunExists {
@@ -161,6 +236,7 @@ impl RunDir {
                 found: found.to_string(),
             });
         }
+        create_output_folder(out)?;
         fs::create_dir_all(&path).map_err(|source| Error::Io {
             path: path.clone(),
             source,
@@ -233,12 +309,12 @@ mod tests {
     }
 
     #[test]
-    fn missing_output_folder_is_an_error_and_creates_nothing() {
+    fn output_folder_missing_with_its_parent_is_an_error_and_creates_nothing() {
         let dir = scratch("missing");
-        let out = dir.join("no-such-folder");
+        let out = dir.join("no-such-folder").join("deeper");
         let err = RunDir::create(&out, "x__y__0").expect_err("must fail");
         assert!(err.to_string().contains("does not exist"), "{err}");
-        assert!(!out.exists());
+        assert!(!dir.join("no-such-folder").exists());
         fs::remove_dir_all(&dir).expect("cleanup");
     }
 

@@ -56,3 +56,19 @@ pub fn acquire(dir: &Path) -> Result<FolderLock, Error> {
     writeln!(file, "{}", std::process::id()).map_err(io)?;
     Ok(FolderLock { _file: file })
 }
+
+/// Who holds `dir`'s lock, if anyone does: the holder's process id as it wrote it (empty if
+/// unreadable). Looks without taking the lock: a shared lock, held only for the look, so it
+/// neither writes the file nor outlives this call.
+pub fn holder(dir: &Path) -> Option<String> {
+    let mut file = OpenOptions::new().read(true).open(dir.join(LOCK)).ok()?;
+    match fs4::FileExt::try_lock_shared(&file) {
+        Err(fs4::TryLockError::WouldBlock) => {
+            let mut holder = String::new();
+            let _ = file.read_to_string(&mut holder);
+            Some(holder.trim().to_string())
+        }
+        // Not held (or not lockable at all): nobody is writing there.
+        _ => None,
+    }
+}

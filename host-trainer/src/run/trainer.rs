@@ -375,11 +375,7 @@ impl Trainer {
         let checkpoint = self.checkpoint();
         checkpoint.save(&run.file(folder::CHECKPOINT))?;
         if self.keep_checkpoints {
-            let kept = run.file(folder::KEPT_CHECKPOINTS);
-            std::fs::create_dir_all(&kept).map_err(|source| Error::Io {
-                path: kept.clone(),
-                source,
-            })?;
+            let kept = folder::kept_checkpoints(run)?;
             checkpoint.save(&kept.join(folder::kept_checkpoint(self.episode)))?;
         }
         self.save_metrics(run)

@@ -161,27 +161,14 @@ pub fn runs(
     seeds: &[u64],
     out: &Path,
 ) -> Result<Vec<PlannedRun>, Error> {
-    if !out.is_dir() {
-        let (kind, why) = if out.exists() {
-            (
-                std::io::ErrorKind::NotADirectory,
-                "--out names a file, not a folder (give the folder the runs go in)",
-            )
-        } else {
-            (
-                std::io::ErrorKind::NotFound,
-                "output folder does not exist (create it first)",
-            )
-        };
-        return Err(Error::Io {
+    // A missing --out is made by the sweep once the plan is checked (its parent must exist).
+    folder::check_output_folder(out)?;
+    if out.is_dir() {
+        files::check_output(&out.join(SUMMARY_MD)).map_err(|source| Error::Io {
             path: out.to_path_buf(),
-            source: std::io::Error::new(kind, why),
-        });
+            source,
+        })?;
     }
-    files::check_output(&out.join(SUMMARY_MD)).map_err(|source| Error::Io {
-        path: out.to_path_buf(),
-        source,
-    })?;
     if algos.len() * seeds.len() > MAX_RUNS {
         return Err(Error::InvalidConfig {
             what: "--algo and --seeds".into(),

@@ -31,15 +31,61 @@ pub struct EvalSummary {
 
 /// The summary columns of `DIR/eval.json`, the report of a finished run.
 pub fn read_eval(dir: &Path) -> Result<EvalSummary, Error> {
+    read_report(dir)
+}
+
+/// A finished run's `DIR/eval.json` as `T` (the summary's columns, or firmware-sim's whole
+/// report), once its summary's values are checked: a file cut short or edited (a success rate
+/// of 7.5) is a damaged run, named with the way out (train it again), never figures in a table.
+pub fn read_report<T: serde::de::DeserializeOwned>(dir: &Path) -> Result<T, Error> {
     let path = dir.join(folder::EVAL);
+    let damaged = |problem: String| Error::DamagedRun {
+        path: dir.to_path_buf(),
+        problem,
+    };
     let text = fs::read_to_string(&path).map_err(|source| Error::Io {
         path: path.clone(),
         source,
     })?;
-    serde_json::from_str(&text).map_err(|e| Error::ConfigFile {
-        path,
-        message: format!("not a firmware-sim report: {e}"),
+    let summary: EvalSummary = serde_json::from_str(&text).map_err(|e| {
+        damaged(format!(
+            "its {} is not a firmware-sim report ({e})",
+            folder::EVAL
+        ))
+    })?;
+    summary
+        .check()
+        .map_err(|e| damaged(format!("its {} holds {e}", folder::EVAL)))?;
+    serde_json::from_str(&text).map_err(|e| {
+        damaged(format!(
+            "its {} is not a firmware-sim report ({e})",
+            folder::EVAL
+        ))
     })
+}
+
+impl EvalSummary {
+    /// Every rate in [0, 1] and the mean error finite and not negative, as an evaluation gives
+    /// them; the first value that is not, as `key = value`.
+    fn check(&self) -> Result<(), String> {
+        let rates = [
+            ("success_rate", Some(self.success_rate)),
+            ("stuck_rate", Some(self.stuck_rate)),
+            ("near_pass_rate", self.near_pass_rate),
+            ("strict_reach_rate", self.strict_reach_rate),
+        ];
+        for (key, value) in rates {
+            if let Some(v) = value.filter(|v| !(0.0..=1.0).contains(v)) {
+                return Err(format!("{key} = {v}, outside [0, 1]"));
+            }
+        }
+        match self.mean_error {
+            Some(v) if !(v.is_finite() && v >= 0.0) => {
+                Err(format!("mean_error = {v}, not a distance"))
+            }
+            _ => Ok(()),
+        }
+    }
 }
 
 /// How a run of the sweep ended.

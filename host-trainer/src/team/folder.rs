@@ -129,6 +129,18 @@ impl TeamRun {
         let recorded = std::path::Path::new(folder::CONFIG);
         let mut config = TeamConfig::parse(&checkpoint.config_toml, recorded)?;
         if let Some(points) = points {
+            // The budget can grow, not shrink below what is played, as train's --episodes: a
+            // smaller one would mark the team finished with more points than its budget says.
+            if points < checkpoint.team.points {
+                return Err(Error::invalid(
+                    "--points",
+                    format!(
+                        "at least the {} points the checkpoint has played",
+                        checkpoint.team.points
+                    ),
+                    points,
+                ));
+            }
             config.points = points;
         }
         config.validate()?;
