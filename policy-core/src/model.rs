@@ -163,6 +163,55 @@ impl<'a> Model<'a> {
         actions: usize,
         scratch_width: usize,
     ) -> Result<Model<'a>, Error> {
+        Model::policy_checked(bytes, scratch_width, |model| {
+            model.expect_sizes(observations, actions)
+        })
+    }
+
+    /// [`Model::for_policy`] for a firmware that takes its sizes from the blob: a policy of any
+    /// observation and action count up to `max_observations` and `max_actions` (the lengths of
+    /// its observation and action buffers) verifies; a larger one is
+    /// [`Error::SizeBeyondMaximum`]. The sizes it runs are then the blob's
+    /// ([`Header::shape`]'s `observations` and `actions`).
+    ///
+    /// ```
+    /// use policy_core::{model::Model, Error};
+    /// static ACTOR: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+    /// let model = Model::for_policy_within(ACTOR, 8, 8, 64).unwrap();
+    /// assert_eq!((model.header().shape.observations, model.header().shape.actions), (2, 2));
+    /// assert_eq!(
+    ///     Model::for_policy_within(ACTOR, 8, 1, 64),
+    ///     Err(Error::SizeBeyondMaximum { what: "action size", max: 1, found: 2 })
+    /// );
+    /// assert!(matches!(Model::for_policy_within(ACTOR, 8, 8, 16), Err(Error::ScratchTooSmall { .. })));
+    /// ```
+    pub fn for_policy_within(
+        bytes: &'a [u8],
+        max_observations: usize,
+        max_actions: usize,
+        scratch_width: usize,
+    ) -> Result<Model<'a>, Error> {
+        Model::policy_checked(bytes, scratch_width, |model| {
+            let l = &model.layout;
+            for (what, max, found) in [
+                ("observation size", max_observations, l.observations),
+                ("action size", max_actions, l.actions),
+            ] {
+                if found > max {
+                    return Err(Error::SizeBeyondMaximum { what, max, found });
+                }
+            }
+            Ok(())
+        })
+    }
+
+    /// The checks both policy loaders run, in this order: the blob, its kind (not a critic),
+    /// the caller's size rule, then the scratch width.
+    fn policy_checked(
+        bytes: &'a [u8],
+        scratch_width: usize,
+        sizes: impl FnOnce(&Model<'a>) -> Result<(), Error>,
+    ) -> Result<Model<'a>, Error> {
         let model = Model::from_blob(bytes)?;
         let kind = model.header.kind;
         if kind == ModelKind::Critic {
@@ -171,7 +220,7 @@ impl<'a> Model<'a> {
                 found: kind,
             });
         }
-        model.expect_sizes(observations, actions)?;
+        sizes(&model)?;
         let needed = model.layout.scratch_width;
         if needed > scratch_width {
             return Err(Error::ScratchTooSmall {
