@@ -163,9 +163,11 @@ impl<'a> Model<'a> {
         actions: usize,
         scratch_width: usize,
     ) -> Result<Model<'a>, Error> {
-        Model::policy_checked(bytes, scratch_width, |model| {
-            model.expect_sizes(observations, actions)
-        })
+        let model = Model::from_blob(bytes)?;
+        model.check_policy_kind()?;
+        model.expect_sizes(observations, actions)?;
+        model.check_scratch(scratch_width)?;
+        Ok(model)
     }
 
     /// [`Model::for_policy`] for a firmware that takes its sizes from the blob: a policy of any
@@ -191,44 +193,39 @@ impl<'a> Model<'a> {
         max_actions: usize,
         scratch_width: usize,
     ) -> Result<Model<'a>, Error> {
-        Model::policy_checked(bytes, scratch_width, |model| {
-            let l = &model.layout;
-            for (what, max, found) in [
-                ("observation size", max_observations, l.observations),
-                ("action size", max_actions, l.actions),
-            ] {
-                if found > max {
-                    return Err(Error::SizeBeyondMaximum { what, max, found });
-                }
+        let model = Model::from_blob(bytes)?;
+        model.check_policy_kind()?;
+        let l = &model.layout;
+        for (what, max, found) in [
+            ("observation size", max_observations, l.observations),
+            ("action size", max_actions, l.actions),
+        ] {
+            if found > max {
+                return Err(Error::SizeBeyondMaximum { what, max, found });
             }
-            Ok(())
-        })
+        }
+        model.check_scratch(scratch_width)?;
+        Ok(model)
     }
 
-    /// The checks both policy loaders run, in this order: the blob, its kind (not a critic),
-    /// the caller's size rule, then the scratch width.
-    fn policy_checked(
-        bytes: &'a [u8],
-        scratch_width: usize,
-        sizes: impl FnOnce(&Model<'a>) -> Result<(), Error>,
-    ) -> Result<Model<'a>, Error> {
-        let model = Model::from_blob(bytes)?;
-        let kind = model.header.kind;
-        if kind == ModelKind::Critic {
-            return Err(Error::WrongKind {
-                expected: ModelKind::Actor,
-                found: kind,
-            });
+    /// A policy loader's kind rule: an actor or a discrete policy, not a critic.
+    fn check_policy_kind(&self) -> Result<(), Error> {
+        match self.header.kind {
+            ModelKind::Critic => Err(self.wrong_kind(ModelKind::Actor)),
+            ModelKind::Actor | ModelKind::Discrete => Ok(()),
         }
-        sizes(&model)?;
-        let needed = model.layout.scratch_width;
+    }
+
+    /// A policy loader's scratch rule: the blob's widest layer fits `scratch_width`.
+    fn check_scratch(&self, scratch_width: usize) -> Result<(), Error> {
+        let needed = self.layout.scratch_width;
         if needed > scratch_width {
             return Err(Error::ScratchTooSmall {
                 needed,
                 found: scratch_width,
             });
         }
-        Ok(model)
+        Ok(())
     }
 
     /// The blob's header: kind, encoding, shape, activation, label.
