@@ -10,6 +10,8 @@
 # So each target and profile is built once, and every blob runs on the same firmware bytes.
 # The blobs: the given --blob ("trained"), and
 # deterministic ones from `host-check gen`: tanh 2x32, 4x48 and 6x64, and a ReLU 3x40, all f32;
+# blobs for other plants (the firmware takes its sizes from the blob): a tanh 2x32 of 3
+# observations and 1 action (a cart) on both chips, a ReLU 4x48 of 6 and 2 (a two-joint arm);
 # ReLU 2x32, 4x48 and 6x64 with f16 and int8 weights (`gen --encoding`; the same f32 weights,
 # quantised by policy-core's writer), and the trained blob re-encoded in f16 and int8
 # (`host-check encode`). Every variant is built with the release profile (opt-level 3) except
@@ -26,8 +28,9 @@
 # prints the same lines as the Rust firmware, so host-check checks and measures both alike.
 #
 # Usage: bash scripts/cortex-m.sh [--blob FILE] [--out FILE] [--install-only]
-#   --blob FILE     a trained policy blob (e.g. from host-trainer; 2 observations, 2 actions, any
-#                   shape up to 64 wide), run by the *-trained* variants (skipped without it).
+#   --blob FILE     a trained policy blob (e.g. from host-trainer; any shape up to 64 wide, up to
+#                   8 observations and 8 actions: the firmware runs the blob's sizes), run by the
+#                   *-trained* variants (skipped without it).
 #   --out FILE      JSON report path (default: <target dir>/cortex-m-report.json).
 #   --install-only  install the toolchain and QEMU, then stop.
 #   --no-slot-cases skip the A/B slot cases (they run by default).
@@ -74,7 +77,8 @@ REFINE_RUN=
 QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
 # name:target:qemu machine:qemu cpu:blob[:profile[:refine T[:encodings[:firmware]]]]. blob: trained
 # (= --blob) or DEPTHxWIDTH-ACTIVATION (host-check gen), either with an optional -f16 or -int8
-# (re-encoded; default f32), or refine-actor (--refine-run's policy). profile: a cargo profile of
+# (re-encoded; default f32), the generated ones with an optional _OxA (O observations, A
+# actions; default 2x2), or refine-actor (--refine-run's policy). profile: a cargo profile of
 # firmware/Cargo.toml, default release. refine T: the firmware's feature `refine` with
 # REFINE_T=T, --refine-run's critic in its CRITIC region. encodings: the weight encodings the
 # firmware is built to run, comma-separated (`--no-default-features --features LIST`); default
@@ -90,6 +94,8 @@ ALL_VARIANTS=(
   m4f-3x40:$M4F:3x40-relu
   m4f-4x48:$M4F:4x48-tanh
   m4f-6x64:$M4F:6x64-tanh
+  m4f-2x32-3x1:$M4F:2x32-tanh_3x1
+  m4f-4x48-6x2:$M4F:4x48-relu_6x2
   m4f-2x32-relu-f16:$M4F:2x32-relu-f16
   m4f-2x32-relu-int8:$M4F:2x32-relu-int8
   m4f-4x48-relu-f16:$M4F:4x48-relu-f16
@@ -101,6 +107,7 @@ ALL_VARIANTS=(
   m3-3x40:$M3:3x40-relu
   m3-4x48:$M3:4x48-tanh
   m3-6x64:$M3:6x64-tanh
+  m3-2x32-3x1:$M3:2x32-tanh_3x1
   m3-2x32-relu-f16:$M3:2x32-relu-f16
   m3-2x32-relu-int8:$M3:2x32-relu-int8
   m3-4x48-relu-f16:$M3:4x48-relu-f16
@@ -261,16 +268,17 @@ if [ -n "$BLOB" ]; then
   echo "--blob $BLOB holds a $BLOB_INFO: run by the *-trained* variants"
 fi
 mkdir -p "$WORK/blobs"
-blob_for() { # trained[-ENC] | DEPTHxWIDTH-ACTIVATION[-ENC] -> blob path (given, re-encoded or generated)
-  local which=$1 enc=f32
+blob_for() { # trained[-ENC] | DEPTHxWIDTH-ACTIVATION[-ENC][_OxA] -> blob path (given, re-encoded or generated)
+  local which=$1 enc=f32 sizes=() tag=
+  case $which in *_*x*) tag=_${which##*_}; sizes=(--observations "${tag%x*}" --actions "${tag##*x}"); sizes[1]=${sizes[1]#_}; which=${which%_*} ;; esac
   case $which in *-f16|*-int8) enc=${which##*-}; which=${which%-*} ;; esac
-  local out=$WORK/blobs/actor_$which-$enc.postcard
+  local out=$WORK/blobs/actor_$which-$enc$tag.postcard
   [ "$which" = refine-actor ] && { echo "$REFINE_RUN/policy.postcard"; return; }
   if [ "$which" = trained ]; then
     [ "$enc" = f32 ] && { echo "$BLOB"; return; }
     "$HC" encode "$BLOB" "$out" --encoding "$enc" >&2
   else
-    "$HC" gen "${which%-*}" "$out" --activation "${which##*-}" --encoding "$enc" >&2
+    "$HC" gen "${which%-*}" "$out" --activation "${which##*-}" --encoding "$enc" "${sizes[@]}" >&2
   fi
   echo "$out"
 }
@@ -375,6 +383,41 @@ hil_equal() {
   echo "HIL $name: the same report and trajectories as the host loop ($(grep -c '^    {$' "$d/hil.json") episodes, exit $rc_hil)"
   HIL_PASSED=$((HIL_PASSED + 1))
 }
+# hil_sizes NAME LINK OBS ACT: a policy for another plant, a generated tanh 2x32 of OBS
+# observations and ACT actions (the firmware takes its sizes from the blob), on firmware-sim's
+# null plant of those sizes run as a plant process (`serve-plant --null`), with sensor noise and
+# NaN dropouts so that the observations vary: the host loop and the chip through --hil LINK must
+# give the same report and send the plant the same bytes (every action, bit for bit: `tee`
+# keeps the plant's input).
+hil_sizes() {
+  local name=$1 link=$2 o=$3 a=$4 d=$WORK/hil/runs/$1 rc_host rc_hil side
+  mkdir -p "$d"; rm -f "$d"/*
+  local blob=$WORK/blobs/hil-2x32-tanh_${o}x$a.postcard
+  "$HC" gen 2x32 "$blob" --observations "$o" --actions "$a" >/dev/null
+  step "HIL $name: a policy of $o observations and $a actions on a plant process of those sizes, on the host and through --hil $link"
+  local run=(--blob "$blob" --episodes 3 --seed 0 --max-steps 100 --noise 0.5 --faults dropout-nan:0.05)
+  set +e
+  for side in host hil; do
+    local hil=(); [ "$side" = hil ] && hil=(--hil "$link")
+    "$HIL_FS" run "${run[@]}" "${hil[@]}" --json "$d/$side.json" \
+      --plant-cmd "sh -c 'tee $d/$side.plant-in | $HIL_FS serve-plant --null $o,$a'" >"$d/$side.txt" 2>&1
+    local rc=$?
+    if [ "$side" = host ]; then rc_host=$rc; else rc_hil=$rc; fi
+  done
+  set -e
+  grep -E '^  (chip|instructions per tick)' "$d/hil.txt" || true
+  [ -f "$d/hil.json" ] && [ -f "$d/host.json" ] || { hil_fail "$name: no report (exit $rc_hil)"; tail -3 "$d/hil.txt" >&2; return; }
+  [ "$rc_host" = "$rc_hil" ] || { hil_fail "$name: exit status $rc_hil, the host loop's $rc_host"; return; }
+  grep -q '"stopped"' "$d/hil.json" && { hil_fail "$name: the run stopped: $(grep -m1 stopped "$d/hil.txt")"; return; }
+  grep -q "2x32 f32" "$d/hil.json" || { hil_fail "$name: the chip's report names no 2x32 blob"; return; }
+  if ! diff <(hil_strip "$d/host.json") <(hil_strip "$d/hil.json") >"$d/diff.txt"; then
+    hil_fail "$name: the report differs from the host loop's ($d/diff.txt)"; return
+  fi
+  [ -s "$d/host.plant-in" ] && cmp -s "$d/host.plant-in" "$d/hil.plant-in" \
+    || { hil_fail "$name: the actions the plant received differ from the host loop's"; return; }
+  echo "HIL $name: the same report and the same $(stat -c %s "$d/hil.plant-in") bytes of actions into the plant as the host loop (exit $rc_hil)"
+  HIL_PASSED=$((HIL_PASSED + 1))
+}
 # Starts QEMU with UART0 on a pty and BLOB in slot A (as a board flashed with probe-rs); sets
 # HIL_PTY and HIL_QEMU_PID.
 hil_pty_qemu() {
@@ -414,6 +457,7 @@ hil_checks() {
   hil_equal m4f-f32 qemu-m4f "$HIL_BLOB"
   hil_equal m4f-int8 qemu-m4f "$int8"
   hil_equal m3-f32 qemu-m3 "$HIL_BLOB"
+  hil_sizes m4f-cart-3x1 qemu-m4f 3 1
   # The board path: the same run through a serial port (QEMU's pty), and a second opener refused.
   if hil_pty_qemu "$HIL_BLOB"; then
     hil_equal m4f-pty "serial:$HIL_PTY" "$HIL_BLOB"
@@ -434,6 +478,9 @@ hil_checks() {
   hil_expect "QEMU missing" 2 "qemu-system-arm not found: install it with" "$d/no-qemu.txt"
   CARGO_TARGET_DIR=$d/none "$HIL_FS" run "${one[@]}" --hil qemu-m3 >"$d/no-elf.txt" 2>&1; HIL_RC=$?
   hil_expect "HIL firmware missing" 2 "no HIL firmware at .*: build it with" "$d/no-elf.txt"
+  # The chip runs a blob of any sizes; one that is not the plant's is named with both sizes.
+  "$HIL_FS" run --blob "$WORK/blobs/hil-2x32-tanh_3x1.postcard" --episodes 1 --hil qemu-m4f >"$d/sizes.txt" 2>&1; HIL_RC=$?
+  hil_expect "a policy for another plant" 2 "a policy of (observations, actions) = (3, 1); the plant's are (2, 2)" "$d/sizes.txt"
   "$HIL_FS" run "${one[@]}" --hil serial:"$d/no-such-tty" >"$d/no-tty.txt" 2>&1; HIL_RC=$?
   hil_expect "serial path missing" 2 "no such device" "$d/no-tty.txt"
   "$HIL_FS" run "${one[@]}" --hil qemu-m4f --tick-timeout 1 --hil-qemu-arg -S >"$d/silent.txt" 2>&1; HIL_RC=$?

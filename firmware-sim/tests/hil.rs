@@ -317,3 +317,65 @@ fn hil_bad_input_is_one_line_and_exit_2() {
         assert!(err.contains(needle), "{args:?}: {err}");
     }
 }
+
+/// A chip in the safe state has no blob and so no action size: it answers an empty action,
+/// which the host applies as the plant's zero action. A running chip's empty action is still a
+/// wrong size.
+#[test]
+fn a_chip_in_the_safe_state_answers_empty_actions_applied_as_zeros() {
+    use firmware_sim::controller::Controller;
+    for running in [false, true] {
+        let (host, mut link) = UnixStream::pair().expect("socket pair");
+        let fake = std::thread::spawn(move || {
+            use std::io::Read;
+            let mut h = hello();
+            if !running {
+                h.running = None;
+                h.a = SlotState::Failed {
+                    reason: "empty slot".try_into().expect("fits"),
+                };
+            }
+            let mut buf = [0u8; MAX_FRAME];
+            send(
+                &mut link,
+                encode(&FromChip::Hello(h), &mut buf).expect("fits"),
+            );
+            let (mut rx, mut byte) = (Receiver::new(), [0u8; 1]);
+            while let Ok(1) = link.read(&mut byte) {
+                if let Some(Ok(ToChip::Observe { tick, .. })) =
+                    rx.push(byte[0]).map(|f| f.and_then(decode::<ToChip>))
+                {
+                    let empty = FromChip::Action {
+                        tick,
+                        action: Values::new(),
+                        ticks: 1,
+                    };
+                    send(&mut link, encode(&empty, &mut buf).expect("fits"));
+                }
+            }
+        });
+        let options = ChipOptions {
+            link_name: "fake".into(),
+            timeout: Duration::from_millis(300),
+            ask_hello: false,
+            interrupt: None,
+            budget: None,
+        };
+        let mut chip =
+            HilChip::connect(Box::new(host), None, options, "x".into(), 2, 2).expect("hello");
+        let mut action = [0.25f32; 2];
+        chip.act(&[0.5, f32::NAN], &mut action);
+        assert_eq!(action, [0.0; 2]);
+        let failure = chip.failure().map(|e| e.to_string());
+        if running {
+            assert_eq!(
+                failure.as_deref(),
+                Some("fake: the chip answered tick 0 with tick 0 (0 values for 2)")
+            );
+        } else {
+            assert_eq!(failure, None);
+        }
+        drop(chip);
+        fake.join().expect("the fake chip ends when the host goes");
+    }
+}

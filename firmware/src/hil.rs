@@ -7,6 +7,11 @@
 //! blob's sequence, CRC, shape and encoding; the SysTick calibration), then answers each
 //! observation with the action [`control_step`] computes from flash and the SysTick ticks the
 //! call took. It never ends: the host stops QEMU (or the board) when the run is over.
+//!
+//! The sizes are the running blob's (the hello's `observations` and `actions`): an observation
+//! of another size is refused with both sizes in the reason. In the safe state there is no blob
+//! and so no action size: every observation is answered with an empty action, which the host
+//! applies as the zero action of its plant's size.
 
 use core::fmt::Write;
 use core::hint::black_box;
@@ -19,7 +24,7 @@ use policy_core::model::{Model, Scratch};
 use policy_core::slot::{self, Boot, SlotId, Status};
 
 use crate::uart::Uart0;
-use crate::{control_step, elapsed, fw_mark, ticks, ACT, OBS, W};
+use crate::{control_step, elapsed, first, fw_mark, sizes, ticks, MAX_ACT, MAX_OBS, W};
 
 /// Always true: `main` serves the host instead of running the fixed observations.
 pub const SERVE: bool = true;
@@ -47,26 +52,28 @@ pub fn serve(
         let answer = match frame.and_then(decode::<ToChip>) {
             Ok(ToChip::Hello) => hello.clone(),
             Ok(ToChip::Observe { tick, observation }) => {
-                match <[f32; OBS]>::try_from(observation.as_slice()) {
-                    Ok(obs) => {
-                        let t0 = ticks();
-                        fw_mark(4);
-                        let action = control_step(model, black_box(&obs), scratch);
-                        fw_mark(5);
-                        let ticks = elapsed(t0);
-                        FromChip::Action {
-                            tick,
-                            action: Values::from_slice(&action).unwrap_or_default(),
-                            ticks,
-                        }
-                    }
-                    Err(_) => refused(
+                let (n_obs, n_act) = sizes(model);
+                if model.is_some() && observation.len() != n_obs {
+                    refused(
                         tick,
                         format_args!(
-                            "observation size: the firmware reads {OBS}, found {}",
+                            "observation size: the blob reads {n_obs}, found {}",
                             observation.len()
                         ),
-                    ),
+                    )
+                } else {
+                    let mut action = [0.0; MAX_ACT];
+                    let action = first(&mut action, n_act);
+                    let t0 = ticks();
+                    fw_mark(4);
+                    control_step(model, black_box(&observation), scratch, action);
+                    fw_mark(5);
+                    let ticks = elapsed(t0);
+                    FromChip::Action {
+                        tick,
+                        action: Values::from_slice(action).unwrap_or_default(),
+                        ticks,
+                    }
                 }
             }
             // The host learns why its frame was refused (tick unknown: u32::MAX).
@@ -151,5 +158,5 @@ fn state(status: Status) -> SlotState {
     }
 }
 
-/// `ACT` is what the protocol's action holds: checked when this builds.
-const _: () = assert!(ACT <= hil_protocol::MAX_VALUES && OBS <= hil_protocol::MAX_VALUES);
+/// Every size a blob may have here fits a frame's values: checked when this builds.
+const _: () = assert!(MAX_ACT <= hil_protocol::MAX_VALUES && MAX_OBS <= hil_protocol::MAX_VALUES);

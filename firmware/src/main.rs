@@ -3,13 +3,16 @@
 //! The part a user copies is short ([`boot`] and [`control_step`]). The firmware holds no blob:
 //! policies are flashed into two slots of their own (memory.x, [`slots`]), so a new policy never
 //! means a new firmware build. At boot [`slot::choose`] picks the newer slot whose blob passes
-//! [`Model::for_policy`] (CRC, header, every parameter; an actor or discrete policy with this
-//! firmware's sizes, narrow enough for its scratch width [`W`]) and falls back to the other slot;
-//! then [`act`](Model::act) reads the weights from flash on every call. Nothing model-sized is copied
-//! to RAM: the only RAM the policy uses is a [`Scratch<W>`] (2 x `W` floats) for the activations.
+//! [`Model::for_policy_within`] (CRC, header, every parameter; an actor or discrete policy of at
+//! most [`MAX_OBS`] observations and [`MAX_ACT`] actions, narrow enough for its scratch width
+//! [`W`]) and falls back to the other slot; then [`act`](Model::act) reads the weights from flash
+//! on every call, at the blob's own observation and action sizes ([`sizes`]). A policy for
+//! another plant (a cart of 3 observations and 1 action, an arm of 6 and 2) runs on the same
+//! build. Nothing model-sized is copied to RAM: the only RAM the policy uses is a
+//! [`Scratch<W>`] (2 x `W` floats) for the activations.
 //! One build runs a blob of any shape up to `W` wide: there is no table of compiled shapes. On
-//! any error (neither slot holds a blob that verifies, has these sizes and fits) the firmware runs
-//! the safe state, the zero action, and prints each slot's reason.
+//! any error (neither slot holds a blob that verifies, is within the maxima and fits) the firmware
+//! runs the safe state, the zero action, and prints each slot's reason.
 //!
 //! There is no compile-time fast path, because it was not faster: the const-generic
 //! `Policy<2, 48, 3, 2>` (weights copied into 29 KB of RAM) ran the trained 4x48 ReLU actor at
@@ -17,8 +20,9 @@
 //! from flash runs them at 3.03 and 4.79 (scripts/cortex-m.sh, QEMU instruction counts), in 1.8
 //! KB of RAM in all.
 //!
-//! Everything else measures what that costs, for scripts/cortex-m.sh: it prints the observations
-//! and actions as `f32` bits (the host recomputes them), which slot runs and why, calls
+//! Everything else measures what that costs, for scripts/cortex-m.sh: it acts on ten fixed
+//! observations of the blob's size ([`observations::fill`]), prints the observations and actions
+//! as `f32` bits (the host recomputes them), which slot runs and why, calls
 //! [`fw_mark`] around each span whose instructions a QEMU plugin counts, times the same spans
 //! with SysTick (the fallback count), and paints the stack to find its peak. The run ends with
 //! QEMU's exit status: 0 only if a slot's blob was accepted at boot and every action is finite
@@ -34,6 +38,7 @@ mod observations;
 mod proposals;
 #[cfg(feature = "refine")]
 mod refine;
+mod sizes;
 mod slots;
 mod stack;
 #[cfg(feature = "hil")]
@@ -47,13 +52,10 @@ use policy_core::model::{Model, Scratch};
 use policy_core::slot::{self, SlotId, Status};
 
 use console::{exit_failure, exit_ok, fail, Line};
-use observations::OBSERVATIONS;
+use observations::CASES;
+pub(crate) use sizes::{MAX_ACT, MAX_OBS};
 use slots::slots;
 
-/// Observations the firmware's sensors give (x, y: the navigation task).
-pub(crate) const OBS: usize = 2;
-/// Actions the firmware's actuators take (a step in x and y).
-pub(crate) const ACT: usize = 2;
 /// Width of the activation scratch: the widest layer a blob may have to run here. It costs
 /// 2 x `W` x 4 bytes of RAM (512 B for 64); a wider blob is refused at boot (safe state).
 pub(crate) const W: usize = 64;
@@ -72,26 +74,42 @@ pub extern "C" fn fw_mark(id: u32) {
 }
 
 /// Picks the slot to run (the newer one that verifies, else the other) and verifies its blob as
-/// a policy this firmware can run: an actor or discrete policy with [`OBS`] observations and
-/// [`ACT`] actions whose widest layer fits the scratch. `running` is `None`: the safe state.
+/// a policy this firmware can run: an actor or discrete policy of at most [`MAX_OBS`]
+/// observations and [`MAX_ACT`] actions whose widest layer fits the scratch. `running` is
+/// `None`: the safe state.
 pub fn boot(slot_a: &'static [u8], slot_b: &'static [u8]) -> slot::Boot<Model<'static>> {
-    slot::choose(slot_a, slot_b, |blob| Model::for_policy(blob, OBS, ACT, W))
+    slot::choose(slot_a, slot_b, |blob| {
+        Model::for_policy_within(blob, MAX_OBS, MAX_ACT, W)
+    })
 }
 
-/// One control step: the policy's action, or the safe state (zero) without a model or on any
-/// error.
+/// The running blob's (observations, actions): the sizes the firmware reads its sensors into and
+/// drives its actuators with. The safe state has no blob and no sizes: (0, 0).
+pub fn sizes(model: Option<&Model<'_>>) -> (usize, usize) {
+    model.map_or((0, 0), |m| {
+        let shape = m.header().shape;
+        (shape.observations.into(), shape.actions.into())
+    })
+}
+
+/// One control step: the policy's action into `action` (the blob's action size), or the safe
+/// state (zeros) without a model or on any error.
 pub fn control_step(
     model: Option<&Model<'_>>,
-    obs: &[f32; OBS],
+    obs: &[f32],
     scratch: &mut Scratch<W>,
-) -> [f32; ACT] {
-    let mut action = [0.0; ACT];
-    if let Some(model) = model {
-        if model.act(obs, scratch, &mut action).is_err() {
-            action = [0.0; ACT];
-        }
+    action: &mut [f32],
+) {
+    if !model.is_some_and(|m| m.act(obs, scratch, action).is_ok()) {
+        action.fill(0.0);
     }
-    action
+}
+
+/// The first `n` values of a buffer (`n` is a blob's size, within the buffer's by [`boot`]; the
+/// whole buffer otherwise, never a panic).
+pub(crate) fn first(buffer: &mut [f32], n: usize) -> &mut [f32] {
+    let n = n.min(buffer.len());
+    buffer.get_mut(..n).unwrap_or_default()
 }
 
 #[entry]
@@ -130,7 +148,7 @@ fn main() -> ! {
     }
 
     #[cfg(feature = "refine")]
-    let mut refiner = match refine::Refiner::boot(slots::critic_region()) {
+    let mut refiner = match refine::Refiner::boot(slots::critic_region(), model) {
         Ok(r) => r,
         Err(e) => fail_critic(&e),
     };
@@ -138,18 +156,24 @@ fn main() -> ! {
     Line::new("REFINE").dec(refine::T as u32).emit();
 
     stack::paint(sp);
-    let mut actions = [[0.0f32; ACT]; OBSERVATIONS.len()];
-    let t0 = ticks();
-    for (obs, action) in OBSERVATIONS.iter().zip(&mut actions) {
+    let (n_obs, n_act) = sizes(model);
+    let mut actions = [[0.0f32; MAX_ACT]; CASES];
+    let mut obs = [0.0f32; MAX_OBS];
+    let mut act_ticks = 0;
+    for (k, action) in actions.iter_mut().enumerate() {
+        let (obs, action) = (first(&mut obs, n_obs), first(action, n_act));
+        observations::fill(k, obs);
+        // Timed per observation, so the SysTick figure leaves out the filling, as the marks do.
+        let t0 = ticks();
         fw_mark(4);
-        *action = control_step(model, black_box(obs), SCRATCH);
+        control_step(model, black_box(obs), SCRATCH, action);
         #[cfg(feature = "refine")]
         if let Some(refined) = model.and_then(|m| refiner.step(m, obs, SCRATCH)) {
-            *action = refined;
+            action.iter_mut().zip(refined).for_each(|(a, r)| *a = r);
         }
         fw_mark(5);
+        act_ticks += elapsed(t0);
     }
-    let act_ticks = elapsed(t0);
     let act_stack = stack::used_below(sp);
 
     let tanh_sum = time_tanhf();
@@ -163,11 +187,11 @@ fn main() -> ! {
     let blob_bytes = running_slot
         .and_then(|s| slot::read(s).ok())
         .map_or(0, |r| r.blob.len());
-    report(model, blob_bytes, &actions, sp, [boot_stack, act_stack]);
+    report(model, blob_bytes, &mut actions, sp, [boot_stack, act_stack]);
     Line::new("TICKS_CAL").dec(cal_insns).dec(cal_ticks).emit();
     Line::new("TICKS boot 1").dec(boot_ticks).emit();
     Line::new("TICKS act")
-        .dec(OBSERVATIONS.len() as u32)
+        .dec(CASES as u32)
         .dec(act_ticks)
         .emit();
     black_box(tanh_sum);
@@ -203,11 +227,12 @@ fn report_slots(booted: &slot::Boot<Model<'_>>) {
     Line::new("RUNNING ").push(running).emit();
 }
 
-/// Prints what the host needs to check and measure, in the order the spans were marked.
+/// Prints what the host needs to check and measure, in the order the spans were marked: each
+/// observation and action at the blob's sizes (none in the safe state).
 fn report(
     model: Option<&Model<'_>>,
     blob_bytes: usize,
-    actions: &[[f32; ACT]],
+    actions: &mut [[f32; MAX_ACT]],
     sp: usize,
     phases: [usize; 2],
 ) {
@@ -224,21 +249,17 @@ fn report(
         .dec(core::mem::size_of::<Scratch<W>>() as u32)
         .emit();
     Line::new("BLOB_BYTES").dec(blob_bytes as u32).emit();
-    for (k, (obs, act)) in OBSERVATIONS.iter().zip(actions).enumerate() {
-        Line::new("OBS")
-            .dec(k as u32)
-            .hex(obs[0].to_bits())
-            .hex(obs[1].to_bits())
-            .emit();
-        Line::new("ACT")
-            .dec(k as u32)
-            .hex(act[0].to_bits())
-            .hex(act[1].to_bits())
-            .emit();
+    let (n_obs, n_act) = sizes(model);
+    let mut obs = [0.0f32; MAX_OBS];
+    for (k, act) in actions.iter_mut().enumerate() {
+        let obs = first(&mut obs, n_obs);
+        observations::fill(k, obs);
+        values(Line::new("OBS").dec(k as u32), obs);
+        values(Line::new("ACT").dec(k as u32), first(act, n_act));
     }
     Line::new("SPAN overhead 1").emit();
     Line::new("SPAN boot 1").emit();
-    for k in 0..OBSERVATIONS.len() {
+    for k in 0..CASES {
         Line::new("SPAN act").dec(k as u32).emit();
     }
     Line::new("SPAN tanhf").dec(TANH_POINTS as u32).emit();
@@ -249,14 +270,27 @@ fn report(
     Line::new("STACK_PHASE act").dec(phases[1] as u32).emit();
 }
 
+/// Emits `line` with each value's bits appended. Never inlined: unrolled for the buffers' eight
+/// values at both call sites it cost about 0.8 KB of flash at opt-level 3.
+#[inline(never)]
+fn values(line: &mut Line, values: &[f32]) {
+    for v in values {
+        line.hex(v.to_bits());
+    }
+    line.emit();
+}
+
 /// `act` promises finite actions inside the blob's bounds for every observation; a firmware that
 /// sees otherwise must not report success. ([`Model::action_bounds`] reads the bounds from the
-/// payload's prefix; `Model::values` would do too, but links a decoding iterator of about 1 KB.)
-fn check_bounds(model: &Model<'_>, actions: &[[f32; ACT]]) {
+/// payload's prefix, one pair per action the blob declares; `Model::values` would do too, but
+/// links a decoding iterator of about 1 KB.)
+fn check_bounds(model: &Model<'_>, actions: &[[f32; MAX_ACT]]) {
     let mut bounds = model.action_bounds();
-    let bounds: [(f32, f32); ACT] =
+    let bounds: [(f32, f32); MAX_ACT] =
         core::array::from_fn(|_| bounds.next().unwrap_or((f32::NAN, f32::NAN)));
+    let n_act = sizes(Some(model)).1;
     for action in actions {
+        let action = action.get(..n_act).unwrap_or_default();
         for (&a, &(lo, hi)) in action.iter().zip(&bounds) {
             if !a.is_finite() || !(lo..=hi).contains(&a) {
                 fail("an action is non-finite or outside the bounds");

@@ -2,13 +2,21 @@
 //! the actor's unit action (σ = 0.2), the best under the critic replacing it only if its Q is
 //! higher (policy-core's `compare::refine_model`). The critic is a slot record in memory.x's
 //! CRITIC region; `T` is the build's `REFINE_T`.
+//!
+//! The observation size is the running actor's, like the plain firmware's; the action size is
+//! fixed at [`A`] = 2 (the navigation task's), because policy-core's compare step keeps its
+//! proposals in `[f32; A]` arrays: an actor or critic of another action size is refused at boot
+//! with its reason (a `FAIL critic` line).
 
 use policy_core::compare::refine_model;
 use policy_core::model::{Model, Scratch};
 use policy_core::{slot, Error, ModelKind};
 
 use crate::proposals::{Proposals, SEED};
-use crate::{ACT, OBS, W};
+use crate::W;
+
+/// The action size of the compare step (see the module docs).
+pub const A: usize = 2;
 
 /// Proposals per tick (`REFINE_T` at build time, default 16).
 pub const T: usize = parse(env!("REFINE_T"));
@@ -33,9 +41,10 @@ pub struct Refiner {
 }
 
 impl Refiner {
-    /// Verifies the critic in `region` (a slot record) as one this firmware's actor can use: a
-    /// critic of [`OBS`] observations and [`ACT`] actions that fits the scratch.
-    pub fn boot(region: &'static [u8]) -> Result<Refiner, Error> {
+    /// Verifies the critic in `region` (a slot record) as one the running `actor` can use: a
+    /// critic of the actor's observations and [`A`] actions (the actor's too) that fits the
+    /// scratch. Without an actor (the safe state) only the critic's own action size is checked.
+    pub fn boot(region: &'static [u8], actor: Option<&Model<'_>>) -> Result<Refiner, Error> {
         let critic = Model::from_blob(slot::read(region)?.blob)?;
         let header = critic.header();
         if header.kind != ModelKind::Critic {
@@ -44,7 +53,12 @@ impl Refiner {
                 found: header.kind,
             });
         }
-        critic.expect_sizes(OBS, ACT)?;
+        let observations =
+            actor.map_or(header.shape.observations, |a| a.header().shape.observations);
+        critic.expect_sizes(observations.into(), A)?;
+        if let Some(actor) = actor {
+            actor.expect_sizes(observations.into(), A)?;
+        }
         let needed = header.shape.scratch_width(header.kind);
         if needed > W {
             return Err(Error::ScratchTooSmall { needed, found: W });
@@ -59,10 +73,10 @@ impl Refiner {
     pub fn step(
         &mut self,
         actor: &Model<'_>,
-        obs: &[f32; OBS],
+        obs: &[f32],
         scratch: &mut Scratch<W>,
-    ) -> Option<[f32; ACT]> {
-        refine_model::<ACT, W, _>(actor, &self.critic, obs, scratch, &mut self.rng, T, SIGMA)
+    ) -> Option<[f32; A]> {
+        refine_model::<A, W, _>(actor, &self.critic, obs, scratch, &mut self.rng, T, SIGMA)
             .ok()
             .map(|r| r.action)
     }

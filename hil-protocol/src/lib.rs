@@ -21,7 +21,8 @@
 //! slots' reasons), its sequence, the blob's CRC, shape and weight encoding, and the SysTick
 //! calibration. The host sends [`ToChip::Observe`] for each tick; the chip answers
 //! [`FromChip::Action`] with the same tick number, the action and the SysTick ticks `act` took,
-//! or [`FromChip::Refused`] (an observation of the wrong size). [`ToChip::Hello`] asks for the
+//! or [`FromChip::Refused`] (an observation of the wrong size). Both sizes are the running
+//! blob's, as the hello reports them. [`ToChip::Hello`] asks for the
 //! hello again (a board that booted before the host opened the port). A hello that arrives
 //! unasked means the chip reset.
 //!
@@ -86,7 +87,8 @@ pub enum FromChip {
     Action {
         /// The tick number of the observation.
         tick: u32,
-        /// The action (the safe state's zeros if no slot runs).
+        /// The action, of the running blob's size; empty if no slot runs (the safe state: the
+        /// chip has no blob, so no action size, and the host applies the zero action).
         action: Values,
         /// SysTick ticks the call took (instructions: see [`Calibration`]).
         ticks: u32,

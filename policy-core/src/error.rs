@@ -111,6 +111,16 @@ pub enum Error {
         /// The size the blob declares.
         found: usize,
     },
+    /// A blob declares more observations or actions than the caller's buffers hold (a firmware
+    /// that takes its sizes from the blob, up to build-time maxima).
+    SizeBeyondMaximum {
+        /// Which size.
+        what: &'static str,
+        /// The most the caller takes.
+        max: usize,
+        /// The size the blob declares.
+        found: usize,
+    },
     /// The caller's scratch buffer is narrower than the blob's widest layer.
     ScratchTooSmall {
         /// Width the blob needs.
@@ -213,6 +223,11 @@ impl fmt::Display for Error {
                 f,
                 "{what} mismatch: the firmware has {expected}, the blob declares {found}"
             ),
+            // Short enough for the HIL hello's 80-byte reason.
+            Error::SizeBeyondMaximum { what, max, found } => write!(
+                f,
+                "{what} {found} beyond the firmware's maximum of {max}"
+            ),
             Error::ScratchTooSmall { needed, found } => write!(
                 f,
                 "scratch buffer too small: the blob needs width {needed}, the buffer has {found}"
@@ -273,6 +288,20 @@ mod tests {
                 format!("not a slot record: expected magic \"DCPS\", found {found:02x?}")
             );
         }
+    }
+
+    #[test]
+    fn a_size_beyond_the_maximum_fits_the_hil_reason() {
+        let e = Error::SizeBeyondMaximum {
+            what: "observation size",
+            max: 8,
+            found: 65535,
+        };
+        assert_eq!(
+            e.to_string(),
+            "observation size 65535 beyond the firmware's maximum of 8"
+        );
+        assert!(e.to_string().len() <= 80);
     }
 
     #[test]

@@ -164,22 +164,68 @@ impl<'a> Model<'a> {
         scratch_width: usize,
     ) -> Result<Model<'a>, Error> {
         let model = Model::from_blob(bytes)?;
-        let kind = model.header.kind;
-        if kind == ModelKind::Critic {
-            return Err(Error::WrongKind {
-                expected: ModelKind::Actor,
-                found: kind,
-            });
-        }
+        model.check_policy_kind()?;
         model.expect_sizes(observations, actions)?;
-        let needed = model.layout.scratch_width;
+        model.check_scratch(scratch_width)?;
+        Ok(model)
+    }
+
+    /// [`Model::for_policy`] for a firmware that takes its sizes from the blob: a policy of any
+    /// observation and action count up to `max_observations` and `max_actions` (the lengths of
+    /// its observation and action buffers) verifies; a larger one is
+    /// [`Error::SizeBeyondMaximum`]. The sizes it runs are then the blob's
+    /// ([`Header::shape`]'s `observations` and `actions`).
+    ///
+    /// ```
+    /// use policy_core::{model::Model, Error};
+    /// static ACTOR: &[u8] = include_bytes!("../tests/golden/actor_2x32.postcard");
+    /// let model = Model::for_policy_within(ACTOR, 8, 8, 64).unwrap();
+    /// assert_eq!((model.header().shape.observations, model.header().shape.actions), (2, 2));
+    /// assert_eq!(
+    ///     Model::for_policy_within(ACTOR, 8, 1, 64),
+    ///     Err(Error::SizeBeyondMaximum { what: "action size", max: 1, found: 2 })
+    /// );
+    /// assert!(matches!(Model::for_policy_within(ACTOR, 8, 8, 16), Err(Error::ScratchTooSmall { .. })));
+    /// ```
+    pub fn for_policy_within(
+        bytes: &'a [u8],
+        max_observations: usize,
+        max_actions: usize,
+        scratch_width: usize,
+    ) -> Result<Model<'a>, Error> {
+        let model = Model::from_blob(bytes)?;
+        model.check_policy_kind()?;
+        let l = &model.layout;
+        for (what, max, found) in [
+            ("observation size", max_observations, l.observations),
+            ("action size", max_actions, l.actions),
+        ] {
+            if found > max {
+                return Err(Error::SizeBeyondMaximum { what, max, found });
+            }
+        }
+        model.check_scratch(scratch_width)?;
+        Ok(model)
+    }
+
+    /// A policy loader's kind rule: an actor or a discrete policy, not a critic.
+    fn check_policy_kind(&self) -> Result<(), Error> {
+        match self.header.kind {
+            ModelKind::Critic => Err(self.wrong_kind(ModelKind::Actor)),
+            ModelKind::Actor | ModelKind::Discrete => Ok(()),
+        }
+    }
+
+    /// A policy loader's scratch rule: the blob's widest layer fits `scratch_width`.
+    fn check_scratch(&self, scratch_width: usize) -> Result<(), Error> {
+        let needed = self.layout.scratch_width;
         if needed > scratch_width {
             return Err(Error::ScratchTooSmall {
                 needed,
                 found: scratch_width,
             });
         }
-        Ok(model)
+        Ok(())
     }
 
     /// The blob's header: kind, encoding, shape, activation, label.

@@ -199,3 +199,53 @@ fn arbitrary_slot_contents_never_panic_and_never_run_an_unverified_blob() {
         }
     }
 }
+
+/// A firmware that takes its sizes from the blob (the example firmware: buffers of 8
+/// observations and 8 actions) boots a policy for another plant, here 3 observations and 1
+/// action, and runs it at the blob's sizes; a blob beyond its buffers falls back with the
+/// reason, as a critic does.
+#[test]
+fn a_firmware_sized_by_the_blob_boots_any_plant_within_its_maxima() {
+    use crate::support::runtime_blob;
+    use policy_core::model::Scratch;
+    use policy_core::{ModelKind, Shape};
+    let shape = |observations, actions| Shape {
+        observations,
+        actions,
+        width: 16,
+        depth: 2,
+        choices: 0,
+    };
+    let cart = runtime_blob(ModelKind::Actor, shape(3, 1), Activation::Tanh, 5);
+    let wide = runtime_blob(ModelKind::Actor, shape(9, 1), Activation::Tanh, 6);
+    let critic = runtime_blob(ModelKind::Critic, shape(3, 1), Activation::Tanh, 7);
+    fn within(blob: &[u8]) -> Result<Model<'_>, Error> {
+        Model::for_policy_within(blob, 8, 8, W)
+    }
+    let (a, b) = (slot_with(&cart, 1), slot_with(&wide, 2));
+    let boot = slot::choose(&a, &b, within);
+    let Some((SlotId::A, model)) = boot.running else {
+        panic!("slot A must run: {boot:?}")
+    };
+    assert_eq!(
+        boot.b.to_string(),
+        "failed: observation size 9 beyond the firmware's maximum of 8"
+    );
+    let shape = model.header().shape;
+    assert_eq!((shape.observations, shape.actions), (3, 1));
+    let mut action = [f32::NAN; 1];
+    model
+        .act(
+            &[0.5, f32::NAN, -4.0],
+            &mut Scratch::<W>::new(),
+            &mut action,
+        )
+        .expect("the blob's sizes run");
+    assert!(action[0].is_finite() && action[0].abs() <= 0.25);
+    // The same blob in a firmware of fixed sizes is refused, as before.
+    assert!(matches!(
+        Model::for_policy(&cart, OBS, ACT, W),
+        Err(Error::SizeMismatch { .. })
+    ));
+    assert!(matches!(within(&critic), Err(Error::WrongKind { .. })));
+}

@@ -533,6 +533,19 @@ pub(crate) fn connect_chip(
         plant.actions,
     )?;
     let hello = chip.hello().clone();
+    // The chip runs any blob within its maxima at the blob's sizes; one for another plant would
+    // be refused tick by tick, so say so once, with both sizes.
+    if let Some(r) = &hello.running {
+        let blob = (usize::from(r.observations), usize::from(r.actions));
+        if blob != (plant.observations, plant.actions) {
+            anyhow::bail!(
+                "{link_name}: the chip runs slot {:?}, a policy of (observations, actions) = {blob:?}; the plant's are ({}, {}): flash a policy for this plant",
+                r.slot,
+                plant.observations,
+                plant.actions
+            );
+        }
+    }
     let chip_runs = hello.running.as_ref().map(|r| {
         let id = match r.slot {
             hil_protocol::Slot::A => SlotId::A,

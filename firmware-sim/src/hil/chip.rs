@@ -331,6 +331,13 @@ impl HilChip {
         Error::Hil(format!("{}: {text}", self.link_name))
     }
 
+    /// Whether `values` answer an action of `n` values: the chip's action has the plant's size
+    /// (the blob's, which boot matched to the plant); a chip in the safe state has no blob and
+    /// so no action size, and answers an empty action, the zero action here.
+    fn answers(&self, values: &[f32], n: usize) -> bool {
+        values.len() == n || (values.is_empty() && self.hello.running.is_none())
+    }
+
     /// One tick on the chip; `Err` latches.
     fn tick(&mut self, obs: &[f32], action: &mut [f32]) -> Result<(), Error> {
         let tick = self.tick;
@@ -349,8 +356,12 @@ impl HilChip {
                 tick: t,
                 action: a,
                 ticks,
-            }) if t == tick && a.len() == action.len() => {
-                action.copy_from_slice(&a);
+            }) if t == tick && self.answers(&a, action.len()) => {
+                if a.is_empty() {
+                    action.fill(0.0);
+                } else {
+                    action.copy_from_slice(&a);
+                }
                 let instructions = self.hello.calibration.instructions(ticks);
                 self.stats.ticks += 1;
                 self.stats.instructions_sum += instructions;

@@ -1,8 +1,9 @@
 //! The blobs the firmware runs, seen from the host: what a blob holds, deterministic blobs of any
 //! shape, and the actions policy-core's runtime [`Model`] computes for them.
 //!
-//! There is no list of shapes here: the firmware runs any policy with 2 observations and 2
-//! actions whose widest layer fits its scratch, and so does this side.
+//! There is no list of shapes or sizes here: the firmware runs any policy of at most
+//! [`MAX_OBS`] observations and [`MAX_ACT`] actions whose widest layer fits its scratch, at the
+//! blob's own sizes, and so does this side.
 
 use anyhow::{bail, Context, Result};
 use policy_core::blob::{self, Spec, MAX_WIDTH};
@@ -11,10 +12,13 @@ use policy_core::{Activation, Encoding, ModelKind, Shape};
 use rand_chacha::ChaCha8Rng;
 use rand_core::{Rng, SeedableRng};
 
-/// Observations of every blob the firmware runs (the navigation task).
-pub const S: usize = 2;
-/// Actions, see [`S`].
-pub const A: usize = 2;
+use crate::observations::{fill, CASES};
+use crate::sizes::{MAX_ACT, MAX_OBS};
+
+/// The action size of the firmware's compare step (feature `refine`, firmware/src/refine.rs).
+pub const REFINE_A: usize = 2;
+/// The sizes `gen` writes unless told: the navigation task's 2 observations and 2 actions.
+pub const NAV_SIZES: (u16, u16) = (2, 2);
 
 /// What the measurements need to know about a blob.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -32,14 +36,14 @@ pub struct BlobInfo {
 }
 
 impl BlobInfo {
-    /// Verifies `bytes` as policy-core does at boot and checks the firmware's sizes.
+    /// Verifies `bytes` as policy-core does at boot and checks the firmware's maxima.
     pub fn of(bytes: &[u8]) -> Result<Self> {
         let model = Model::from_blob(bytes)?;
-        model.expect_sizes(S, A)?;
         let h = model.header();
         if h.kind == ModelKind::Critic {
             bail!("the firmware runs policies (actor or discrete), not a critic");
         }
+        Model::for_policy_within(bytes, MAX_OBS, MAX_ACT, MAX_WIDTH)?;
         Ok(BlobInfo {
             kind: h.kind,
             shape: h.shape,
@@ -49,9 +53,21 @@ impl BlobInfo {
         })
     }
 
-    /// `DEPTHxWIDTH`, e.g. `4x48`.
+    /// `DEPTHxWIDTH`, e.g. `4x48`, followed by the sizes when they are not the navigation
+    /// task's, e.g. `2x32 3obs-1act`.
     pub fn name(&self) -> String {
-        format!("{}x{}", self.shape.depth, self.shape.width)
+        let s = self.shape;
+        let name = format!("{}x{}", s.depth, s.width);
+        if (s.observations, s.actions) == NAV_SIZES {
+            name
+        } else {
+            format!("{name} {}obs-{}act", s.observations, s.actions)
+        }
+    }
+
+    /// Observations the blob reads.
+    pub fn observations(&self) -> usize {
+        self.shape.observations.into()
     }
 
     /// Multiply-accumulates in one `act`: every weight is used once.
@@ -70,7 +86,7 @@ impl BlobInfo {
             Activation::Relu => 0,
         };
         let squash = match self.kind {
-            ModelKind::Actor => A as u64,
+            ModelKind::Actor => u64::from(self.shape.actions),
             ModelKind::Critic | ModelKind::Discrete => 0,
         };
         hidden + squash
@@ -95,17 +111,21 @@ pub fn encode(bytes: &[u8], encoding: Encoding) -> Result<Vec<u8>> {
         .context("cannot re-encode the blob (only an f32 blob is re-encoded)")
 }
 
-/// Parses `DEPTHxWIDTH` (any sizes within the blob format's limits).
-pub fn parse_shape(text: &str) -> Result<Shape> {
+/// Parses `DEPTHxWIDTH` (any sizes within the blob format's limits) for a policy of
+/// `(observations, actions)`, within the firmware's maxima.
+pub fn parse_shape(text: &str, (observations, actions): (u16, u16)) -> Result<Shape> {
     let parsed = text
         .split_once('x')
         .and_then(|(d, w)| Some((d.parse().ok()?, w.parse().ok()?)));
     let Some((depth, width)) = parsed else {
         bail!("shape {text:?}: expected DEPTHxWIDTH, e.g. 4x48");
     };
+    if !(1..=MAX_OBS).contains(&observations.into()) || !(1..=MAX_ACT).contains(&actions.into()) {
+        bail!("{observations} observations and {actions} actions: the firmware takes 1 to {MAX_OBS} and 1 to {MAX_ACT}");
+    }
     let shape = Shape {
-        observations: S as u16,
-        actions: A as u16,
+        observations,
+        actions,
         width,
         depth,
         choices: 0,
@@ -116,15 +136,28 @@ pub fn parse_shape(text: &str) -> Result<Shape> {
     Ok(shape)
 }
 
+/// The fixed observations (firmware/src/observations.rs) at the blob's observation size, as the
+/// firmware fills them.
+pub fn observations(bytes: &[u8]) -> Result<Vec<Vec<f32>>> {
+    let n = BlobInfo::of(bytes)?.observations();
+    Ok((0..CASES)
+        .map(|k| {
+            let mut obs = vec![0.0; n];
+            fill(k, &mut obs);
+            obs
+        })
+        .collect())
+}
+
 /// The actions policy-core's runtime model computes on the host for `bytes` and each
-/// observation (the widest scratch the format allows, so any blob runs).
-pub fn actions(bytes: &[u8], observations: &[[f32; S]]) -> Result<Vec<[f32; A]>> {
+/// observation (the widest scratch the format allows, so any blob runs), at the blob's sizes.
+pub fn actions(bytes: &[u8], observations: &[Vec<f32>]) -> Result<Vec<Vec<f32>>> {
     let model = Model::from_blob(bytes)?;
     let mut scratch = Box::new(Scratch::<MAX_WIDTH>::new());
     observations
         .iter()
         .map(|obs| {
-            let mut action = [0.0; A];
+            let mut action = vec![0.0; model.header().shape.actions.into()];
             model.act(obs, &mut scratch, &mut action)?;
             Ok(action)
         })
@@ -137,9 +170,9 @@ pub fn actions(bytes: &[u8], observations: &[[f32; S]]) -> Result<Vec<[f32; A]>>
 pub fn refined_actions(
     actor: &[u8],
     critic: &[u8],
-    observations: &[[f32; S]],
+    observations: &[Vec<f32>],
     t: usize,
-) -> Result<Vec<[f32; A]>> {
+) -> Result<Vec<Vec<f32>>> {
     use crate::proposals::{Proposals, SEED};
     let (actor, critic) = (Model::from_blob(actor)?, Model::from_blob(critic)?);
     let mut scratch = Box::new(Scratch::<MAX_WIDTH>::new());
@@ -147,7 +180,7 @@ pub fn refined_actions(
     observations
         .iter()
         .map(|obs| {
-            let r = policy_core::compare::refine_model::<A, MAX_WIDTH, _>(
+            let r = policy_core::compare::refine_model::<REFINE_A, MAX_WIDTH, _>(
                 &actor,
                 &critic,
                 obs,
@@ -156,7 +189,7 @@ pub fn refined_actions(
                 t,
                 0.2,
             )?;
-            Ok(r.action)
+            Ok(r.action.to_vec())
         })
         .collect()
 }
@@ -168,7 +201,9 @@ pub fn refined_actions(
 /// seed are the f32 blob re-encoded.
 ///
 /// The normaliser and bounds are those of a realistic navigation actor (positions in metres, mean
-/// off zero, clip 5; actions within ±0.25), so the observations exercise clipping both ways.
+/// off zero, clip 5; actions within ±0.25), so the observations exercise clipping both ways; a
+/// blob of other sizes repeats the navigation actor's per-dimension values (mean 1.5, -0.7, 1.5,
+/// ...), and its label names its sizes (`3to1`). The navigation sizes give the same bytes as ever.
 pub fn generate(
     shape: Shape,
     seed: u64,
@@ -178,13 +213,19 @@ pub fn generate(
     let mut rng =
         ChaCha8Rng::seed_from_u64(seed ^ (u64::from(shape.depth) << 32 | u64::from(shape.width)));
     let (w, depth) = (shape.width as usize, shape.depth as usize);
-    // Layers in blob order: input (S -> w), depth - 1 hidden (w -> w), output (w -> A).
-    let mut layers = vec![xavier(S, w, &mut rng)];
+    let (s, a) = (shape.observations as usize, shape.actions as usize);
+    // Layers in blob order: input (s -> w), depth - 1 hidden (w -> w), output (w -> a).
+    let mut layers = vec![xavier(s, w, &mut rng)];
     for _ in 1..depth {
         layers.push(xavier(w, w, &mut rng));
     }
-    layers.push(xavier(w, A, &mut rng));
-    let label = format!("host-check {}x{} {activation} seed {seed}", depth, w);
+    layers.push(xavier(w, a, &mut rng));
+    let mut label = if (shape.observations, shape.actions) == NAV_SIZES {
+        format!("host-check {depth}x{w} {activation} seed {seed}")
+    } else {
+        format!("host-check {depth}x{w} {s}to{a} {activation} seed {seed}")
+    };
+    label.truncate(blob::LABEL_CAPACITY); // the format's limit (ASCII: any cut is a boundary)
     let spec = Spec {
         kind: ModelKind::Actor,
         encoding: policy_core::Encoding::F32,
@@ -192,8 +233,15 @@ pub fn generate(
         activation,
         label: &label,
     };
-    let normalizer = [1.5, -0.7, 1.0 / 2.3, 1.0 / 1.7, 5.0]; // mean, inverse std, clip
-    let bounds = [-0.25, -0.25, 0.25, 0.25]; // low, high
+    let per_dim = |pair: [f32; 2], n: usize| (0..n).map(move |j| pair[j % 2]);
+    // mean, inverse std, clip
+    let normalizer: Vec<f32> = per_dim([1.5, -0.7], s)
+        .chain(per_dim([1.0 / 2.3, 1.0 / 1.7], s))
+        .chain([5.0])
+        .collect();
+    let bounds: Vec<f32> = per_dim([-0.25; 2], a)
+        .chain(per_dim([0.25; 2], a))
+        .collect(); // low, high
     let f32_blob = blob::to_vec_with(&spec, &mut |sink| {
         sink(&normalizer);
         sink(&bounds);
@@ -231,7 +279,7 @@ mod tests {
 
     #[test]
     fn same_seed_same_bytes_and_the_shape_round_trips() {
-        let shape = parse_shape("3x40").unwrap();
+        let shape = parse_shape("3x40", NAV_SIZES).unwrap();
         let a = generate(shape, 7, Activation::Relu, Encoding::F32).unwrap();
         assert_eq!(
             a,
@@ -243,14 +291,27 @@ mod tests {
         );
         let info = BlobInfo::of(&a).unwrap();
         assert_eq!((info.name(), info.kind), ("3x40".into(), ModelKind::Actor));
-        assert!(parse_shape("4x").is_err() && parse_shape("0x48").is_err());
+        assert!(parse_shape("4x", NAV_SIZES).is_err() && parse_shape("0x48", NAV_SIZES).is_err());
+        // Other sizes: their own label and name; beyond the firmware's maxima, refused.
+        let cart = generate(
+            parse_shape("3x40", (3, 1)).unwrap(),
+            7,
+            Activation::Relu,
+            Encoding::F32,
+        )
+        .unwrap();
+        let info = BlobInfo::of(&cart).unwrap();
+        assert_eq!(info.name(), "3x40 3obs-1act");
+        assert_eq!((info.observations(), info.tanh_calls()), (3, 1));
+        assert!(parse_shape("3x40", (9, 1)).is_err());
+        assert!(parse_shape("3x40", (2, 0)).is_err());
     }
 
     #[test]
     fn macs_count_every_weight_once() {
         let info = BlobInfo::of(
             &generate(
-                parse_shape("4x48").unwrap(),
+                parse_shape("4x48", NAV_SIZES).unwrap(),
                 4,
                 Activation::Tanh,
                 Encoding::F32,
@@ -270,9 +331,9 @@ mod tests {
 
     #[test]
     fn quantised_blobs_are_the_f32_blob_re_encoded() {
-        let shape = parse_shape("4x48").unwrap();
+        let shape = parse_shape("4x48", NAV_SIZES).unwrap();
         let f32_blob = generate(shape, 4, Activation::Relu, Encoding::F32).unwrap();
-        let exact = actions(&f32_blob, &crate::observations::OBSERVATIONS).unwrap();
+        let exact = actions(&f32_blob, &observations(&f32_blob).unwrap()).unwrap();
         for encoding in [Encoding::F16, Encoding::Int8] {
             let q = generate(shape, 4, Activation::Relu, encoding).unwrap();
             assert_eq!(q, encode(&f32_blob, encoding).unwrap());
@@ -286,7 +347,7 @@ mod tests {
                 "{encoding}: {} B",
                 q.len()
             );
-            let acts = actions(&q, &crate::observations::OBSERVATIONS).unwrap();
+            let acts = actions(&q, &observations(&q).unwrap()).unwrap();
             for (a, e) in acts.iter().flatten().zip(exact.iter().flatten()) {
                 assert!(
                     a.abs() <= 0.25 && (a - e).abs() < 0.02,
@@ -304,13 +365,13 @@ mod tests {
     #[test]
     fn generated_actions_are_in_bounds_and_match_the_compiled_policy() {
         let blob = generate(
-            parse_shape("4x48").unwrap(),
+            parse_shape("4x48", NAV_SIZES).unwrap(),
             4,
             Activation::Tanh,
             Encoding::F32,
         )
         .unwrap();
-        let acts = actions(&blob, &crate::observations::OBSERVATIONS).unwrap();
+        let acts = actions(&blob, &observations(&blob).unwrap()).unwrap();
         assert!(acts
             .iter()
             .flatten()
@@ -321,7 +382,8 @@ mod tests {
         );
         let compiled = Policy::<2, 48, 3, 2>::from_blob(&blob).unwrap();
         for (obs, act) in crate::observations::OBSERVATIONS.iter().zip(&acts) {
-            assert_eq!(compiled.act(obs).map(f32::to_bits), act.map(f32::to_bits));
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&compiled.act(obs)), bits(act));
         }
     }
 }

@@ -7,7 +7,6 @@ use anyhow::{bail, Result};
 
 use crate::blobs;
 use crate::log::FirmwareLog;
-use crate::observations::OBSERVATIONS;
 
 /// Outcome of a successful comparison.
 #[derive(Debug)]
@@ -19,7 +18,8 @@ pub struct Comparison {
 }
 
 /// Compares every action the firmware printed with the host's; fails on any differing bit, on an
-/// observation that is not the shared list's, or on a missing case. With `print`, one line per case.
+/// observation that is not the shared list's (at the blob's size), or on a missing case. With
+/// `print`, one line per case.
 pub fn compare(blob: &[u8], log: &FirmwareLog, print: bool) -> Result<Comparison> {
     compare_with(blob, None, log, print)
 }
@@ -33,43 +33,50 @@ pub fn compare_with(
     print: bool,
 ) -> Result<Comparison> {
     log.require_success()?;
+    let observations = blobs::observations(blob)?;
     let host = match (log.refine, critic) {
-        (None, None) => blobs::actions(blob, &OBSERVATIONS)?,
-        (Some(t), Some(critic)) => blobs::refined_actions(blob, critic, &OBSERVATIONS, t)?,
+        (None, None) => blobs::actions(blob, &observations)?,
+        (Some(t), Some(critic)) => blobs::refined_actions(blob, critic, &observations, t)?,
         (Some(t), None) => bail!("the firmware ran the compare step (T = {t}): give --critic"),
         (None, Some(_)) => bail!("--critic given but the firmware ran no compare step"),
     };
-    if log.observations.len() != OBSERVATIONS.len() || log.actions.len() != OBSERVATIONS.len() {
+    if log.observations.len() != observations.len() || log.actions.len() != observations.len() {
         bail!(
             "expected {} observations and actions from the firmware, found {} and {}",
-            OBSERVATIONS.len(),
+            observations.len(),
             log.observations.len(),
             log.actions.len()
         );
     }
     let mut mismatches = 0;
     let mut max_abs_diff = 0.0f32;
-    for (k, (obs, want)) in OBSERVATIONS.iter().zip(&host).enumerate() {
+    for (k, (obs, want)) in observations.iter().zip(&host).enumerate() {
         let (Some(seen_obs), Some(got)) = (log.observations.get(&k), log.actions.get(&k)) else {
             bail!("case {k} missing from the firmware's output");
         };
-        if *seen_obs != [obs[0].to_bits(), obs[1].to_bits()] {
+        if *seen_obs != bits(obs) {
             bail!("case {k}: the firmware acted on {seen_obs:08x?}, expected {obs:?}: observation lists differ");
         }
-        let got = [f32::from_bits(got[0]), f32::from_bits(got[1])];
-        let same = got
-            .iter()
-            .zip(want)
-            .all(|(g, w)| g.to_bits() == w.to_bits());
+        if got.len() != want.len() {
+            bail!(
+                "case {k}: the firmware printed {} action values, the blob has {}",
+                got.len(),
+                want.len()
+            );
+        }
+        let got: Vec<f32> = got.iter().copied().map(f32::from_bits).collect();
+        let same = bits(&got) == bits(want);
         for (g, w) in got.iter().zip(want) {
             max_abs_diff = max_abs_diff.max((g - w).abs());
         }
         mismatches += usize::from(!same);
         if print {
             println!(
-            "  case {k}: obs [{:>12e}, {:>12e}]  target [{:+.9}, {:+.9}]  host [{:+.9}, {:+.9}]  {}",
-            obs[0], obs[1], got[0], got[1], want[0], want[1],
-            if same { "bit-exact" } else { "MISMATCH" }
+                "  case {k}: obs [{}]  target [{}]  host [{}]  {}",
+                list(obs, |v| format!("{v:>12e}")),
+                list(&got, |v| format!("{v:+.9}")),
+                list(want, |v| format!("{v:+.9}")),
+                if same { "bit-exact" } else { "MISMATCH" }
             );
         }
     }
@@ -82,30 +89,89 @@ pub fn compare_with(
     })
 }
 
+fn bits(values: &[f32]) -> Vec<u32> {
+    values.iter().map(|v| v.to_bits()).collect()
+}
+
+fn list(values: &[f32], each: impl Fn(f32) -> String) -> String {
+    values
+        .iter()
+        .map(|&v| each(v))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::blobs::{generate, parse_shape};
+    use crate::blobs::{generate, parse_shape, NAV_SIZES};
 
-    fn firmware_output(blob: &[u8], flip: Option<usize>) -> String {
-        let acts = blobs::actions(blob, &OBSERVATIONS).unwrap();
+    /// The firmware's lines for `acts` on the blob's observations, at their sizes.
+    fn log_lines(blob: &[u8], acts: &[Vec<f32>], flip: Option<usize>) -> String {
+        let hex = |v: &[f32]| {
+            v.iter()
+                .map(|x| format!(" {:08x}", x.to_bits()))
+                .collect::<String>()
+        };
         let mut out = String::new();
-        for (k, (o, a)) in OBSERVATIONS.iter().zip(&acts).enumerate() {
-            let a0 = a[0].to_bits() ^ u32::from(flip == Some(k));
-            out += &format!(
-                "OBS {k} {:08x} {:08x}\nACT {k} {a0:08x} {:08x}\n",
-                o[0].to_bits(),
-                o[1].to_bits(),
-                a[1].to_bits()
-            );
+        for (k, (o, a)) in blobs::observations(blob)
+            .unwrap()
+            .iter()
+            .zip(acts)
+            .enumerate()
+        {
+            let mut a = a.clone();
+            if flip == Some(k) {
+                a[0] = f32::from_bits(a[0].to_bits() ^ 1);
+            }
+            out += &format!("OBS {k}{}\nACT {k}{}\n", hex(o), hex(&a));
         }
         out + "DONE\n"
+    }
+
+    fn firmware_output(blob: &[u8], flip: Option<usize>) -> String {
+        let acts = blobs::actions(blob, &blobs::observations(blob).unwrap()).unwrap();
+        log_lines(blob, &acts, flip)
+    }
+
+    /// A blob for another plant (3 observations, 1 action) is checked at its own sizes: the
+    /// widened observations and one action per case.
+    #[test]
+    fn a_blob_of_other_sizes_is_checked_at_its_sizes() {
+        let shape = parse_shape("2x32", (3, 1)).unwrap();
+        let blob = generate(
+            shape,
+            1,
+            policy_core::Activation::Tanh,
+            policy_core::Encoding::F32,
+        )
+        .unwrap();
+        let out = firmware_output(&blob, None);
+        assert!(
+            out.starts_with("OBS 0 00000000 00000000 3fc00000\nACT 0 "),
+            "{out}"
+        );
+        let log = FirmwareLog::parse(&out).unwrap();
+        assert_eq!(log.actions[&0].len(), 1);
+        assert_eq!(compare(&blob, &log, false).unwrap().cases, 10);
+        let flipped = FirmwareLog::parse(&firmware_output(&blob, Some(2))).unwrap();
+        assert!(compare(&blob, &flipped, false).is_err());
+        // A 2-observation log does not pass for it.
+        let nav = generate(
+            parse_shape("2x32", NAV_SIZES).unwrap(),
+            1,
+            policy_core::Activation::Tanh,
+            policy_core::Encoding::F32,
+        )
+        .unwrap();
+        let nav_log = FirmwareLog::parse(&firmware_output(&nav, None)).unwrap();
+        assert!(compare(&blob, &nav_log, false).is_err());
     }
 
     #[test]
     fn identical_bits_pass() {
         let blob = generate(
-            parse_shape("2x32").unwrap(),
+            parse_shape("2x32", NAV_SIZES).unwrap(),
             1,
             policy_core::Activation::Tanh,
             policy_core::Encoding::F32,
@@ -119,7 +185,7 @@ mod tests {
     fn quantised_blobs_are_checked_from_their_own_bytes() {
         for encoding in [policy_core::Encoding::F16, policy_core::Encoding::Int8] {
             let blob = generate(
-                parse_shape("2x32").unwrap(),
+                parse_shape("2x32", NAV_SIZES).unwrap(),
                 1,
                 policy_core::Activation::Relu,
                 encoding,
@@ -142,21 +208,13 @@ mod tests {
     fn a_refining_firmware_is_checked_with_its_critic() {
         let actor = include_bytes!("../../../policy-core/tests/golden/actor_2x32.postcard");
         let critic = include_bytes!("../../../policy-core/tests/golden/critic_2x32.postcard");
-        let refined = blobs::refined_actions(actor, critic, &OBSERVATIONS, 16).unwrap();
-        let plain = blobs::actions(actor, &OBSERVATIONS).unwrap();
+        let observations = blobs::observations(actor).unwrap();
+        let refined = blobs::refined_actions(actor, critic, &observations, 16).unwrap();
+        let plain = blobs::actions(actor, &observations).unwrap();
         assert_ne!(refined, plain, "16 proposals change some action");
-        let log_of = |acts: &[[f32; 2]]| {
-            let mut out = String::from("REFINE 16\n");
-            for (k, (o, a)) in OBSERVATIONS.iter().zip(acts).enumerate() {
-                out += &format!(
-                    "OBS {k} {:08x} {:08x}\nACT {k} {:08x} {:08x}\n",
-                    o[0].to_bits(),
-                    o[1].to_bits(),
-                    a[0].to_bits(),
-                    a[1].to_bits()
-                );
-            }
-            FirmwareLog::parse(&(out + "DONE\n")).unwrap()
+        let log_of = |acts: &[Vec<f32>]| {
+            let out = String::from("REFINE 16\n") + &log_lines(actor, acts, None);
+            FirmwareLog::parse(&out).unwrap()
         };
         assert!(compare_with(actor, Some(critic), &log_of(&refined), false).is_ok());
         assert!(compare_with(actor, Some(critic), &log_of(&plain), false).is_err());
@@ -166,7 +224,7 @@ mod tests {
     #[test]
     fn one_flipped_bit_fails() {
         let blob = generate(
-            parse_shape("2x32").unwrap(),
+            parse_shape("2x32", NAV_SIZES).unwrap(),
             1,
             policy_core::Activation::Tanh,
             policy_core::Encoding::F32,

@@ -16,10 +16,10 @@ pub struct FirmwareLog {
     pub scratch_bytes: Option<u64>,
     /// Bytes of the embedded blob.
     pub blob_bytes: Option<u64>,
-    /// Observation `k` as bits.
-    pub observations: BTreeMap<usize, [u32; 2]>,
-    /// Action `k` as bits.
-    pub actions: BTreeMap<usize, [u32; 2]>,
+    /// Observation `k` as bits, as many as the running blob reads (none in the safe state).
+    pub observations: BTreeMap<usize, Vec<u32>>,
+    /// Action `k` as bits, as many as the running blob acts (none in the safe state).
+    pub actions: BTreeMap<usize, Vec<u32>>,
     /// Measured spans in mark order: name and how many repetitions the span holds.
     pub spans: Vec<(String, u64)>,
     /// `TICKS name reps ticks`.
@@ -73,7 +73,7 @@ impl FirmwareLog {
                 Some("BLOB_BYTES") => log.blob_bytes = Some(num(f.next(), line)?),
                 Some(tag @ ("OBS" | "ACT")) => {
                     let k = num(f.next(), line)? as usize;
-                    let v = [bits(f.next(), line)?, bits(f.next(), line)?];
+                    let v = f.map(|x| bits(Some(x), line)).collect::<Result<Vec<_>>>()?;
                     let map = if tag == "OBS" {
                         &mut log.observations
                     } else {
@@ -188,6 +188,12 @@ mod tests {
         let log = FirmwareLog::parse(LOG).unwrap();
         assert_eq!(log.shape, Some([4, 48, 2, 2]));
         assert_eq!(log.observations[&0], [0, 0x3f80_0000]);
+        assert_eq!(
+            FirmwareLog::parse("ACT 3 3e800000\nACT 4\n")
+                .unwrap()
+                .actions,
+            BTreeMap::from([(3, vec![0x3e80_0000]), (4, vec![])])
+        );
         assert_eq!(f32::from_bits(log.actions[&0][0]), 0.25);
         assert_eq!(log.spans[1], ("act0".to_string(), 1));
         assert_eq!(log.stack_phases["act"], 120);

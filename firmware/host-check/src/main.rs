@@ -2,7 +2,9 @@
 //!
 //! ```text
 //! host-check gen DEPTHxWIDTH OUT [--seed N] [--activation tanh|relu] [--encoding f32|f16|int8]
-//!                                          write a deterministic actor blob of any shape
+//!                                [--observations N] [--actions N]
+//!                                          write a deterministic actor blob of any shape and
+//!                                          sizes (default 2 and 2, the navigation task's)
 //! host-check encode IN OUT --encoding f32|f16|int8
 //!                                          re-encode an f32 blob (e.g. a trained one)
 //! host-check info BLOB                     print what the blob holds ("4x48 actor relu f32 v1")
@@ -36,6 +38,8 @@ mod observations;
 #[path = "../../src/proposals.rs"]
 mod proposals;
 mod report;
+#[path = "../../src/sizes.rs"]
+mod sizes;
 mod slots;
 
 use std::collections::BTreeMap;
@@ -170,7 +174,22 @@ fn gen(shape: &str, out: &Path, flags: &BTreeMap<String, String>) -> Result<()> 
         Some(e) => blobs::parse_encoding(e)?,
         None => policy_core::Encoding::F32,
     };
-    let bytes = blobs::generate(blobs::parse_shape(shape)?, seed, activation, encoding)?;
+    let size = |key: &str, default: u16| match flags.get(key) {
+        Some(n) => n
+            .parse()
+            .with_context(|| format!("--{key} {n:?} is not a count")),
+        None => Ok(default),
+    };
+    let sizes = (
+        size("observations", blobs::NAV_SIZES.0)?,
+        size("actions", blobs::NAV_SIZES.1)?,
+    );
+    let bytes = blobs::generate(
+        blobs::parse_shape(shape, sizes)?,
+        seed,
+        activation,
+        encoding,
+    )?;
     write_if_changed(out, &bytes)?;
     println!(
         "{} ({} bytes, {shape} {activation} {encoding}, seed {seed})",
