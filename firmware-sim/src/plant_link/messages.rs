@@ -1,8 +1,9 @@
 //! The plant link's messages and their frames: what the host (the trainer, `firmware-sim run`)
 //! and a plant process say to each other over the plant's standard input and output.
 //!
-//! Every frame is the project's one framing, hil-protocol's [`frame_body`]: a postcard envelope
-//! (the protocol [`VERSION`], then the message's postcard bytes), its CRC-32 (ISO-HDLC,
+//! Every frame is the project's one framing, hil-protocol's
+//! [`frame_body`](hil_protocol::frame_body): a postcard envelope (the protocol [`VERSION`],
+//! then the message's postcard bytes), its CRC-32 (ISO-HDLC,
 //! little-endian), the whole COBS-encoded and ended by a `0x00` byte. The chip link and the
 //! plant link differ only in their messages, which here are the plant's sizes (any number of
 //! values, names of any length), so they are allocated and a frame may be up to
