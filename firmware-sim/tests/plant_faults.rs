@@ -332,15 +332,16 @@ fn a_plant_of_two_agents_is_refused() {
 
 #[test]
 fn a_command_that_does_not_exist_is_one_line() {
-    let e = ChildPlant::spawn("/nonexistent/cart_on_rail --fast", TIMEOUTS).unwrap_err();
+    let e = ChildPlant::spawn("/nonexistent/cart_on_rail --fast", TIMEOUTS)
+        .expect_err("no such program");
     assert_eq!(
         e.to_string(),
         "plant \"/nonexistent/cart_on_rail --fast\": cannot start: no such file \
          /nonexistent/cart_on_rail"
     );
     let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("../plant-link-c/cart_on_rail.c");
-    let source = source.to_str().unwrap();
-    let e = ChildPlant::spawn(source, TIMEOUTS).unwrap_err();
+    let source = source.to_str().expect("a UTF-8 path");
+    let e = ChildPlant::spawn(source, TIMEOUTS).expect_err("C source is no program");
     assert_eq!(
         e.to_string(),
         format!("plant {source:?}: cannot start: {source} is not an executable file")
@@ -350,7 +351,7 @@ fn a_command_that_does_not_exist_is_one_line() {
 #[test]
 fn a_plant_that_ignores_close_leaves_when_its_input_ends() {
     let command = faulty("--ignore-close");
-    let mut plant = ChildPlant::spawn(&command, TIMEOUTS).unwrap();
+    let mut plant = ChildPlant::spawn(&command, TIMEOUTS).expect("a good hello");
     // The search that proves other tests' plants gone finds this one while it runs.
     assert_eq!(running_children(&command), [plant.id()]);
     plant.reset(SEED);
@@ -401,12 +402,12 @@ fn bits(steps: &[Step]) -> Vec<Vec<u32>> {
 #[test]
 fn the_cart_gives_the_same_trajectory_for_the_same_seed() {
     let cart = command("cart_on_rail", "");
-    let mut first = ChildPlant::spawn(&cart, TIMEOUTS).unwrap();
+    let mut first = ChildPlant::spawn(&cart, TIMEOUTS).expect("the cart starts");
     assert_eq!(first.hello().name, "cart-on-rail");
     assert_eq!(first.hello().agents[0].action_low, [-1.0]);
     let a = episode(&mut first, SEED, None);
     // Another process, and a reset in between: only the seed decides.
-    let mut second = ChildPlant::spawn(&cart, TIMEOUTS).unwrap();
+    let mut second = ChildPlant::spawn(&cart, TIMEOUTS).expect("the cart starts");
     episode(&mut second, SEED + 1, None);
     let b = episode(&mut second, SEED, None);
     assert_eq!(bits(&a), bits(&b));
@@ -423,7 +424,8 @@ fn the_cart_gives_the_same_trajectory_for_the_same_seed() {
 
 #[test]
 fn the_cart_pushed_into_its_end_touches_the_margin_and_applies_nothing() {
-    let mut plant = ChildPlant::spawn(&command("cart_on_rail", ""), TIMEOUTS).unwrap();
+    let mut plant =
+        ChildPlant::spawn(&command("cart_on_rail", ""), TIMEOUTS).expect("the cart starts");
     let steps = episode(&mut plant, SEED, Some(1.0));
     let first = steps
         .iter()
