@@ -35,9 +35,13 @@ static const float cart_action_low[1] = {-1.0f};
 static const float cart_action_high[1] = {1.0f};
 
 static const pl_agent cart_agent = {
-    "cart",
-    CART_OBSERVATIONS, cart_observation_low, cart_observation_high,
-    1, cart_action_low, cart_action_high,
+    .name = "cart",
+    .observation_low = cart_observation_low,
+    .observation_high = cart_observation_high,
+    .action_low = cart_action_low,
+    .action_high = cart_action_high,
+    .observation_len = CART_OBSERVATIONS,
+    .action_len = 1,
 };
 
 typedef struct {

@@ -115,9 +115,10 @@ pl_status pl_send(FILE *out, const pl_writer *w);
 
 typedef enum { PL_HELLO = 0, PL_RESET = 1, PL_STEP = 2, PL_CLOSE = 3 } pl_request_kind;
 
+/* The 64-bit seed first: no padding between the fields on common ABIs. */
 typedef struct {
-    pl_request_kind kind;
     uint64_t seed;                /* PL_RESET: the episode's seed */
+    pl_request_kind kind;
     uint32_t action_len;          /* PL_STEP: the action's values */
     float action[PL_MAX_VALUES];
 } pl_request;
@@ -135,12 +136,12 @@ pl_status pl_read_request(FILE *in, pl_request *request);
  * action bounds must be finite with low < high. */
 typedef struct {
     const char *name;
-    uint32_t observation_len;
     const float *observation_low;
     const float *observation_high;
-    uint32_t action_len;
     const float *action_low;
     const float *action_high;
+    uint32_t observation_len;
+    uint32_t action_len;
 } pl_agent;
 
 /* What one action did. */
