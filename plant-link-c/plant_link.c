@@ -284,7 +284,7 @@ pl_status pl_unframe(uint8_t *buf, size_t len, uint16_t *version, const uint8_t 
     r.pos += (size_t)blen;
     crc = (uint32_t)buf[r.pos] | (uint32_t)buf[r.pos + 1] << 8 | (uint32_t)buf[r.pos + 2] << 16 |
           (uint32_t)buf[r.pos + 3] << 24;
-    /* Stricter than the host, which ignores bytes after the CRC: the host never sends any. */
+    /* Bytes after the CRC are refused, as the host refuses them: the CRC ends the frame. */
     if (crc != pl_crc32(buf, r.pos) || r.pos + 4 != n) {
         return PL_CRC;
     }
