@@ -6,6 +6,7 @@
 #   scripts/fuzz.sh faults 600      # the --faults parser
 #   scripts/fuzz.sh badminton 600   # the badminton scenario parser, playing what it accepts
 #   scripts/fuzz.sh train_config 600 # host-trainer's config files, training what they accept
+#   scripts/fuzz.sh plant_link 600  # the plant link's frames, both sides' messages
 #   scripts/fuzz.sh all 20          # each target in turn (what CI runs)
 #   scripts/fuzz.sh blob 60 -jobs=2 # extra arguments go to libFuzzer
 #
@@ -27,10 +28,10 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 fuzz="$root/fuzz"
 toolchain="${FUZZ_TOOLCHAIN:-stable}"
 sanitizer="${FUZZ_SANITIZER:-none}"
-targets=(blob scenario faults badminton train_config)
+targets=(blob scenario faults badminton train_config plant_link)
 
 usage() {
-    echo "usage: scripts/fuzz.sh {blob|scenario|faults|badminton|train_config|all} [SECONDS] [LIBFUZZER_ARGS...]" >&2
+    echo "usage: scripts/fuzz.sh {blob|scenario|faults|badminton|train_config|plant_link|all} [SECONDS] [LIBFUZZER_ARGS...]" >&2
     exit 2
 }
 
@@ -95,6 +96,6 @@ case "$1" in
         for t in "${targets[@]}"; do run "$t" "$seconds" "${@:3}" || status=1; done
         exit "$status"
         ;;
-    blob | scenario | faults | badminton | train_config) run "$1" "${2:-60}" "${@:3}" ;;
+    blob | scenario | faults | badminton | train_config | plant_link) run "$1" "${2:-60}" "${@:3}" ;;
     *) usage ;;
 esac

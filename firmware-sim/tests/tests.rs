@@ -37,6 +37,9 @@ mod hil;
 mod layouts;
 /// `firmware-sim match`: summary, JSON and SVG, exit codes, one-line errors.
 mod match_cli;
+/// The plant link against real plant processes (the C reference cart and its fault plant):
+/// each fault stopped in one line naming the request, no plant left running, seeds reproduce.
+mod plant_faults;
 /// Golden plant link frames, the bytes the Python package's codec must write and read.
 mod plant_link_frames;
 /// The Rust host (`ChildPlant`) against the Python package's Gymnasium plant server.

@@ -4,13 +4,22 @@
 
 use std::path::{Path, PathBuf};
 
-use tests::{badminton_checks, blob_checks, config_checks, fault_checks, scenario_checks};
+use tests::{
+    badminton_checks, blob_checks, config_checks, fault_checks, plant_link_checks, scenario_checks,
+};
 
 /// Every reproducer, as (target, path).
 fn reproducers() -> Vec<(String, PathBuf)> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/regressions");
     let mut out = Vec::new();
-    for target in ["blob", "scenario", "faults", "badminton", "train_config"] {
+    for target in [
+        "blob",
+        "scenario",
+        "faults",
+        "badminton",
+        "train_config",
+        "plant_link",
+    ] {
         let Ok(dir) = std::fs::read_dir(root.join(target)) else {
             continue;
         };
@@ -26,6 +35,7 @@ fn replay(target: &str, path: &Path) {
     let text = std::str::from_utf8(&bytes);
     match (target, text) {
         ("blob", _) => blob_checks::check(&bytes),
+        ("plant_link", _) => plant_link_checks::check(&bytes),
         ("scenario", Ok(text)) => scenario_checks::check(text),
         ("faults", Ok(text)) => fault_checks::check(text),
         ("badminton", Ok(text)) => badminton_checks::check(text),

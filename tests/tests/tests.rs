@@ -19,5 +19,9 @@ mod config_mutations;
 // Fault strings assembled from the `--faults` grammar with numbers and separators mutated,
 // checked by `tests::fault_checks` as the `faults` fuzz target is.
 mod fault_mutations;
+// The plant link's frames: messages of either side round-trip bit for bit, changed bytes are a
+// message or a one-line error, one bit flipped is refused; checked by `tests::plant_link_checks`
+// as the `plant_link` fuzz target is.
+mod plant_link_mutations;
 // Every reproducer the fuzzer found (`fuzz/regressions/`) is replayed through the same checks.
 mod fuzz_regressions;

@@ -170,6 +170,11 @@ impl ChildPlant {
         &self.command
     }
 
+    /// The plant process's id (tests check with it that no plant outlives its `ChildPlant`).
+    pub fn id(&self) -> u32 {
+        self.child.id()
+    }
+
     fn error(&self, message: String) -> Error {
         Error::Plant {
             plant: self.command.clone(),
