@@ -305,3 +305,51 @@ fn ctrl_c_of_the_trainer_checkpoints_closes_the_plant_and_resumes() {
         String::from_utf8_lossy(&resumed.stderr)
     );
 }
+
+#[test]
+fn a_plant_that_dies_mid_run_stops_it_in_one_line_and_the_run_resumes_once_it_is_fixed() {
+    use std::os::unix::fs::PermissionsExt;
+    let base = scratch("link-dies");
+    let plant = base.join("plant.sh");
+    let write = |body: &str| {
+        std::fs::write(&plant, format!("#!/bin/sh\n{body}\n")).expect("script");
+        std::fs::set_permissions(&plant, std::fs::Permissions::from_mode(0o755)).expect("chmod");
+    };
+    // The plant reads its first 3,000 bytes of requests (about 170 steps; dd passes each
+    // byte on as it comes), then its input ends and it exits, mid-episode.
+    write(&format!(
+        "dd bs=1 count=3000 status=none | {}",
+        serve_nav_walls()
+    ));
+    let config = crate::support::smoke_config_file(&base, 20);
+    let cmd = plant.display().to_string();
+    let args = [
+        "train",
+        "--config",
+        s(&config),
+        "--plant-cmd",
+        &cmd,
+        "--out",
+        s(&base),
+        "--quiet",
+    ];
+    let died = host_trainer(&args);
+    let text = assert_one_line_error(
+        &died,
+        &[&format!("plant {cmd:?}: step"), "before answering"],
+    );
+    assert!(text.contains("after reset(seed"), "{text}");
+    let run = base.join("nav-walls__dcp__3");
+    let path = run.join(folder::CHECKPOINT);
+    let saved = Checkpoint::load(&path).expect("the last checkpoint is intact");
+    assert!(saved.episode < 20, "{}", saved.episode);
+    // Fixed: the same command now serves every request.
+    write(&format!("exec {}", serve_nav_walls()));
+    let resumed = host_trainer(&["train", "--resume", s(&run), "--quiet"]);
+    assert!(
+        resumed.status.success(),
+        "{}",
+        String::from_utf8_lossy(&resumed.stderr)
+    );
+    assert_eq!(Checkpoint::load(&path).expect("checkpoint").episode, 20);
+}

@@ -208,10 +208,15 @@ impl ChildPlant {
         let event = match self.frames.recv_timeout(timeout) {
             Ok(EventBox(event)) => event,
             Err(RecvTimeoutError::Timeout) => {
+                let which = if matches!(request, ToPlant::Hello) {
+                    "start"
+                } else {
+                    "step"
+                };
                 return Err(self.error(format!(
-                    "{at}: no answer within {} (the step timeout; the plant hangs or is too slow)",
+                    "{at}: no answer within {} (the {which} timeout; the plant hangs or is too slow)",
                     seconds(timeout)
-                )))
+                )));
             }
             Err(RecvTimeoutError::Disconnected) => Event::End,
         };
