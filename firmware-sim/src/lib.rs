@@ -43,6 +43,7 @@ pub mod nav;
 pub mod pass;
 pub mod plant_link;
 pub mod plant_test;
+pub(crate) mod process;
 pub mod refine;
 pub mod seed;
 pub mod sensor;

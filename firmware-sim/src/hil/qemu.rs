@@ -6,7 +6,7 @@ use std::fs;
 use std::os::unix::net::{UnixListener, UnixStream};
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Stdio};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
@@ -121,6 +121,7 @@ pub fn start(
         RUNS.fetch_add(1, Ordering::Relaxed)
     ));
     let _ = fs::remove_dir_all(&dir);
+    remove_stale_scratch();
     fs::create_dir_all(&dir).map_err(|e| io("cannot create a scratch folder", e))?;
     // From here the guard removes the folder on every path out.
     let cleanup = Cleanup(dir.clone());
@@ -130,7 +131,14 @@ pub fn start(
         .set_nonblocking(true)
         .map_err(|e| io("cannot open the UART socket", e))?;
     let (board, cpu) = machine.qemu();
-    let mut cmd = Command::new("qemu-system-arm");
+    // QEMU dies with firmware-sim, however firmware-sim ends (kill -9 included).
+    let qemu = crate::process::find_program("qemu-system-arm").map_err(|_| {
+        Error::Hil(
+            "qemu-system-arm not found: install it with `bash scripts/cortex-m.sh --install-only`"
+                .into(),
+        )
+    })?;
+    let mut cmd = crate::process::dying_with_us(&qemu, &[]);
     cmd.args(["-M", board, "-cpu", cpu, "-nodefaults", "-display", "none"])
         .args(["-icount", "shift=0"])
         .args(["-semihosting-config", "enable=on,target=native"])
@@ -229,6 +237,27 @@ impl Drop for Qemu {
         let _ = self.child.kill();
         let _ = self.child.wait();
         let _ = fs::remove_dir_all(&self.dir);
+    }
+}
+
+/// Removes the scratch folders of firmware-sim processes that are gone (killed before they
+/// could clean up): `firmware-sim-hil-PID-N` whose PID no longer runs.
+fn remove_stale_scratch() {
+    let Ok(entries) = fs::read_dir(std::env::temp_dir()) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let pid = name
+            .to_str()
+            .and_then(|n| n.strip_prefix("firmware-sim-hil-"))
+            .and_then(|rest| rest.split('-').next())
+            .and_then(|pid| pid.parse::<u32>().ok());
+        if let Some(pid) = pid {
+            if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
+                let _ = fs::remove_dir_all(entry.path());
+            }
+        }
     }
 }
 

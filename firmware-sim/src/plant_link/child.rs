@@ -18,8 +18,7 @@
 
 use std::io::{BufReader, Write};
 use std::os::unix::process::CommandExt;
-use std::path::{Path, PathBuf};
-use std::process::{Child, ChildStdin, Command, ExitStatus, Stdio};
+use std::process::{Child, ChildStdin, ExitStatus, Stdio};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
@@ -106,8 +105,9 @@ impl ChildPlant {
             .ok_or_else(|| {
                 fail("cannot start: not a command (empty, or a quote left open)".into())
             })?;
-        let program = find_program(&argv[0]).map_err(|why| fail(format!("cannot start: {why}")))?;
-        let mut child = launcher(&program, &argv[1..])
+        let program = crate::process::find_program(&argv[0])
+            .map_err(|why| fail(format!("cannot start: {why}")))?;
+        let mut child = crate::process::dying_with_us(&program, &argv[1..])
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
@@ -399,49 +399,6 @@ impl Drop for ChildPlant {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
-}
-
-/// The command that starts the plant: through util-linux's `setpriv --pdeathsig KILL` where it
-/// is installed, so the kernel kills the plant if the host dies; else the program itself.
-fn launcher(program: &Path, args: &[String]) -> Command {
-    const SETPRIV: &str = "/usr/bin/setpriv";
-    if Path::new(SETPRIV).is_file() {
-        let mut command = Command::new(SETPRIV);
-        command
-            .args(["--pdeathsig", "KILL", "--"])
-            .arg(program)
-            .args(args);
-        command
-    } else {
-        let mut command = Command::new(program);
-        command.args(args);
-        command
-    }
-}
-
-/// The program's path: as given if it names a file (it has a `/`), else found on `PATH`.
-fn find_program(name: &str) -> Result<PathBuf, String> {
-    let executable = |path: &Path| {
-        use std::os::unix::fs::PermissionsExt;
-        path.metadata()
-            .is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0)
-    };
-    if name.contains('/') {
-        let path = PathBuf::from(name);
-        return if executable(&path) {
-            Ok(path)
-        } else if path.exists() {
-            Err(format!("{name} is not an executable file"))
-        } else {
-            Err(format!("no such file {name}"))
-        };
-    }
-    std::env::var_os("PATH")
-        .iter()
-        .flat_map(std::env::split_paths)
-        .map(|dir| dir.join(name))
-        .find(|path| executable(path))
-        .ok_or_else(|| format!("no program {name} on PATH"))
 }
 
 /// Checks a hello; the boxes it declares, or what is wrong with them.
