@@ -310,11 +310,7 @@ impl PlantReport {
             .boot_error
             .as_ref()
             .map_or("ok".to_string(), |e| format!("FAILED, safe state: {e}"));
-        let verdict = if self.pass.passed {
-            "PASS".to_string()
-        } else {
-            format!("FAIL ({})", self.pass.failures.join("; "))
-        };
+        let verdict = self.pass.verdict();
         let rows = [
             (rule, format!("{:.3}", self.success_rate)),
             (
@@ -345,34 +341,12 @@ impl PlantReport {
             ("boot".into(), boot),
             ("pass criteria".into(), verdict),
         ];
-        let ran = self.episodes_ran();
-        let tests = match &self.stopped {
-            Some(_) => format!("{ran} of {} tests", self.config.episodes),
-            None => format!("{} tests", self.config.episodes),
-        };
-        let mut out = format!(
-            "{} | {} | {tests}, seed {}\n",
-            self.plant, self.controller, self.config.seed
-        );
-        for (k, v) in rows {
-            out.push_str(&format!("  {k:<33} {v}\n"));
-        }
-        if let Some(chip) = &self.chip {
-            for (k, v) in chip.rows() {
-                out.push_str(&format!("  {k:<33} {v}\n"));
-            }
-        }
-        if let Some(s) = &self.stopped {
-            let row = format!("after {} episodes: {}", s.episodes_run, s.reason);
-            out.push_str(&format!("  {:<33} {row}\n", "stopped"));
-        }
-        out
-    }
-
-    fn episodes_ran(&self) -> u64 {
-        self.stopped
-            .as_ref()
-            .map_or(self.config.episodes as u64, |s| s.episodes_run)
+        crate::pass::summary_table(
+            (&self.plant, &self.controller, self.config.seed),
+            (self.config.episodes, self.stopped.as_ref()),
+            rows,
+            self.chip.as_ref(),
+        )
     }
 }
 

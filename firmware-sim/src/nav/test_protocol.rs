@@ -236,11 +236,7 @@ impl Report {
             .boot_error
             .as_ref()
             .map_or("ok".to_string(), |e| format!("FAILED, safe state: {e}"));
-        let verdict = if self.pass.passed {
-            "PASS".to_string()
-        } else {
-            format!("FAIL ({})", self.pass.failures.join("; "))
-        };
+        let verdict = self.pass.verdict();
         let rows = [
             (
                 "success rate (settled within 2)",
@@ -271,27 +267,12 @@ impl Report {
             ("boot", boot),
             ("pass criteria", verdict),
         ];
-        let tests = match &self.stopped {
-            Some(_) => format!("{} of {} tests", self.ran(), self.config.episodes),
-            None => format!("{} tests", self.config.episodes),
-        };
-        let mut out = format!(
-            "{} | {} | {tests}, seed {}\n",
-            self.scenario, self.controller, self.config.seed
-        );
-        for (k, v) in rows {
-            out.push_str(&format!("  {k:<33} {v}\n"));
-        }
-        if let Some(chip) = &self.chip {
-            for (k, v) in chip.rows() {
-                out.push_str(&format!("  {k:<33} {v}\n"));
-            }
-        }
-        if let Some(s) = &self.stopped {
-            let row = format!("after {} episodes: {}", s.episodes_run, s.reason);
-            out.push_str(&format!("  {:<33} {row}\n", "stopped"));
-        }
-        out
+        crate::pass::summary_table(
+            (&self.scenario, &self.controller, self.config.seed),
+            (self.config.episodes, self.stopped.as_ref()),
+            rows,
+            self.chip.as_ref(),
+        )
     }
 }
 

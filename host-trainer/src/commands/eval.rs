@@ -152,11 +152,7 @@ pub(crate) fn plant_report_json(report: &PlantReport) -> Result<String> {
 
 /// The one line `train` and `eval` print for a test on a plant of the user's.
 pub(crate) fn plant_summary_line(report: &PlantReport) -> String {
-    let verdict = if report.pass.passed {
-        "PASS".to_string()
-    } else {
-        format!("FAIL ({})", report.pass.failures.join("; "))
-    };
+    let verdict = report.pass.verdict();
     format!(
         "{} on {}, {} test starts: success {:.1}%  mean return {:.3}  stuck at margin {:.1}%  contact {:.1}%  {verdict}",
         report.controller,
