@@ -10,9 +10,9 @@ use firmware_sim::nav::NavEnv;
 use host_trainer::algorithms::Algo;
 use host_trainer::run::checkpoint::Checkpoint;
 use host_trainer::run::config::TrainConfig;
-use host_trainer::run::folder::{self, RunDir};
+use host_trainer::run::folder;
 use host_trainer::run::plant::RunPlant;
-use host_trainer::run::trainer::{self, Trainer};
+use host_trainer::run::trainer::Trainer;
 
 use crate::support::{assert_one_line_error, host_trainer, s, scratch};
 
@@ -42,14 +42,7 @@ fn serve_nav_walls() -> String {
     )
 }
 
-fn train(mut trainer: Trainer, out: &std::path::Path) -> (Trainer, RunDir) {
-    let run = RunDir::create(out, &trainer.config.run_name()).expect("run dir");
-    trainer::run(&mut trainer, &run, &mut |_, _| {
-        std::ops::ControlFlow::Continue(())
-    })
-    .expect("training");
-    (trainer, run)
-}
+use crate::support::train_trainer as train;
 
 #[test]
 fn a_plant_served_through_the_link_trains_to_the_same_bytes_as_in_process() {

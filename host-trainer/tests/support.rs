@@ -101,3 +101,20 @@ pub fn train_smoke(base: &Path, episodes: usize, extra: &[&str]) -> Output {
 pub fn s(path: &Path) -> &str {
     path.to_str().expect("utf-8 path")
 }
+
+/// Trains `trainer` to the end of its budget in a new run folder under `out`.
+pub fn train_trainer(
+    mut trainer: host_trainer::run::trainer::Trainer,
+    out: &Path,
+) -> (
+    host_trainer::run::trainer::Trainer,
+    host_trainer::run::folder::RunDir,
+) {
+    let run = host_trainer::run::folder::RunDir::create(out, &trainer.config.run_name())
+        .expect("run dir");
+    host_trainer::run::trainer::run(&mut trainer, &run, &mut |_, _| {
+        std::ops::ControlFlow::Continue(())
+    })
+    .expect("training");
+    (trainer, run)
+}

@@ -16,13 +16,7 @@ use host_trainer::Error;
 use crate::support::scratch;
 
 fn train_to_end(config: TrainConfig, out: &std::path::Path) -> (Trainer, RunDir) {
-    let mut trainer = Trainer::new(config).expect("trainer");
-    let run = RunDir::create(out, &trainer.config.run_name()).expect("run dir");
-    trainer::run(&mut trainer, &run, &mut |_, _| {
-        std::ops::ControlFlow::Continue(())
-    })
-    .expect("training");
-    (trainer, run)
+    crate::support::train_trainer(Trainer::new(config).expect("trainer"), out)
 }
 
 #[test]
