@@ -439,13 +439,7 @@ pub(crate) fn connect_chip(
     plant: &PlantSizes,
     given: Given<'_>,
 ) -> Result<(HilChip, Option<firmware_sim::Error>)> {
-    if !(args.tick_timeout.is_finite() && args.tick_timeout > 0.0 && args.tick_timeout <= 3600.0) {
-        anyhow::bail!(
-            "--tick-timeout must be in (0, 3600] seconds, found {}",
-            args.tick_timeout
-        );
-    }
-    let timeout = Duration::from_secs_f64(args.tick_timeout);
+    let timeout = seconds("--tick-timeout", args.tick_timeout)?;
     let firmware = match target {
         HilTarget::Qemu(machine) => {
             let elf = hil_firmware(args, *machine)?;
