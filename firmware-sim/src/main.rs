@@ -24,6 +24,7 @@ use commands::run::{run, RunArgs};
 use commands::scenario::{generate_layout, ScenarioCommand};
 use commands::serve_plant::{serve_plant, ServePlantArgs};
 use commands::teams::{teams, TeamsArgs};
+use commands::test_starts::{test_starts, TestStartsArgs};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -55,6 +56,9 @@ enum Command {
     /// Serve a navigation scenario's plant over standard input and output with the plant link
     /// (docs/own-plant.md), for a Gymnasium environment or any other client.
     ServePlant(ServePlantArgs),
+    /// Print the reset seeds of the test protocol's episodes (`run --plant-cmd` resets episode
+    /// i with line i), so another harness can test its policy from the same starts.
+    TestStarts(TestStartsArgs),
 }
 
 fn main() -> ExitCode {
@@ -76,6 +80,7 @@ fn main() -> ExitCode {
         Command::Heatmap(args) => heatmap(args),
         Command::Teams(args) => teams(args),
         Command::ServePlant(args) => serve_plant(args),
+        Command::TestStarts(args) => test_starts(args),
     };
     match outcome {
         Ok(true) => ExitCode::SUCCESS,

@@ -461,7 +461,7 @@ fn a_missing_subcommand_is_named() {
     assert_eq!(o.status.code(), Some(2));
     assert!(
         stderr(&o).starts_with(
-            "firmware-sim: missing a subcommand: run, match, scenario, teams, heatmap, serve-plant"
+            "firmware-sim: missing a subcommand: run, match, scenario, teams, heatmap, serve-plant, test-starts"
         ),
         "{}",
         stderr(&o)

@@ -131,6 +131,43 @@ fn run_plant_cmd_reports_passes_and_fails_by_the_criteria_given() {
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
 }
 
+/// A harness outside firmware-sim runs its policy from the protocol's starts by `test-starts`:
+/// its lines are the seeds `run --plant-cmd` resets the plant with, in order.
+#[test]
+fn test_starts_prints_the_seeds_the_plant_test_resets_with() {
+    let dir = Scratch::new("plant-cmd", "test-starts");
+    let serve = format!(
+        "{} serve-plant --scenario nav-walls",
+        env!("CARGO_BIN_EXE_firmware-sim")
+    );
+    let json = dir.file("report.json");
+    let blob = "../models/nav-walls__dcp-paper__0.postcard";
+    let args = ["--plant-cmd", &serve, "--blob", blob, "--episodes", "7"];
+    let out = firmware_sim(
+        "run",
+        &[&args[..], &["--seed", "5", "--json", &json]].concat(),
+    );
+    assert!(
+        out.status.code().is_some_and(|c| c <= 1),
+        "{}",
+        stderr(&out)
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("parses");
+    let reset: Vec<String> = report["episodes"]
+        .as_array()
+        .expect("episodes")
+        .iter()
+        .map(|e| e["seed"].to_string())
+        .collect();
+    let printed = firmware_sim("test-starts", &["--episodes", "7", "--seed", "5"]);
+    assert_eq!(printed.status.code(), Some(0), "{}", stderr(&printed));
+    let lines: Vec<String> = stdout(&printed).lines().map(str::to_string).collect();
+    assert_eq!(lines, reset);
+    let zero = firmware_sim("test-starts", &["--episodes", "0"]);
+    assert_eq!(zero.status.code(), Some(2), "{}", stderr(&zero));
+}
+
 #[test]
 fn run_plant_cmd_refuses_bad_input_in_one_line() {
     let serve = format!(

@@ -1206,3 +1206,33 @@ fn a_checkpoint_carries_its_plant() {
     assert!(episode.steps <= 30);
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
+
+#[test]
+fn a_step_budget_ends_the_run_with_the_episode_that_reaches_it() {
+    let out = scratch("step-budget");
+    let mut config = TrainConfig::smoke(Algo::Dcp, 3);
+    config.episodes = 50;
+    config.env_steps = Some(150);
+    let (trainer, run) = train_to_end(config, &out);
+    let last = trainer.metrics.last().expect("episodes ran");
+    assert!(trainer.total_steps >= 150, "{} steps", trainer.total_steps);
+    assert!(
+        trainer.total_steps - (last.steps as u64) < 150,
+        "the run went on past the episode that reached the budget"
+    );
+    assert!(
+        trainer.episode < 50,
+        "the episode budget stays an upper bound"
+    );
+    let saved = std::fs::read_to_string(run.file(folder::CONFIG)).expect("config.toml");
+    assert!(saved.contains("env_steps = 150"), "{saved}");
+
+    // Without a step budget the config file does not mention one (older configs read alike).
+    let plain = TrainConfig::smoke(Algo::Dcp, 3).to_toml();
+    assert!(!plain.contains("env_steps"), "{plain}");
+    let zero = TrainConfig {
+        env_steps: Some(0),
+        ..TrainConfig::smoke(Algo::Dcp, 3)
+    };
+    assert!(zero.validate().is_err());
+}

@@ -8,6 +8,7 @@ pub(crate) mod run;
 pub(crate) mod scenario;
 pub(crate) mod serve_plant;
 pub(crate) mod teams;
+pub(crate) mod test_starts;
 
 use std::io;
 use std::path::Path;

@@ -60,6 +60,10 @@ pub(crate) struct TrainArgs {
     /// Training episodes [default: 3000].
     #[arg(long)]
     episodes: Option<usize>,
+    /// A budget in environment steps as well (as Stable-Baselines3 counts): the run ends with
+    /// the episode in which its steps reach N; --episodes stays an upper bound [default: none].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    env_steps: Option<u64>,
     /// DCP proposals per state T [default: 16].
     #[arg(long = "t")]
     t: Option<usize>,
@@ -85,7 +89,7 @@ pub(crate) struct TrainArgs {
     #[arg(long)]
     config: Option<PathBuf>,
     /// Continue the run in this folder from its checkpoint (--episodes may raise the budget).
-    #[arg(long, conflicts_with_all = ["task", "plant_cmd", "algo", "hidden", "reward", "t", "sigma", "noise", "dropout", "reward_scale", "seed", "out", "config"])]
+    #[arg(long, conflicts_with_all = ["task", "plant_cmd", "algo", "hidden", "reward", "t", "sigma", "noise", "dropout", "reward_scale", "seed", "out", "config", "env_steps"])]
     resume: Option<PathBuf>,
     /// Worker threads of the updates, 1 to 1024; any count trains to the same bytes [default:
     /// the cores available].
@@ -124,13 +128,19 @@ pub(crate) fn train_command(args: TrainArgs) -> Result<ExitCode> {
     if stop_when_stdin_closes {
         stop_when_parent_goes();
     }
-    let bar = progress::bar(trainer.config.episodes as u64, "episode", quiet);
-    bar.set_position(trainer.episode as u64);
+    // A step budget counts in steps, the way it ends the run.
+    let by_steps = trainer.config.env_steps;
+    let position = |episode: usize, steps: u64| by_steps.map_or(episode as u64, |_| steps);
+    let bar = match by_steps {
+        Some(n) => progress::bar(n, "step", quiet),
+        None => progress::bar(trainer.config.episodes as u64, "episode", quiet),
+    };
+    bar.set_position(position(trainer.episode, trainer.total_steps));
     let started = Instant::now();
     let steps_before = trainer.total_steps;
     let episodes_before = trainer.episode;
     let outcome = trainer::run(&mut trainer, &run, &mut |row, t| {
-        bar.set_position(row.episode as u64);
+        bar.set_position(position(row.episode, row.total_steps));
         bar.set_message(format!(
             "success(100) {:>3.0}%  {:>6.0} steps/s",
             100.0 * t.recent_success(100),
@@ -288,6 +298,9 @@ pub(crate) fn apply_flags(config: &mut TrainConfig, args: &TrainArgs) {
     }
     if let Some(v) = args.episodes {
         config.episodes = v;
+    }
+    if let Some(v) = args.env_steps {
+        config.env_steps = Some(v);
     }
     if let Some(v) = args.t {
         config.dcp.t = v;

@@ -34,6 +34,11 @@ pub struct TrainConfig {
     pub seed: u64,
     /// Training episodes [paper: 3,000 for navigation].
     pub episodes: usize,
+    /// A budget in environment steps as well: the run ends with the episode in which its
+    /// steps reach this many (a step budget is how Stable-Baselines3 and the RL Zoo count;
+    /// `episodes` stays an upper bound). Unset: episodes alone.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub env_steps: Option<u64>,
     /// Write a checkpoint (and metrics, plot) every this many episodes.
     pub checkpoint_every: usize,
     /// Test starts for the final firmware-sim evaluation [paper: 100].
@@ -93,6 +98,7 @@ impl Default for TrainConfig {
             reward: RewardKind::Gr,
             seed: 0,
             episodes: 3000,
+            env_steps: None,
             checkpoint_every: 100,
             eval_episodes: 100,
             agent: AgentConfig::default(),
@@ -219,6 +225,13 @@ impl TrainConfig {
                 what: "episodes".into(),
                 expected: format!("at most {MAX_EPISODES}"),
                 found: self.episodes.to_string(),
+            });
+        }
+        if self.env_steps == Some(0) {
+            return Err(Error::InvalidConfig {
+                what: "env_steps".into(),
+                expected: "a positive integer (or no step budget)".into(),
+                found: "0".into(),
             });
         }
         positive("checkpoint_every", self.checkpoint_every)?;

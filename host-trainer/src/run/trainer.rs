@@ -277,9 +277,11 @@ impl Trainer {
         self.learner.get()
     }
 
-    /// Whether the episode budget is used up.
+    /// Whether the budget is used up: the episodes, or the environment steps where the run
+    /// has a step budget (checked between episodes, so the last episode runs to its end).
     pub fn done(&self) -> bool {
         self.episode >= self.config.episodes
+            || self.config.env_steps.is_some_and(|n| self.total_steps >= n)
     }
 
     /// Success rate over the last `window` episodes.
