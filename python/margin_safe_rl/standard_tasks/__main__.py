@@ -1,0 +1,183 @@
+"""``python3 -m margin_safe_rl.standard_tasks``: serve a task, run the grid, show its state.
+
+- ``serve TASK [--record FILE]``: the task's environment as a plant on stdin/stdout (the plant
+  link), every episode measured and appended to FILE;
+- ``run --out DIR [--tasks ...] [--agents ...] [--seeds 0-4] [--jobs N] [--steps N]``: the
+  grid's runs not done yet (``--steps`` overrides every budget: for the CI's tiny grid only);
+- ``status --out DIR``: runs done, failed and left per task and agent.
+"""
+from __future__ import annotations
+
+import argparse
+import concurrent.futures
+import os
+import shutil
+import sys
+from pathlib import Path
+from typing import Any, Optional, Sequence
+
+from ..plant_link import GymnasiumPlant, StepReply, serve
+from . import grid
+from .tasks import TASKS, task
+
+
+def _log(message: str) -> None:
+    print(f"margin_safe_rl.standard_tasks: {message}", file=sys.stderr, flush=True)
+
+
+class TaskPlant(GymnasiumPlant):
+    """A task's environment as a plant: the margin it reports is the action clipped or the
+    task's position limit touched (the recorder's figure), so firmware-sim's contact and stuck
+    rules see the same margin the page counts."""
+
+    def step(self, action: Sequence[float]) -> StepReply:
+        reply = super().step(action)
+        if self.env.last_contact and not reply.margin_touched:
+            reply = StepReply(
+                reply.observation, reply.reward, reply.terminated, reply.truncated,
+                True, reply.applied, reply.success,
+            )
+        return reply
+
+
+def _serve(args: argparse.Namespace) -> int:
+    frames_out = os.fdopen(os.dup(sys.stdout.fileno()), "wb", buffering=0)
+    os.dup2(sys.stderr.fileno(), sys.stdout.fileno())
+    sys.stdout = sys.stderr
+    try:
+        t = task(args.task)
+    except KeyError as e:
+        _log(str(e.args[0]))
+        return 2
+    from .recorder import make_env
+
+    record = open(args.record, "a") if args.record else None
+    try:
+        env = make_env(t, out=record)
+    except Exception as e:  # noqa: BLE001 - one line, as every CLI error here
+        _log(f"cannot make {t.env_id}: {type(e).__name__}: {e}")
+        return 2
+    try:
+        serve(TaskPlant(env, t.env_id), sys.stdin.buffer, frames_out)
+    except BrokenPipeError:
+        _log("the host closed the link")
+        return 1
+    finally:
+        env.close()
+        if record is not None:
+            record.close()
+    return 0
+
+
+def _seeds(text: str) -> list[int]:
+    if "-" in text:
+        lo, hi = text.split("-", 1)
+        seeds = list(range(int(lo), int(hi) + 1))
+    else:
+        seeds = [int(s) for s in text.split(",")]
+    if not seeds or min(seeds) < 0:
+        raise argparse.ArgumentTypeError(f"expected seeds as 0-4 or 0,3,7, found {text!r}")
+    return seeds
+
+
+def _names(text: str) -> list[str]:
+    return [s for s in text.split(",") if s]
+
+
+def _programs(args: argparse.Namespace) -> grid.Programs:
+    found = {}
+    for name, given in (("host-trainer", args.host_trainer), ("firmware-sim", args.firmware_sim)):
+        path = given or shutil.which(name)
+        if path is None or not os.access(path, os.X_OK):
+            raise grid.GridError(
+                f"cannot find {name}: give --{name} PATH (cargo build --release puts it in target/release/)"
+            )
+        found[name] = os.path.abspath(path)
+    return grid.Programs(found["host-trainer"], found["firmware-sim"])
+
+
+def _run(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    lock = grid.GridLock(out)
+    try:
+        programs = _programs(args)
+        todo = grid.plan(out, args.tasks, args.agents, args.seeds, args.retry_failed)
+        if not todo:
+            print(f"nothing to run: every asked run in {out} is done")
+            return 0
+        seeds = grid.test_seeds(programs, args.test_episodes)
+        print(f"{len(todo)} runs to do in {out}, {args.jobs} at a time", flush=True)
+
+        def one(item: tuple[str, str, int]) -> dict[str, Any]:
+            return grid.run_one(out, task(item[0]), item[1], item[2], programs, seeds, args.steps)
+
+        failed = 0
+        with concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs) as pool:
+            for item, result in zip(todo, pool.map(one, todo)):
+                name = "/".join([item[0], item[1], f"seed{item[2]}"])
+                if "failed" in result:
+                    failed += 1
+                    print(f"{name}: FAILED: {result['failed']}", flush=True)
+                else:
+                    t = result["test"]
+                    print(f"{name}: mean return {t['mean_return']:.2f}, {result['train_seconds']:.0f} s", flush=True)
+        return 1 if failed else 0
+    finally:
+        lock.release()
+
+
+def _status(args: argparse.Namespace) -> int:
+    import json
+
+    out = Path(args.out)
+    for t in TASKS:
+        for agent in grid.AGENTS:
+            done = failed = 0
+            for seed in args.seeds:
+                path = grid.run_folder(out, t.name, agent, seed) / "result.json"
+                if path.exists():
+                    if "failed" in json.loads(path.read_text()):
+                        failed += 1
+                    else:
+                        done += 1
+            if done or failed:
+                print(f"{t.name:18} {agent:18} done {done}  failed {failed}  left {len(args.seeds) - done - failed}")
+    return 0
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    parser = argparse.ArgumentParser(prog="python3 -m margin_safe_rl.standard_tasks", description=__doc__.split("\n")[0])
+    commands = parser.add_subparsers(dest="command", required=True)
+    s = commands.add_parser("serve", help="serve a task's environment over the plant link")
+    s.add_argument("task", help=", ".join(t.name for t in TASKS))
+    s.add_argument("--record", help="append one JSON line per episode to this file")
+    r = commands.add_parser("run", help="run the grid's runs not done yet")
+    r.add_argument("--out", required=True, help="the grid's folder (created if missing)")
+    r.add_argument("--tasks", type=_names, default=grid.all_tasks())
+    r.add_argument("--agents", type=_names, default=list(grid.AGENTS))
+    r.add_argument("--seeds", type=_seeds, default=list(range(5)))
+    r.add_argument("--jobs", type=int, default=1, help="runs at a time (each uses one core)")
+    r.add_argument("--steps", type=int, default=None, help="override every budget (tiny grids)")
+    r.add_argument("--test-episodes", type=int, default=grid.TEST_EPISODES)
+    r.add_argument("--retry-failed", action="store_true")
+    r.add_argument("--host-trainer", help="the host-trainer program (default: on PATH)")
+    r.add_argument("--firmware-sim", help="the firmware-sim program (default: on PATH)")
+    st = commands.add_parser("status", help="what is done in a grid's folder")
+    st.add_argument("--out", required=True)
+    st.add_argument("--seeds", type=_seeds, default=list(range(5)))
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "serve":
+            return _serve(args)
+        if args.command == "run":
+            if args.jobs < 1 or (args.steps is not None and args.steps < 2) or args.test_episodes < 1:
+                raise grid.GridError("--jobs and --test-episodes must be at least 1, --steps at least 2")
+            return _run(args)
+        return _status(args)
+    except (grid.GridError, KeyError) as e:
+        _log(str(e.args[0]) if e.args else str(e))
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,267 @@
+"""The grid of runs: every task x agent x seed, one folder each, resumable, one writer at a time.
+
+A run's folder is ``OUT/{task}/{agent}/seed{N}/``; it is done when ``result.json`` is in it
+(written last, atomically). Running the grid again runs only what is not done, so the grid can
+be run in parts (``--tasks``, ``--agents``, ``--seeds``) or after a kill. A toolkit run killed
+mid-way continues from its last checkpoint (``host-trainer train --resume``); an SB3 run starts
+again. A run whose program fails is recorded as failed (``result.json`` with ``failed``) and
+counted on the page; ``--retry-failed`` runs it again.
+
+Agents:
+- ``sb3-td3``, ``sb3-sac``, ``sb3-ddpg``: SB3 with the Zoo's settings and budget for the task;
+- ``dcp``, ``dcp-paper``, ``ddpg``, ``td3``: the toolkit's agents with its defaults (4x48 ReLU),
+  trained through ``--plant-cmd`` for the task's budget;
+- the same four with ``@zoo-net``: hidden layers 2x400, the blob format's closest shape to the
+  Zoo's [400, 300] (the format stores DEPTHxWIDTH; 2x400 has every unit of [400, 300] and more,
+  so the speed ratio is measured against the toolkit doing more work, not less).
+"""
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import re
+import shlex
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterable, Optional, Sequence
+
+from .tasks import TASKS, Task, task
+
+TOOLKIT = ("dcp", "dcp-paper", "ddpg", "td3")
+SB3 = ("sb3-td3", "sb3-sac", "sb3-ddpg")
+AGENTS = SB3 + TOOLKIT + tuple(f"{a}@zoo-net" for a in TOOLKIT)
+TEST_EPISODES = 100
+ZOO_NET = "2x400"
+DEFAULT_NET = "4x48"
+# DCP as the paper gives it (host-trainer's `dcp::Config::paper()`): the critic's own score,
+# no target smoothing, one-step targets.
+PAPER_DCP = '[dcp]\nscoring = "critic"\ntarget_smoothing = false\nn_step = 1\n'
+
+
+class GridError(Exception):
+    """A grid that cannot run as asked (one line)."""
+
+
+@dataclass(frozen=True)
+class Programs:
+    """The programs a toolkit run needs: the trainer, the simulator and this Python."""
+
+    host_trainer: str
+    firmware_sim: str
+    python: str = sys.executable
+
+    def serve(self, task_name: str, record: Optional[Path] = None) -> str:
+        argv = [self.python, "-m", "margin_safe_rl.standard_tasks", "serve", task_name]
+        if record is not None:
+            argv += ["--record", str(record)]
+        return shlex.join(argv)
+
+
+def run_folder(out: Path, task_name: str, agent: str, seed: int) -> Path:
+    return out / task_name / agent / f"seed{seed}"
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(tmp, "w") as f:
+        f.write(text)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def test_seeds(programs: Programs, episodes: int = TEST_EPISODES) -> list[int]:
+    """The test protocol's reset seeds (``firmware-sim test-starts``): every agent is tested
+    from these starts, so episode i is the same start for all of them."""
+    out = subprocess.run(
+        [programs.firmware_sim, "test-starts", "--episodes", str(episodes)],
+        check=True, capture_output=True, text=True,
+    )
+    return [int(line) for line in out.stdout.split()]
+
+
+def _episodes(path: Path) -> list[dict[str, Any]]:
+    with open(path) as f:
+        return [json.loads(line) for line in f if line.strip()]
+
+
+def training_episodes(path: Path, steps: int) -> list[dict[str, Any]]:
+    """The training episodes a plant recorded: those within the run's first ``steps`` steps
+    (the trainer's test episodes, recorded after them by the same plant, are left out)."""
+    kept, total = [], 0
+    for e in _episodes(path):
+        if total >= steps:
+            break
+        total += e["steps"]
+        kept.append(e)
+    return kept
+
+
+def test_figures(episodes: list[dict[str, Any]], success_return: float) -> dict[str, Any]:
+    """A run's test figures from its test episodes (the recorder's lines)."""
+    steps = sum(e["steps"] for e in episodes)
+    returns = [e["return"] for e in episodes]
+    flags = [e["success"] for e in episodes]
+    if all(f is not None for f in flags):
+        successes = sum(bool(f) for f in flags)
+    else:
+        successes = sum(r >= success_return for r in returns)
+    return {
+        "episodes": len(episodes),
+        "mean_return": sum(returns) / max(len(returns), 1),
+        "returns": returns,
+        "successes": successes,
+        "steps": steps,
+        "at_bound_share": sum(e["at_bound_steps"] for e in episodes) / max(steps, 1),
+        "contact_share": sum(e["contact_steps"] for e in episodes) / max(steps, 1),
+        "contact_episodes": sum(e["contact_steps"] > 0 for e in episodes),
+    }
+
+
+def _run(argv: Sequence[str], log: Path, env: Optional[dict] = None) -> int:
+    with open(log, "a") as f:
+        f.write(f"$ {shlex.join(argv)}\n")
+        f.flush()
+        return subprocess.run(argv, stdout=f, stderr=subprocess.STDOUT, env=env).returncode
+
+
+def run_toolkit(
+    t: Task, agent: str, seed: int, folder: Path, programs: Programs, steps: Optional[int],
+    eval_episodes: int,
+) -> dict[str, Any]:
+    """Trains a toolkit agent through the plant link, then tests its exported blob in
+    firmware-sim on the same plant, recording every test episode."""
+    algo, _, net = agent.partition("@")
+    hidden = ZOO_NET if net == "zoo-net" else DEFAULT_NET
+    budget = t.budget if steps is None else steps
+    train_dir = folder / "train"
+    log = folder / "log.txt"
+    existing = [p for p in train_dir.glob("*/checkpoint.postcard")] if train_dir.exists() else []
+    started = time.perf_counter()
+    if existing:
+        argv = [programs.host_trainer, "train", "--resume", str(existing[0].parent), "--threads", "1", "--quiet"]
+    else:
+        train_dir.mkdir(parents=True, exist_ok=True)
+        argv = [
+            programs.host_trainer, "train",
+            "--plant-cmd", programs.serve(t.name, record=folder / "train.jsonl"),
+            "--algo", "dcp" if algo == "dcp-paper" else algo, "--hidden", hidden,
+            "--env-steps", str(budget), "--episodes", str(min(budget, 1_000_000)),
+            "--seed", str(seed), "--out", str(train_dir), "--threads", "1", "--quiet",
+        ]
+        # The test protocol's episode count; DCP's paper settings for dcp-paper.
+        config = folder / "toolkit.toml"
+        config.write_text(f"eval_episodes = {eval_episodes}\n" + (PAPER_DCP if algo == "dcp-paper" else ""))
+        argv += ["--config", str(config)]
+    status = _run(argv, log)
+    seconds = time.perf_counter() - started
+    if status != 0:
+        return {"failed": f"host-trainer train exited {status} (see log.txt)"}
+    run = next(p.parent for p in train_dir.glob("*/policy.postcard"))
+    trainer_eval = json.loads((run / "eval.json").read_text())
+    test_log = folder / "test.jsonl"
+    test_log.unlink(missing_ok=True)
+    argv = [
+        programs.firmware_sim, "run", "--plant-cmd", programs.serve(t.name, record=test_log),
+        "--blob", str(run / "policy.postcard"), "--episodes", str(eval_episodes),
+        "--json", str(folder / "blob-report.json"),
+    ]
+    if t.success_return == t.success_return:  # a return threshold (nav-walls flags success)
+        argv += ["--success-return", str(t.success_return)]
+    status = _run(argv, log)
+    if status not in (0, 1):
+        return {"failed": f"firmware-sim run exited {status} (see log.txt)"}
+    blob_report = json.loads((folder / "blob-report.json").read_text())
+    metrics = (run / "metrics.csv").read_text().splitlines()
+    header = metrics[0].split(",")
+    last = dict(zip(header, metrics[-1].split(",")))
+    steps_trained = int(last["total_steps"])
+    # The recorder's clock is cumulative: the last training episode's is the run's time in the
+    # Python environment (the trainer's own test episodes follow in the same file).
+    training = training_episodes(folder / "train.jsonl", steps_trained)
+    env_seconds = training[-1]["env_seconds"] if training else 0.0
+    # The trainer's own figure for its training loop alone (no export, no test).
+    trained = re.search(r"env steps(?: in all)?[^)]*? in ([0-9.]+) s", (folder / "log.txt").read_text())
+    return {
+        "env_steps": steps_trained,
+        "train_seconds": float(trained.group(1)) if trained else seconds,
+        "hidden": hidden,
+        "blob": {
+            "path": str(run / "policy.postcard"),
+            "bytes": (run / "policy.postcard").stat().st_size,
+            "trainer_mean_return": trainer_eval.get("mean_return"),
+            "blob_mean_return": blob_report.get("mean_return"),
+        },
+        "env_seconds": env_seconds,
+    }
+
+
+def run_one(
+    out: Path, t: Task, agent: str, seed: int, programs: Programs, seeds: Sequence[int],
+    steps: Optional[int] = None,
+) -> dict[str, Any]:
+    """Runs one cell's seed and writes its ``result.json``; returns the result."""
+    folder = run_folder(out, t.name, agent, seed)
+    folder.mkdir(parents=True, exist_ok=True)
+    result: dict[str, Any] = {"task": t.name, "agent": agent, "seed": seed, "steps_override": steps}
+    try:
+        if agent.startswith("sb3-"):
+            from .sb3_agents import train_and_test
+
+            result["library"] = "sb3"
+            result.update(train_and_test(t, agent[4:], seed, folder, seeds, steps))
+            result["budget"] = t.zoo[agent[4:]].n_timesteps if steps is None else steps
+        else:
+            result["library"] = "toolkit"
+            result.update(run_toolkit(t, agent, seed, folder, programs, steps, len(seeds)))
+            result["budget"] = t.budget if steps is None else steps
+    except Exception as e:  # noqa: BLE001 - a run's failure is a result, counted on the page
+        result["failed"] = f"{type(e).__name__}: {e}"
+    if "failed" not in result:
+        result["test"] = test_figures(_episodes(folder / "test.jsonl"), t.success_return)
+    _write_atomic(folder / "result.json", json.dumps(result, indent=1) + "\n")
+    return result
+
+
+def plan(
+    out: Path, tasks: Iterable[str], agents: Iterable[str], seeds: Iterable[int], retry_failed: bool
+) -> list[tuple[str, str, int]]:
+    """The runs not done yet, in task, agent, seed order."""
+    todo = []
+    for task_name in tasks:
+        task(task_name)
+        for agent in agents:
+            if agent not in AGENTS:
+                raise GridError(f"no agent {agent!r}; the agents are {', '.join(AGENTS)}")
+            for seed in seeds:
+                done = run_folder(out, task_name, agent, seed) / "result.json"
+                if done.exists():
+                    failed = "failed" in json.loads(done.read_text())
+                    if not (failed and retry_failed):
+                        continue
+                todo.append((task_name, agent, seed))
+    return todo
+
+
+class GridLock:
+    """One grid writer per folder: a second is refused at once, naming the folder."""
+
+    def __init__(self, out: Path) -> None:
+        out.mkdir(parents=True, exist_ok=True)
+        self._file = open(out / ".grid.lock", "w")
+        try:
+            fcntl.flock(self._file, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            self._file.close()
+            raise GridError(f"another grid is running in {out} (it holds {out / '.grid.lock'})") from None
+
+    def release(self) -> None:
+        self._file.close()
+
+
+def all_tasks() -> list[str]:
+    return [t.name for t in TASKS]
