@@ -25,7 +25,7 @@ use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::test_protocol::{evaluate_controller, EvalConfig};
 use firmware_sim::refine::RefiningPolicy;
 use host_trainer::run::folder;
-use host_trainer::sweep::stats::mean_interval;
+use host_trainer::stats::student_t::mean_interval;
 
 /// The settings compared: None is the plain actor, Some(T) the compare step with T proposals.
 const SETTINGS: [Option<usize>; 3] = [None, Some(4), Some(16)];

@@ -41,8 +41,8 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{bail, ensure, Context, Result};
+use host_trainer::stats::student_t::{interval_text, mean_interval};
 use host_trainer::sweep::record::read_eval;
-use host_trainer::sweep::stats::{interval_text, mean_interval};
 use serde::{Deserialize, Serialize};
 
 /// The reference arm: DCP as adopted.

@@ -20,7 +20,7 @@ use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::test_protocol::{evaluate, EvalConfig};
 use host_trainer::blob::export::encode;
 use host_trainer::run::folder;
-use host_trainer::sweep::stats::mean_interval;
+use host_trainer::stats::student_t::mean_interval;
 use policy_core::Encoding;
 
 /// Success rate, settled error and stuck rate of one blob.

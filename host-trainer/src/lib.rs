@@ -16,6 +16,8 @@
 //!   figures built from the run folders.
 //! - [`sweep`]: many seeds and algorithms as parallel `train` processes: planning, supervising
 //!   the processes, and the summary with its intervals; a planned run is a `train` run or a team.
+//! - [`stats`]: intervals, tests, aggregates, sensitivity and power for the results pages and
+//!   summaries (pure functions; checked against scipy).
 //! - [`team`]: experiment 2's teams: badminton players of three learners each, trained on
 //!   random pairings within the team, checkpointed, exported as player folders.
 //! - [`run`]: one training run: its configuration (which composes the algorithms' sections),
@@ -51,6 +53,7 @@ pub mod nn;
 pub mod reproduce;
 pub mod rng_state;
 pub mod run;
+pub mod stats;
 pub mod sweep;
 pub mod team;
 

@@ -19,7 +19,7 @@ use plotters::prelude::*;
 use super::figures::category_label;
 use super::grid::Grid;
 use super::teams::{self, TeamKind, TeamOutcome, TeamRun, KINDS};
-use crate::sweep::stats::{self, mean_interval};
+use crate::stats::student_t::{self as stats, mean_interval};
 use crate::Error;
 
 /// How much each measure plays.

@@ -24,7 +24,7 @@ use super::folder::{Finished, Outcome};
 use super::grid::{Agent, Cell, GridRun, Walls, AGENTS};
 use crate::algorithms::Algo;
 use crate::run::folder;
-use crate::sweep::stats::mean_interval;
+use crate::stats::student_t::mean_interval;
 use crate::Error;
 
 /// Test starts drawn per panel of figures 4–5.

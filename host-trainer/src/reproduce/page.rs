@@ -13,7 +13,7 @@ use super::grid::{
     Agent, Cell, Grid, GridRun, Walls, AGENTS, LARGE_SIGMAS, NOISE_AGENTS, REWARDS, SIZES,
 };
 use crate::run::config::RewardKind;
-use crate::sweep::stats;
+use crate::stats::student_t as stats;
 
 /// A run whose test success is below this failed to train (table 3) [design §2].
 pub const TRAINING_FAILURE: f64 = 0.5;

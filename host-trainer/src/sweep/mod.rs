@@ -12,10 +12,9 @@
 //!    to `OUT/sweep-logs/{run}.log` as it runs, so nothing it printed is lost to a kill. A run that
 //!    fails is recorded with its exit code and last line, and the others go on.
 //! 3. [`report`] summarises the runs: one row each, then per (task, algo) the mean
-//!    and a 95 % Student-t interval over the finished seeds ([`stats`]); [`record`] is what became of each run.
+//!    and a 95 % Student-t interval over the finished seeds ([`crate::stats::student_t`]); [`record`] is what became of each run.
 
 pub mod plan;
 pub mod record;
 pub mod report;
-pub mod stats;
 pub mod supervise;

@@ -1,5 +1,5 @@
 //! Reporting a sweep: one row per run, then per (task, algo) the mean and a 95 % Student-t
-//! interval over the finished seeds ([`super::stats`]), as Markdown and JSON.
+//! interval over the finished seeds ([`crate::stats::student_t`]), as Markdown and JSON.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -8,8 +8,8 @@ use firmware_sim::files;
 use serde::Serialize;
 
 use super::record::{exit_text, RunRecord, Status};
-use super::stats::{self, MeanInterval};
 use crate::algorithms::Algo;
+use crate::stats::student_t::{self as stats, MeanInterval};
 use crate::Error;
 
 /// The summary table, in the sweep's output folder.

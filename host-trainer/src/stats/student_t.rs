@@ -1,11 +1,21 @@
-//! Mean and 95 % confidence interval over a handful of seeds, for `host-trainer sweep`.
+//! The mean of a per-run quantity over a handful of seeds and its 95 % Student-t interval,
+//! clipped to the quantity's range.
 //!
-//! A sweep has a few seeds per (task, algo), so the interval uses Student's t rather than the
-//! normal 1.96: with 5 seeds the normal interval would be 36 % too narrow. The two-sided 97.5 %
-//! quantile is tabulated for 1 to 30 degrees of freedom (four decimals, the values of any
-//! statistics table) and taken as 1.96 beyond, where it is within 4 % of the exact value
-//! (2.040 at 31, 1.984 at 100). A std-only crate with no special functions does not need an
-//! incomplete-beta inversion for that.
+//! A cell has a few seeds, so the interval uses Student's t rather than the normal 1.96: with 5
+//! seeds the normal interval would be 36 % too narrow. The two-sided 97.5 % quantile is
+//! tabulated for 1 to 30 degrees of freedom (four decimals, the values of any statistics table)
+//! and taken as 1.96 beyond, where it is within 4 % of the exact value (2.040 at 31, 1.984 at
+//! 100).
+//!
+//! Why t, clipped, rather than a bootstrap interval for one cell's mean: a percentile bootstrap
+//! over five values cannot reach beyond them and is as wide as a normal interval with n rather
+//! than n − 1 in the spread, about 60 % of the t interval's width at n = 5, so it covers far less
+//! than 95 %. The t interval keeps its coverage where the per-seed values are roughly normal;
+//! clipping to the quantity's range (a rate to [0, 1], an error to [0, ∞)) removes only values
+//! the quantity cannot take. Where every seed gave the same value there is no spread to build
+//! an interval from, and the text says so ("all 5 equal") rather than printing a zero-width
+//! interval as if five seeds had settled the mean. A rate *of runs* (how many of five failed) is
+//! a count, and takes the exact interval of [`super::binomial`] instead.
 
 /// The two-sided 95 % quantile of Student's t, `t(0.975, df)`, for df = 1..=30.
 const T_975: [f64; 30] = [
@@ -18,7 +28,7 @@ const T_975: [f64; 30] = [
 /// value has no spread, so no interval).
 ///
 /// ```
-/// use host_trainer::sweep::stats::t_975;
+/// use host_trainer::stats::student_t::t_975;
 /// assert_eq!(t_975(0), None);
 /// assert_eq!(t_975(2), Some(4.3027));
 /// assert_eq!(t_975(30), Some(2.0423));
@@ -47,7 +57,7 @@ pub struct MeanInterval {
 /// The mean and 95 % interval of `values`; `None` if there are none.
 ///
 /// ```
-/// use host_trainer::sweep::stats::mean_interval;
+/// use host_trainer::stats::student_t::mean_interval;
 /// let m = mean_interval(&[1.0, 2.0, 3.0]).unwrap();
 /// assert_eq!(m.mean, 2.0);
 /// // s = 1, t(0.975, 2) = 4.3027: 4.3027 / √3
@@ -75,7 +85,7 @@ pub fn mean_interval(values: &[f64]) -> Option<MeanInterval> {
 /// `mean ± half-width` with `decimals` digits, the mean alone for one value, `–` for none.
 ///
 /// ```
-/// use host_trainer::sweep::stats::interval_text;
+/// use host_trainer::stats::student_t::interval_text;
 /// assert_eq!(interval_text(&[1.0, 2.0, 3.0], 2), "2.00 ± 2.48");
 /// assert_eq!(interval_text(&[5.0], 1), "5.0");
 /// assert_eq!(interval_text(&[], 1), "–");
@@ -92,13 +102,58 @@ pub fn interval_text(values: &[f64], decimals: usize) -> String {
     }
 }
 
+/// A quantity's range, for clipping an interval.
+pub type Range = (f64, f64);
+/// A rate: success, strict reach, stuck at margin.
+pub const UNIT: Range = (0.0, 1.0);
+/// A distance, a time, a count: never below 0.
+pub const NON_NEGATIVE: Range = (0.0, f64::INFINITY);
+
+/// The mean of `values` and its 95 % t interval clipped to `range`, as `(mean, lo, hi)`;
+/// `None` with fewer than two values or no spread (every value equal), which have no interval.
+///
+/// ```
+/// use host_trainer::stats::student_t::{clipped_interval, UNIT};
+/// // 0.65 ± 0.48 would run past 1.
+/// let (mean, lo, hi) = clipped_interval(&[1.0, 0.12, 0.74, 0.41, 1.0], UNIT).unwrap();
+/// assert!((mean - 0.654).abs() < 1e-12 && (lo - 0.1765).abs() < 1e-4 && hi == 1.0);
+/// assert_eq!(clipped_interval(&[1.0; 5], UNIT), None);
+/// ```
+pub fn clipped_interval(values: &[f64], range: Range) -> Option<(f64, f64, f64)> {
+    let m = mean_interval(values)?;
+    let h = m.half_width.filter(|&h| h > 0.0)?;
+    Some((m.mean, (m.mean - h).max(range.0), (m.mean + h).min(range.1)))
+}
+
+/// `mean [lo, hi]` with the t interval clipped to `range`; `mean (all n equal)` when every
+/// value is the same; the value alone for one; `–` for none.
+///
+/// ```
+/// use host_trainer::stats::student_t::{clipped_text, NON_NEGATIVE, UNIT};
+/// assert_eq!(clipped_text(&[1.0, 0.12, 0.74, 0.41, 1.0], 2, UNIT), "0.65 [0.18, 1.00]");
+/// assert_eq!(clipped_text(&[1.0; 5], 2, UNIT), "1.00 (all 5 equal)");
+/// assert_eq!(clipped_text(&[0.1, 0.0, 0.0], 2, NON_NEGATIVE), "0.03 [0.00, 0.18]");
+/// assert_eq!(clipped_text(&[0.5], 2, UNIT), "0.50 (1 seed)");
+/// assert_eq!(clipped_text(&[], 2, UNIT), "–");
+/// ```
+pub fn clipped_text(values: &[f64], decimals: usize, range: Range) -> String {
+    match (values.len(), clipped_interval(values, range)) {
+        (0, _) => "–".into(),
+        (1, _) => format!("{:.decimals$} (1 seed)", values[0]),
+        (_, Some((mean, lo, hi))) => {
+            format!("{mean:.decimals$} [{lo:.decimals$}, {hi:.decimals$}]")
+        }
+        (n, None) => format!("{:.decimals$} (all {n} equal)", values[0]),
+    }
+}
+
 /// Where the 95 % interval of `values` lies against `line`: entirely above (`Greater`),
 /// entirely below (`Less`), or holding it (`Equal`, also with fewer than two values, which
 /// have no interval).
 ///
 /// ```
 /// use std::cmp::Ordering;
-/// use host_trainer::sweep::stats::against;
+/// use host_trainer::stats::student_t::against;
 /// assert_eq!(against(&[0.6, 0.7, 0.65], 0.5), Ordering::Greater);
 /// assert_eq!(against(&[0.9], 0.5), Ordering::Equal);
 /// ```
