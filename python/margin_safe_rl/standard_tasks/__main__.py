@@ -100,16 +100,21 @@ def _run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     lock = grid.GridLock(out)
     try:
-        programs = _programs(args)
         todo = grid.plan(out, args.tasks, args.agents, args.seeds, args.retry_failed)
+        programs = _programs(args)
         if not todo:
             print(f"nothing to run: every asked run in {out} is done")
             return 0
         seeds = grid.test_seeds(programs, args.test_episodes)
         print(f"{len(todo)} runs to do in {out}, {args.jobs} at a time", flush=True)
 
+        for task_name in sorted({item[0] for item in todo}):
+            grid.random_baseline(out, task(task_name), seeds)
+
         def one(item: tuple[str, str, int]) -> dict[str, Any]:
-            return grid.run_one(out, task(item[0]), item[1], item[2], programs, seeds, args.steps)
+            # Each run in a process of its own: SB3's torch and the GIL stay out of each
+            # other's way, and a run that crashes Python is a failed run, not a failed grid.
+            return grid.run_in_process(out, item, programs, args.steps, args.test_episodes)
 
         failed = 0
         with concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs) as pool:
@@ -124,6 +129,28 @@ def _run(args: argparse.Namespace) -> int:
         return 1 if failed else 0
     finally:
         lock.release()
+
+
+def _one(args: argparse.Namespace) -> int:
+    programs = grid.Programs(args.host_trainer, args.firmware_sim)
+    seeds = grid.test_seeds(programs, args.test_episodes)
+    grid.run_one(Path(args.out), task(args.task), args.agent, args.seed, programs, seeds, args.steps)
+    return 0
+
+
+def _speed(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    lock = grid.GridLock(out)
+    try:
+        result = grid.measure_speed(out, _programs(args), args.steps)
+    finally:
+        lock.release()
+    print(
+        f"{result['what']}: toolkit {1e3 * result['toolkit_seconds_per_step']:.3f} ms/step, "
+        f"SB3 {1e3 * result['sb3_seconds_per_step']:.3f} ms/step, ratio {result['ratio']:.1f}, "
+        f"toolkit time in the Python environment {100 * result['python_share']:.1f} %"
+    )
+    return 0
 
 
 def _status(args: argparse.Namespace) -> int:
@@ -162,6 +189,20 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     r.add_argument("--retry-failed", action="store_true")
     r.add_argument("--host-trainer", help="the host-trainer program (default: on PATH)")
     r.add_argument("--firmware-sim", help="the firmware-sim program (default: on PATH)")
+    o = commands.add_parser("one", help="one run of the grid (what `run` starts per run)")
+    o.add_argument("task")
+    o.add_argument("agent")
+    o.add_argument("seed", type=int)
+    o.add_argument("--out", required=True)
+    o.add_argument("--steps", type=int, default=None)
+    o.add_argument("--test-episodes", type=int, default=grid.TEST_EPISODES)
+    o.add_argument("--host-trainer", required=True)
+    o.add_argument("--firmware-sim", required=True)
+    sp = commands.add_parser("speed", help="time per environment step: the toolkit's TD3 against SB3's")
+    sp.add_argument("--out", required=True, help="the grid's folder (speed.json is written there)")
+    sp.add_argument("--steps", type=int, default=5000)
+    sp.add_argument("--host-trainer", help="the host-trainer program (default: on PATH)")
+    sp.add_argument("--firmware-sim", help="the firmware-sim program (default: on PATH)")
     st = commands.add_parser("status", help="what is done in a grid's folder")
     st.add_argument("--out", required=True)
     st.add_argument("--seeds", type=_seeds, default=list(range(5)))
@@ -169,6 +210,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     try:
         if args.command == "serve":
             return _serve(args)
+        if args.command == "one":
+            return _one(args)
+        if args.command == "speed":
+            if args.steps < 2000:
+                raise grid.GridError("--steps must be at least 2000 (1000 of them before the first update)")
+            return _speed(args)
         if args.command == "run":
             if args.jobs < 1 or (args.steps is not None and args.steps < 2) or args.test_episodes < 1:
                 raise grid.GridError("--jobs and --test-episodes must be at least 1, --steps at least 2")

@@ -227,6 +227,126 @@ def run_one(
     return result
 
 
+def run_in_process(
+    out: Path, item: tuple[str, str, int], programs: Programs, steps: Optional[int], test_episodes: int
+) -> dict[str, Any]:
+    """:func:`run_one` in a child Python (``... standard_tasks one``); a child that dies
+    without a result is a failed run."""
+    task_name, agent, seed = item
+    folder = run_folder(out, task_name, agent, seed)
+    folder.mkdir(parents=True, exist_ok=True)
+    argv = [
+        programs.python, "-m", "margin_safe_rl.standard_tasks", "one", task_name, agent, str(seed),
+        "--out", str(out), "--test-episodes", str(test_episodes),
+        "--host-trainer", programs.host_trainer, "--firmware-sim", programs.firmware_sim,
+    ]
+    if steps is not None:
+        argv += ["--steps", str(steps)]
+    status = _run(argv, folder / "log.txt")
+    done = folder / "result.json"
+    if done.exists():
+        return json.loads(done.read_text())
+    result = {"task": task_name, "agent": agent, "seed": seed, "steps_override": steps,
+              "failed": f"the run's process exited {status} without a result (see log.txt)"}
+    _write_atomic(done, json.dumps(result, indent=1) + "\n")
+    return result
+
+
+def random_baseline(out: Path, t: Task, seeds: Sequence[int]) -> dict[str, Any]:
+    """A uniformly random policy's test figures on the task (``OUT/{task}/random.json``): the 0
+    of the page's normalised returns. Its actions come from a generator seeded with 0."""
+    import numpy as np
+
+    from .recorder import make_env
+
+    path = out / t.name / "random.json"
+    if path.exists():
+        return json.loads(path.read_text())
+    path.parent.mkdir(parents=True, exist_ok=True)
+    env = make_env(t)
+    rng = np.random.default_rng(0)
+    low, high = env.action_space.low, env.action_space.high
+    for s in seeds:
+        env.reset(seed=int(s))
+        done = False
+        while not done:
+            _, _, terminated, truncated, _ = env.step(rng.uniform(low, high).astype(np.float32))
+            done = terminated or truncated
+    env.close()
+    result = test_figures(env.episodes, t.success_return)
+    _write_atomic(path, json.dumps(result, indent=1) + "\n")
+    return result
+
+
+SPEED_BATCH = 256
+SPEED_WARMUP = 1000
+
+
+def measure_speed(out: Path, programs: Programs, steps: int) -> dict[str, Any]:
+    """Wall time per environment step on pendulum, one run after the other on one core: the
+    toolkit's TD3 (2x400) through the plant link against SB3's TD3 ([400, 300]), both with
+    batch 256, the first update after 1,000 steps, one update per step and the actor every
+    second (TD3's delay); ``OUT/speed.json``."""
+    import platform
+
+    from .sb3_agents import build
+    from .recorder import make_env
+
+    t = task("pendulum")
+    folder = out / "speed"
+    if folder.exists():
+        import shutil
+
+        shutil.rmtree(folder)
+    folder.mkdir(parents=True)
+    config = folder / "toolkit.toml"
+    config.write_text(
+        f"eval_episodes = 1\n[agent]\nbatch = {SPEED_BATCH}\nwarmup_steps = {SPEED_WARMUP}\n"
+    )
+    record = folder / "train.jsonl"
+    argv = [
+        programs.host_trainer, "train", "--plant-cmd", programs.serve(t.name, record=record),
+        "--algo", "td3", "--hidden", ZOO_NET, "--env-steps", str(steps), "--episodes", str(steps),
+        "--seed", "0", "--out", str(folder), "--threads", "1", "--quiet", "--config", str(config),
+    ]
+    status = _run(argv, folder / "log.txt")
+    if status != 0:
+        raise GridError(f"the toolkit's speed run exited {status} (see {folder / 'log.txt'})")
+    trained = re.search(r"([0-9]+) env steps in ([0-9.]+) s", (folder / "log.txt").read_text())
+    if trained is None:
+        raise GridError(f"no timing line in {folder / 'log.txt'}")
+    toolkit_steps, toolkit_seconds = int(trained.group(1)), float(trained.group(2))
+    training = training_episodes(record, toolkit_steps)
+    python_seconds = training[-1]["env_seconds"] if training else 0.0
+
+    env = make_env(t)
+    model, _ = build(t, "td3", 0, env)
+    model.learning_starts = SPEED_WARMUP
+    model.batch_size = SPEED_BATCH
+    started = time.perf_counter()
+    model.learn(total_timesteps=toolkit_steps)
+    sb3_seconds = time.perf_counter() - started
+    env.close()
+    cpu = platform.processor() or "?"
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    result = {
+        "what": f"pendulum, {toolkit_steps} steps, batch {SPEED_BATCH}, first update after {SPEED_WARMUP}, one core",
+        "cpu": cpu,
+        "toolkit_seconds_per_step": toolkit_seconds / toolkit_steps,
+        "sb3_seconds_per_step": sb3_seconds / toolkit_steps,
+        "ratio": sb3_seconds / toolkit_seconds,
+        "python_share": python_seconds / toolkit_seconds,
+    }
+    _write_atomic(out / "speed.json", json.dumps(result, indent=1) + "\n")
+    return result
+
+
 def plan(
     out: Path, tasks: Iterable[str], agents: Iterable[str], seeds: Iterable[int], retry_failed: bool
 ) -> list[tuple[str, str, int]]:

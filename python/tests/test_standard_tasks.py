@@ -1,0 +1,140 @@
+"""The standard-tasks benchmark's machinery: the task table, the recorder's margin figures, the
+grid's plan, lock and failure records, and the command line's errors. The grid end to end (the
+toolkit's agents through host-trainer and firmware-sim) runs in CI's tiny grid (.ci/run)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from margin_safe_rl.standard_tasks import grid
+from margin_safe_rl.standard_tasks.recorder import make_env
+from margin_safe_rl.standard_tasks.tasks import TASKS, task
+
+
+def test_every_task_names_its_margin_and_each_sb3_algorithm_its_zoo_block() -> None:
+    for t in TASKS:
+        assert t.margin and t.budget > 0
+        assert set(t.zoo) == {"td3", "sac", "ddpg"}
+        for entry in t.zoo.values():
+            assert entry.source and entry.n_timesteps > 0
+    with pytest.raises(KeyError, match="the tasks are pendulum"):
+        task("cartpole")
+
+
+def _drive(env, seed: int, action) -> dict:
+    env.reset(seed=seed)
+    done = False
+    while not done:
+        _, _, terminated, truncated, _ = env.step(np.asarray(action, dtype=np.float32))
+        done = terminated or truncated
+    return env.episodes[-1]
+
+
+def test_full_torque_is_at_the_bound_every_step_and_zero_torque_never() -> None:
+    env = make_env(task("pendulum"))
+    full = _drive(env, 3, [2.0])
+    assert full["steps"] == 200 and full["at_bound_steps"] == 200 and full["contact_steps"] == 0
+    # Beyond the box counts as at the bound (the plant clips it).
+    assert _drive(env, 3, [7.0])["at_bound_steps"] == 200
+    assert _drive(env, 3, [0.0])["at_bound_steps"] == 0
+    assert full["seed"] == 3 and full["success"] is None
+
+
+def test_the_mountain_cars_left_wall_is_counted_when_the_car_is_at_it() -> None:
+    env = make_env(task("mountain-car"))
+    # Moving left near the wall: the environment clips the position to -1.2 and zeroes the speed.
+    env.reset(seed=0)
+    env.unwrapped.state = np.array([-1.19, -0.05])
+    env.step(np.asarray([-1.0], dtype=np.float32))
+    assert env.last_contact
+    env.step(np.asarray([1.0], dtype=np.float32))
+    assert not env.last_contact
+    left = _drive(env, 0, [-1.0])
+    assert left["contact_steps"] == 0, left  # constant push: the car rocks, far from the wall
+    # Pushing right alone never reaches the left wall from the valley's bottom.
+    right = _drive(env, 0, [1.0])
+    assert right["contact_steps"] == 0, right
+
+
+def test_the_carts_rail_end_is_mujocos_joint_limit() -> None:
+    pytest.importorskip("mujoco")
+    env = make_env(task("inverted-pendulum"))
+    # Full force one way: the pole falls (the episode terminates) long before the rail's end.
+    pushed = _drive(env, 0, [3.0])
+    assert pushed["steps"] < 1000 and pushed["at_bound_steps"] == pushed["steps"]
+    env.reset(seed=0)
+    data = env.unwrapped.data
+    data.qpos[0] = 1.05  # past the slider's range: the limit constraint becomes active
+    env.step(np.zeros(1, dtype=np.float32))
+    assert env.last_contact
+
+
+def test_test_figures_pool_episodes_and_use_the_success_line_without_a_flag() -> None:
+    episodes = [
+        {"return": -150.0, "steps": 200, "at_bound_steps": 20, "contact_steps": 0, "success": None},
+        {"return": -300.0, "steps": 200, "at_bound_steps": 60, "contact_steps": 5, "success": None},
+    ]
+    f = grid.test_figures(episodes, -200.0)
+    assert f["successes"] == 1 and f["mean_return"] == -225.0
+    assert f["at_bound_share"] == 80 / 400 and f["contact_share"] == 5 / 400
+    assert f["contact_episodes"] == 1
+    flagged = [dict(e, success=i == 1) for i, e in enumerate(episodes)]
+    assert grid.test_figures(flagged, -200.0)["successes"] == 1
+
+
+def test_the_plan_skips_runs_done_and_retries_failed_ones_only_when_asked(tmp_path: Path) -> None:
+    done = grid.run_folder(tmp_path, "pendulum", "dcp", 0)
+    done.mkdir(parents=True)
+    (done / "result.json").write_text(json.dumps({"test": {}}))
+    failed = grid.run_folder(tmp_path, "pendulum", "dcp", 1)
+    failed.mkdir(parents=True)
+    (failed / "result.json").write_text(json.dumps({"failed": "exited 1"}))
+    todo = grid.plan(tmp_path, ["pendulum"], ["dcp"], [0, 1, 2], retry_failed=False)
+    assert todo == [("pendulum", "dcp", 2)]
+    todo = grid.plan(tmp_path, ["pendulum"], ["dcp"], [0, 1, 2], retry_failed=True)
+    assert todo == [("pendulum", "dcp", 1), ("pendulum", "dcp", 2)]
+    with pytest.raises(grid.GridError, match="no agent 'dqn'"):
+        grid.plan(tmp_path, ["pendulum"], ["dqn"], [0], retry_failed=False)
+
+
+def test_a_second_grid_in_one_folder_is_refused(tmp_path: Path) -> None:
+    first = grid.GridLock(tmp_path)
+    try:
+        with pytest.raises(grid.GridError, match="another grid is running"):
+            grid.GridLock(tmp_path)
+    finally:
+        first.release()
+    grid.GridLock(tmp_path).release()
+
+
+def test_a_run_whose_process_dies_is_recorded_as_failed(tmp_path: Path) -> None:
+    programs = grid.Programs("/nonexistent/host-trainer", "/nonexistent/firmware-sim")
+    result = grid.run_in_process(tmp_path, ("pendulum", "dcp", 0), programs, 10, 2)
+    assert "without a result" in result["failed"]
+    saved = json.loads((grid.run_folder(tmp_path, "pendulum", "dcp", 0) / "result.json").read_text())
+    assert saved["failed"] == result["failed"]
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["run", "--out", "X", "--agents", "dqn"], "no agent 'dqn'"),
+        (["run", "--out", "X", "--tasks", "cartpole"], "no task 'cartpole'"),
+        (["run", "--out", "X", "--jobs", "0"], "--jobs and --test-episodes must be at least 1"),
+        (["serve", "cartpole"], "no task 'cartpole'"),
+    ],
+)
+def test_bad_arguments_get_one_line_and_exit_2(tmp_path: Path, python_env, args, message) -> None:
+    args = [str(tmp_path / a) if a == "X" else a for a in args]
+    out = subprocess.run(
+        [sys.executable, "-m", "margin_safe_rl.standard_tasks", *args],
+        capture_output=True, text=True, env=python_env, cwd=tmp_path,
+    )
+    assert out.returncode == 2, out
+    assert message in out.stderr and len(out.stderr.strip().splitlines()) == 1, out.stderr

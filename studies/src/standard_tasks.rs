@@ -1,0 +1,718 @@
+//! The standard-tasks page (`docs/results/standard-tasks.md`): the grid's runs, as
+//! `python3 -m margin_safe_rl.standard_tasks run` recorded them, turned into the page's tables,
+//! verdicts and learning curves by the protocol fixed on the page before the runs.
+//!
+//! Reads `OUT/{task}/{agent}/seed{N}/result.json` (and each run's `train.jsonl` for the curves),
+//! plus, where present, `OUT/chip.json` (the DCP blobs' cost on the Cortex-M4F) and
+//! `OUT/speed.json` (the per-step speed measurement). Every cell of the protocol appears: a cell
+//! with runs missing says how many.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use host_trainer::run::plot::{svg, Panel, Series};
+use host_trainer::stats::aggregate::{iqm_ci, probability_of_improvement_ci};
+use host_trainer::stats::binomial::clopper_pearson;
+use host_trainer::stats::bootstrap::{bootstrap_percentile_ci, stratified_bootstrap_ci};
+use host_trainer::stats::permutation::{permutation_two_sample, PValue};
+use host_trainer::stats::sensitivity::{sensitivity, Sensitivity};
+use host_trainer::stats::{ALPHA, CONFIDENCE, REPS, SEED};
+use serde_json::Value;
+
+/// The tasks in the protocol's order: (name, its Zoo anchor scores (agent, mean, std)).
+pub const TASKS: [&str; 5] = [
+    "pendulum",
+    "mountain-car",
+    "inverted-pendulum",
+    "reacher",
+    "nav-walls",
+];
+/// The agents in the tables' order.
+pub const AGENTS: [&str; 11] = [
+    "sb3-td3",
+    "sb3-sac",
+    "sb3-ddpg",
+    "dcp",
+    "dcp-paper",
+    "ddpg",
+    "td3",
+    "dcp@zoo-net",
+    "dcp-paper@zoo-net",
+    "ddpg@zoo-net",
+    "td3@zoo-net",
+];
+/// Seeds per cell.
+pub const SEEDS: u64 = 5;
+/// The RL Zoo's published scores (`benchmark.md` at 22e3ff2): task, agent, mean, std.
+pub const ZOO_SCORES: [(&str, &str, f64, f64); 6] = [
+    ("pendulum", "sb3-td3", -151.855, 90.227),
+    ("pendulum", "sb3-sac", -156.995, 88.714),
+    ("pendulum", "sb3-ddpg", -152.099, 94.282),
+    ("mountain-car", "sb3-td3", 93.483, 0.075),
+    ("mountain-car", "sb3-sac", 94.679, 1.134),
+    ("mountain-car", "sb3-ddpg", 93.512, 0.048),
+];
+/// A margin binds in a cell when this share of its test steps is at the action bound or at the
+/// position limit.
+pub const BINDS: f64 = 0.10;
+
+/// One finished run.
+#[derive(Clone, Debug)]
+pub struct Run {
+    /// Its seed.
+    pub seed: u64,
+    /// The run's `result.json`.
+    pub result: Value,
+    /// Training episodes as (env steps so far, return), from `train.jsonl`.
+    pub curve: Vec<(f64, f64)>,
+}
+
+impl Run {
+    fn test(&self, key: &str) -> f64 {
+        self.result["test"][key].as_f64().unwrap_or(f64::NAN)
+    }
+    /// The mean test return.
+    pub fn mean_return(&self) -> f64 {
+        self.test("mean_return")
+    }
+}
+
+/// A cell: the finished runs of one task and agent, and how many failed.
+#[derive(Clone, Debug, Default)]
+pub struct Cell {
+    /// Runs that finished.
+    pub runs: Vec<Run>,
+    /// Runs that failed, with their reasons.
+    pub failed: Vec<(u64, String)>,
+}
+
+impl Cell {
+    /// The per-run mean test returns, in seed order.
+    pub fn returns(&self) -> Vec<f64> {
+        self.runs.iter().map(Run::mean_return).collect()
+    }
+    fn missing(&self) -> u64 {
+        SEEDS - self.runs.len() as u64 - self.failed.len() as u64
+    }
+    fn share(&self, key: &str) -> f64 {
+        let steps: f64 = self.runs.iter().map(|r| r.test("steps")).sum();
+        let shares: f64 = self
+            .runs
+            .iter()
+            .map(|r| r.test(key) * r.test("steps"))
+            .sum();
+        shares / steps
+    }
+}
+
+/// The grid as recorded.
+#[derive(Clone, Debug, Default)]
+pub struct Grid {
+    /// (task, agent) → cell.
+    pub cells: BTreeMap<(String, String), Cell>,
+    /// A uniformly random policy's mean test return per task (`OUT/{task}/random.json`).
+    pub random: BTreeMap<String, f64>,
+    /// `OUT/chip.json` and `OUT/speed.json` where present.
+    pub chip: Option<Value>,
+    /// See `chip`.
+    pub speed: Option<Value>,
+}
+
+fn optional_json(path: &Path) -> Result<Option<Value>> {
+    match std::fs::read_to_string(path) {
+        Ok(text) => {
+            Ok(Some(serde_json::from_str(&text).with_context(|| {
+                format!("{}: not JSON", path.display())
+            })?))
+        }
+        Err(_) => Ok(None),
+    }
+}
+
+/// Reads every run of the protocol from `out`. Tiny runs (a grid run with `--steps`, as CI
+/// makes) are refused unless `tiny` is set: a page of the protocol is made from its budgets.
+pub fn load(out: &Path, tiny: bool) -> Result<Grid> {
+    let mut grid = Grid {
+        chip: optional_json(&out.join("chip.json"))?,
+        speed: optional_json(&out.join("speed.json"))?,
+        ..Grid::default()
+    };
+    for task in TASKS {
+        if let Some(v) = optional_json(&out.join(task).join("random.json"))? {
+            if let Some(x) = v["mean_return"].as_f64() {
+                grid.random.insert(task.to_string(), x);
+            }
+        }
+    }
+    for task in TASKS {
+        for agent in AGENTS {
+            let mut cell = Cell::default();
+            for seed in 0..SEEDS {
+                let folder = out.join(task).join(agent).join(format!("seed{seed}"));
+                let path = folder.join("result.json");
+                let Ok(text) = std::fs::read_to_string(&path) else {
+                    continue;
+                };
+                let result: Value = serde_json::from_str(&text)
+                    .with_context(|| format!("{}: not a run's result", path.display()))?;
+                if let Some(why) = result.get("failed") {
+                    cell.failed
+                        .push((seed, why.as_str().unwrap_or("?").to_string()));
+                    continue;
+                }
+                if result["steps_override"].is_number() && !tiny {
+                    anyhow::bail!(
+                        "{}: a tiny run (--steps), not the protocol's budget; a page is made from protocol runs only",
+                        path.display()
+                    );
+                }
+                let steps = result["env_steps"].as_f64().unwrap_or(f64::INFINITY);
+                let curve = read_curve(&folder.join("train.jsonl"), steps)?;
+                cell.runs.push(Run {
+                    seed,
+                    result,
+                    curve,
+                });
+            }
+            grid.cells
+                .insert((task.to_string(), agent.to_string()), cell);
+        }
+    }
+    Ok(grid)
+}
+
+/// The training episodes of a run: (env steps at the episode's end, return), up to `steps`
+/// (the trainer's own test episodes follow in the same file and are left out).
+fn read_curve(path: &Path, steps: f64) -> Result<Vec<(f64, f64)>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut total = 0.0;
+    let mut curve = Vec::new();
+    for line in text.lines().filter(|l| !l.trim().is_empty()) {
+        if total >= steps {
+            break;
+        }
+        let e: Value = serde_json::from_str(line)
+            .with_context(|| format!("{}: a line that is not JSON", path.display()))?;
+        total += e["steps"].as_f64().unwrap_or(0.0);
+        curve.push((total, e["return"].as_f64().unwrap_or(f64::NAN)));
+    }
+    Ok(curve)
+}
+
+/// "Ahead", "tied" or "behind" by the protocol's rule, with what it rests on.
+#[derive(Clone, Debug)]
+pub struct Verdict {
+    /// The word.
+    pub word: &'static str,
+    /// The difference of the means (first minus second).
+    pub difference: f64,
+    /// Its percentile bootstrap interval (each group resampled on its own).
+    pub interval: (f64, f64),
+    /// The exact permutation test.
+    pub p: PValue,
+    /// The fewest runs that flip the word.
+    pub sensitivity: Sensitivity,
+}
+
+fn word(a: &[f64], b: &[f64]) -> &'static str {
+    let p = permutation_two_sample(a, b, REPS as u64, SEED).p;
+    let d = mean(a) - mean(b);
+    match (p < ALPHA, d > 0.0) {
+        (true, true) => "ahead",
+        (true, false) => "behind",
+        _ => "tied",
+    }
+}
+
+/// The protocol's rule for `a` against `b` (per-run mean test returns); `None` unless both
+/// cells are complete.
+pub fn verdict(a: &[f64], b: &[f64]) -> Option<Verdict> {
+    if a.len() as u64 != SEEDS || b.len() as u64 != SEEDS {
+        return None;
+    }
+    let p = permutation_two_sample(a, b, REPS as u64, SEED);
+    let interval = stratified_bootstrap_ci(
+        &[a.to_vec(), b.to_vec()],
+        |s| mean(&s[0]) - mean(&s[1]),
+        CONFIDENCE,
+        REPS,
+        SEED,
+    );
+    // A change: a run of either group taking the other group's lowest or highest value.
+    let joined: Vec<f64> = a.iter().chain(b).copied().collect();
+    let n = a.len();
+    let (a_lo, a_hi) = extremes(a);
+    let (b_lo, b_hi) = extremes(b);
+    let flip = sensitivity(
+        &joined,
+        |i, _| {
+            if i < n {
+                vec![b_lo, b_hi]
+            } else {
+                vec![a_lo, a_hi]
+            }
+        },
+        |v| word(&v[..n], &v[n..]),
+        3,
+    );
+    Some(Verdict {
+        word: word(a, b),
+        difference: mean(a) - mean(b),
+        interval: (interval.lo, interval.hi),
+        p,
+        sensitivity: flip,
+    })
+}
+
+fn extremes(xs: &[f64]) -> (f64, f64) {
+    let lo = xs.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    (lo, hi)
+}
+
+fn mean(xs: &[f64]) -> f64 {
+    xs.iter().sum::<f64>() / xs.len() as f64
+}
+
+fn cell<'g>(grid: &'g Grid, task: &str, agent: &str) -> &'g Cell {
+    static EMPTY: std::sync::OnceLock<Cell> = std::sync::OnceLock::new();
+    grid.cells
+        .get(&(task.to_string(), agent.to_string()))
+        .unwrap_or_else(|| EMPTY.get_or_init(Cell::default))
+}
+
+fn fmt_values(xs: &[f64]) -> String {
+    xs.iter()
+        .map(|x| format!("{x:.1}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The page's results section (markdown) and the learning-curve figures (file name, SVG).
+pub fn render(grid: &Grid, commit: &str, figures: &str) -> (String, Vec<(String, String)>) {
+    let mut md = String::new();
+    let mut svgs = Vec::new();
+    let done: usize = grid.cells.values().map(|c| c.runs.len()).sum();
+    let failed: usize = grid.cells.values().map(|c| c.failed.len()).sum();
+    let total = TASKS.len() * AGENTS.len() * SEEDS as usize;
+    let _ = writeln!(
+        md,
+        "Measured at commit {commit}: {done} of the protocol's {total} runs done, {failed} failed, {} not yet run.\n",
+        total - done - failed
+    );
+    for task in TASKS {
+        let _ = writeln!(md, "### {task}\n");
+        let any = AGENTS.iter().any(|a| !cell(grid, task, a).runs.is_empty());
+        if !any {
+            let _ = writeln!(md, "Not yet run.\n");
+            continue;
+        }
+        let _ = writeln!(md, "| agent | runs | mean test return [95 % bootstrap] | per seed | success [Clopper–Pearson] | at bound | at the limit (steps; episodes) | s per 1k steps |");
+        let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
+        for agent in AGENTS {
+            let c = cell(grid, task, agent);
+            if c.runs.is_empty() {
+                let _ = writeln!(
+                    md,
+                    "| {agent} | 0 done, {} failed, {} to run | | | | | | |",
+                    c.failed.len(),
+                    c.missing()
+                );
+                continue;
+            }
+            let r = c.returns();
+            let ci = bootstrap_percentile_ci(&r, mean, CONFIDENCE, REPS, SEED);
+            let k: f64 = c.runs.iter().map(|x| x.test("successes")).sum();
+            let n: f64 = c.runs.iter().map(|x| x.test("episodes")).sum();
+            let (lo, hi) = clopper_pearson(k as u64, n as u64, CONFIDENCE);
+            let contact_eps: f64 = c.runs.iter().map(|x| x.test("contact_episodes")).sum();
+            let per_k: Vec<f64> = c
+                .runs
+                .iter()
+                .map(|x| {
+                    1000.0 * x.result["train_seconds"].as_f64().unwrap_or(f64::NAN)
+                        / x.result["env_steps"].as_f64().unwrap_or(f64::NAN)
+                })
+                .collect();
+            let runs = if c.runs.len() as u64 == SEEDS {
+                format!("{}", c.runs.len())
+            } else {
+                format!(
+                    "{} ({} failed, {} to run)",
+                    c.runs.len(),
+                    c.failed.len(),
+                    c.missing()
+                )
+            };
+            let _ = writeln!(
+                md,
+                "| {agent} | {runs} | {:.1} [{:.1}, {:.1}] | {} | {:.0}/{:.0} = {:.2} [{lo:.2}, {hi:.2}] | {:.1} % | {:.1} %; {:.0}/{:.0} | {:.2} |",
+                ci.estimate,
+                ci.lo,
+                ci.hi,
+                fmt_values(&r),
+                k,
+                n,
+                k / n,
+                100.0 * c.share("at_bound_share"),
+                100.0 * c.share("contact_share"),
+                contact_eps,
+                n,
+                mean(&per_k),
+            );
+        }
+        let _ = writeln!(md);
+        for (agent, score, std) in ZOO_SCORES
+            .iter()
+            .filter(|z| z.0 == task)
+            .map(|z| (z.1, z.2, z.3))
+        {
+            let c = cell(grid, task, agent);
+            if c.runs.is_empty() {
+                continue;
+            }
+            let m = mean(&c.returns());
+            let holds = (m - score).abs() <= std;
+            let _ = writeln!(
+                md,
+                "- Anchor, {agent}: measured {m:.1} over {} runs against the Zoo's {score} ± {std}: {}.",
+                c.runs.len(),
+                if holds { "holds" } else { "does not hold" }
+            );
+        }
+        for (a, b) in [
+            ("dcp", "ddpg"),
+            ("dcp@zoo-net", "ddpg@zoo-net"),
+            ("dcp-paper", "ddpg"),
+            ("dcp", "sb3-td3"),
+            ("dcp", "sb3-ddpg"),
+        ] {
+            match verdict(
+                &cell(grid, task, a).returns(),
+                &cell(grid, task, b).returns(),
+            ) {
+                Some(v) => {
+                    let _ = writeln!(
+                        md,
+                        "- {a} against {b}: **{}**: difference {:.1} [{:.1}, {:.1}], {}; {}.",
+                        v.word, v.difference, v.interval.0, v.interval.1, v.p, v.sensitivity
+                    );
+                }
+                None => {
+                    let _ = writeln!(md, "- {a} against {b}: not judged (a cell is incomplete).");
+                }
+            }
+        }
+        let _ = writeln!(md);
+        let name = format!("curves-{task}.svg");
+        let _ = writeln!(
+            md,
+            "![Training return against environment steps, {task}]({figures}/{name})\n"
+        );
+        svgs.push((name, curves(grid, task)));
+    }
+    md.push_str(&claim_one(grid));
+    md.push_str(&chip(grid));
+    md.push_str(&speed(grid));
+    (md, svgs)
+}
+
+/// The palette of the curves, one colour per agent in [`AGENTS`] order.
+const COLORS: [&str; 11] = [
+    "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
+    "#bcbd22", "#17becf", "#000000",
+];
+
+/// Each agent's training return against env steps, averaged over its runs in 20 bins of the
+/// budget (a bin's value: the mean return of the episodes that ended in it).
+fn curves(grid: &Grid, task: &str) -> String {
+    let mut series = Vec::new();
+    for (agent, color) in AGENTS.iter().zip(COLORS) {
+        let c = cell(grid, task, agent);
+        let budget = c
+            .runs
+            .iter()
+            .filter_map(|r| r.result["budget"].as_f64())
+            .fold(0.0, f64::max);
+        if c.runs.is_empty() || budget <= 0.0 {
+            continue;
+        }
+        let bins = 20usize;
+        let mut sums = vec![(0.0, 0usize); bins];
+        for (steps, ret) in c.runs.iter().flat_map(|r| r.curve.iter()) {
+            let i = ((steps / budget * bins as f64).ceil() as usize).clamp(1, bins) - 1;
+            sums[i].0 += ret;
+            sums[i].1 += 1;
+        }
+        let points = sums
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.1 > 0)
+            .map(|(i, s)| ((i + 1) as f64 * budget / bins as f64, s.0 / s.1 as f64))
+            .collect();
+        series.push(Series {
+            name: format!("{agent} ({} runs)", c.runs.len()),
+            color,
+            opacity: 1.0,
+            points,
+        });
+    }
+    svg(
+        &format!("{task}: training episode return, mean over seeds"),
+        "environment steps",
+        &[Panel {
+            y_label: "return".into(),
+            series,
+            y_range: None,
+        }],
+    )
+}
+
+/// Claim 1 on standard tasks, by the protocol's rule, and the aggregate across tasks.
+fn claim_one(grid: &Grid) -> String {
+    let mut md = String::from("### Claim 1 on standard tasks\n\n");
+    let mut binding = Vec::new();
+    let mut unjudged = Vec::new();
+    for task in TASKS {
+        let ddpg = cell(grid, task, "ddpg");
+        let complete =
+            ddpg.runs.len() as u64 == SEEDS && cell(grid, task, "dcp").runs.len() as u64 == SEEDS;
+        if !complete {
+            unjudged.push(task);
+            continue;
+        }
+        let binds = ddpg
+            .share("at_bound_share")
+            .max(ddpg.share("contact_share"))
+            > BINDS;
+        if binds {
+            binding.push(task);
+        }
+    }
+    let verdicts: Vec<(&str, Verdict)> = binding
+        .iter()
+        .filter_map(|t| {
+            verdict(
+                &cell(grid, t, "dcp").returns(),
+                &cell(grid, t, "ddpg").returns(),
+            )
+            .map(|v| (*t, v))
+        })
+        .collect();
+    let ahead = verdicts.iter().filter(|v| v.1.word == "ahead").count();
+    let behind = verdicts.iter().filter(|v| v.1.word == "behind").count();
+    let _ = writeln!(
+        md,
+        "Tasks where a margin binds in DDPG's test episodes (over {:.0} % of steps at the action bound or the limit): {}. DCP (4×48) against DDPG (4×48) there: ahead on {ahead}, behind on {behind}, tied on {}.",
+        100.0 * BINDS,
+        if binding.is_empty() { "none yet".to_string() } else { binding.join(", ") },
+        verdicts.len() - ahead - behind
+    );
+    let word = if !unjudged.is_empty() {
+        format!(
+            "not yet judged: the cells of {} are incomplete",
+            unjudged.join(", ")
+        )
+    } else if binding.is_empty() {
+        "not judged: no margin binds".to_string()
+    } else if 2 * ahead > verdicts.len() && behind == 0 {
+        "reproduced".to_string()
+    } else {
+        "not reproduced".to_string()
+    };
+    let _ = writeln!(
+        md,
+        "\n**Verdict on claim 1 (the protocol's rule): {word}.**\n"
+    );
+    // Across the tasks whose cells are complete: IQM of normalised returns and P(DCP > DDPG).
+    let mut dcp_tasks = Vec::new();
+    let mut ddpg_tasks = Vec::new();
+    let mut used = Vec::new();
+    for task in TASKS {
+        let anchor = cell(grid, task, "sb3-td3");
+        let random = grid.random.get(task).copied();
+        let (d, g) = (
+            cell(grid, task, "dcp").returns(),
+            cell(grid, task, "ddpg").returns(),
+        );
+        if d.len() as u64 != SEEDS || g.len() as u64 != SEEDS || anchor.runs.is_empty() {
+            continue;
+        }
+        let Some(random) = random else { continue };
+        let top = mean(&anchor.returns());
+        let scale = |x: f64| (x - random) / (top - random);
+        dcp_tasks.push(d.iter().map(|&x| scale(x)).collect::<Vec<_>>());
+        ddpg_tasks.push(g.iter().map(|&x| scale(x)).collect::<Vec<_>>());
+        used.push(task);
+    }
+    if used.is_empty() {
+        let _ = writeln!(md, "Across tasks: not yet computed (no task has complete DCP, DDPG and SB3 TD3 cells with a random-policy baseline).\n");
+        return md;
+    }
+    let iqm_d = iqm_ci(&dcp_tasks, CONFIDENCE, REPS, SEED);
+    let iqm_g = iqm_ci(&ddpg_tasks, CONFIDENCE, REPS, SEED);
+    let poi = probability_of_improvement_ci(&dcp_tasks, &ddpg_tasks, CONFIDENCE, REPS, SEED);
+    let _ = writeln!(
+        md,
+        "Across {} ({} tasks; returns normalised so that a uniformly random policy is 0 and SB3 TD3's cell mean is 1): IQM of DCP {:.2} [{:.2}, {:.2}], of DDPG {:.2} [{:.2}, {:.2}] (stratified bootstrap); probability that a DCP run beats a DDPG run {:.2} [{:.2}, {:.2}].\n",
+        used.join(", "),
+        used.len(),
+        iqm_d.estimate,
+        iqm_d.lo,
+        iqm_d.hi,
+        iqm_g.estimate,
+        iqm_g.lo,
+        iqm_g.hi,
+        poi.estimate,
+        poi.lo,
+        poi.hi
+    );
+    md
+}
+
+/// Each task's DCP blob (seed 0, 4×48): its size, the trainer's test return against the blob's
+/// through firmware-sim (equal, or the page says not), and its cost on the M4F where measured.
+fn chip(grid: &Grid) -> String {
+    let mut md = String::from("### The chip\n\n");
+    md.push_str("| task | blob bytes | trainer's test return | the blob's, in firmware-sim | equal | `act` on the M4F (QEMU) |\n|---|---|---|---|---|---|\n");
+    for task in TASKS {
+        let Some(run) = cell(grid, task, "dcp").runs.iter().find(|r| r.seed == 0) else {
+            let _ = writeln!(md, "| {task} | not yet run | | | | |");
+            continue;
+        };
+        let blob = &run.result["blob"];
+        let (t, b) = (
+            blob["trainer_mean_return"].as_f64(),
+            blob["blob_mean_return"].as_f64(),
+        );
+        let act = grid
+            .chip
+            .as_ref()
+            .and_then(|c| c[task]["act"].as_str().map(str::to_string))
+            .unwrap_or_else(|| "not measured".into());
+        let _ = writeln!(
+            md,
+            "| {task} | {} | {} | {} | {} | {act} |",
+            blob["bytes"],
+            t.map_or("?".into(), |x| format!("{x:.3}")),
+            b.map_or("?".into(), |x| format!("{x:.3}")),
+            if t.is_some() && t == b {
+                "yes"
+            } else {
+                "**no**"
+            },
+        );
+    }
+    md.push('\n');
+    md
+}
+
+/// The per-step speed measurement (`OUT/speed.json`), as recorded.
+fn speed(grid: &Grid) -> String {
+    let mut md = String::from("### Speed\n\n");
+    match &grid.speed {
+        None => md.push_str("Not yet measured.\n\n"),
+        Some(v) => {
+            let _ = writeln!(
+                md,
+                "{} (CPU: {}): the toolkit's TD3 (2×400) {:.3} ms per environment step, SB3's TD3 ([400, 300]) {:.3} ms: SB3 takes {:.1}× the toolkit's time. The toolkit's run spent {:.1} % of its time in the Python environment.\n",
+                v["what"].as_str().unwrap_or(""),
+                v["cpu"].as_str().unwrap_or("?"),
+                1e3 * v["toolkit_seconds_per_step"].as_f64().unwrap_or(f64::NAN),
+                1e3 * v["sb3_seconds_per_step"].as_f64().unwrap_or(f64::NAN),
+                v["ratio"].as_f64().unwrap_or(f64::NAN),
+                100.0 * v["python_share"].as_f64().unwrap_or(f64::NAN),
+            );
+        }
+    }
+    md
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A run folder as the grid runner writes it: `result.json` and `train.jsonl`.
+    fn write_run(out: &Path, task: &str, agent: &str, seed: u64, ret: f64, override_steps: bool) {
+        let folder = out.join(task).join(agent).join(format!("seed{seed}"));
+        std::fs::create_dir_all(&folder).expect("scratch folder");
+        let result = serde_json::json!({
+            "task": task, "agent": agent, "seed": seed,
+            "steps_override": if override_steps { Some(400) } else { None },
+            "env_steps": 400, "train_seconds": 2.0, "budget": 400,
+            "blob": {"bytes": 29264, "trainer_mean_return": ret, "blob_mean_return": ret},
+            "test": {"episodes": 100, "mean_return": ret, "successes": 10, "steps": 20000,
+                     "at_bound_share": 0.5, "contact_share": 0.0, "contact_episodes": 0},
+        });
+        std::fs::write(folder.join("result.json"), result.to_string()).expect("result");
+        let lines = "{\"steps\": 200, \"return\": -900.0}\n{\"steps\": 200, \"return\": -400.0}\n{\"steps\": 200, \"return\": -1.0}\n";
+        std::fs::write(folder.join("train.jsonl"), lines).expect("curve");
+    }
+
+    fn scratch(name: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("studies-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        dir
+    }
+
+    #[test]
+    fn a_page_judges_complete_cells_and_lists_the_rest() {
+        let out = scratch("page");
+        for seed in 0..SEEDS {
+            write_run(&out, "pendulum", "dcp", seed, -150.0 - seed as f64, false);
+            write_run(&out, "pendulum", "ddpg", seed, -400.0 - seed as f64, false);
+        }
+        let grid = load(&out, false).expect("loads");
+        // The trainer's test episodes after the budget are not training episodes.
+        let run = &cell(&grid, "pendulum", "dcp").runs[0];
+        assert_eq!(run.curve, vec![(200.0, -900.0), (400.0, -400.0)]);
+        let (md, figures) = render(&grid, "abc1234", "standard-tasks");
+        assert!(
+            md.contains(
+                "commit abc1234: 10 of the protocol's 275 runs done, 0 failed, 265 not yet run"
+            ),
+            "{md}"
+        );
+        // Five against five, every DCP run above every DDPG run: the exact test's smallest p.
+        assert!(
+            md.contains("dcp against ddpg: **ahead**: difference 250.0"),
+            "{md}"
+        );
+        assert!(md.contains("p = 0.0079 (exact over 252)"), "{md}");
+        assert!(
+            md.contains("dcp@zoo-net against ddpg@zoo-net: not judged"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| sb3-td3 | 0 done, 0 failed, 5 to run |"),
+            "{md}"
+        );
+        assert!(md.contains("### mountain-car\n\nNot yet run."), "{md}");
+        // The margin binds (50 % of steps at the bound), DCP ahead on the only judged task,
+        // but the other tasks' cells are not complete yet.
+        assert!(
+            md.contains("**Verdict on claim 1 (the protocol's rule): not yet judged"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| pendulum | 29264 | -150.000 | -150.000 | yes |"),
+            "{md}"
+        );
+        assert_eq!(figures.len(), 1);
+        assert!(figures[0].1.starts_with("<svg"));
+        std::fs::remove_dir_all(&out).expect("clean up");
+    }
+
+    #[test]
+    fn a_tiny_run_is_refused_by_the_page() {
+        let out = scratch("tiny");
+        write_run(&out, "pendulum", "dcp", 0, -150.0, true);
+        let err = load(&out, false).expect_err("tiny runs are not the protocol's");
+        assert_eq!(load(&out, true).expect("asked for").cells.len(), 55);
+        assert!(err.to_string().contains("a tiny run (--steps)"), "{err}");
+        std::fs::remove_dir_all(&out).expect("clean up");
+    }
+}
