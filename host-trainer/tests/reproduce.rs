@@ -124,7 +124,7 @@ fn a_failed_run_counts_as_failed_in_the_tables() {
     );
     let page = std::fs::read_to_string(out.join("exp1.md")).expect("page");
     assert!(
-        page.contains("| dcp | 2×32 | 0 / 1 / 0 | 0.00 |"),
+        page.contains("| dcp | 2×32 | 0 / 1 / 0 | 0.00 (1 seed) |"),
         "the failed run's row:\n{page}"
     );
     let outcome = folder::outcome(&out, &grid, victim).expect("reads");

@@ -93,7 +93,7 @@ fn two_seeds_in_parallel_finish_summarise_and_match_train_alone() {
         .find(|l| l.starts_with("| nav-walls | dcp | 2 |"))
         .unwrap_or_else(|| panic!("no mean row:\n{md}"));
     assert!(
-        mean_row.contains(" ± ") && !mean_row.contains("n/a"),
+        mean_row.contains(" [") && !mean_row.contains("(1 seed)"),
         "{mean_row}"
     );
     assert_eq!(
@@ -290,7 +290,7 @@ fn a_failed_run_is_recorded_and_the_others_finish() {
     assert!(row.contains("exit 1: host-trainer: checkpoint"), "{row}");
     // The mean row covers the finished seed only: n = 1, no interval.
     assert!(
-        md.contains("| nav-walls | dcp | 1 | ") && md.contains("± n/a"),
+        md.contains("| nav-walls | dcp | 1 | ") && md.contains("(1 seed)"),
         "{md}"
     );
     std::fs::remove_dir_all(&base).expect("cleanup");

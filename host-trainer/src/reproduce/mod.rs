@@ -18,6 +18,7 @@ pub mod folder;
 pub mod grid;
 pub mod page;
 pub mod teams;
+pub mod verdict;
 
 use std::fmt::Write as _;
 use std::fs;

@@ -12,8 +12,16 @@ use super::folder::{Finished, Outcome};
 use super::grid::{
     Agent, Cell, Grid, GridRun, Walls, AGENTS, LARGE_SIGMAS, NOISE_AGENTS, REWARDS, SIZES,
 };
+use super::verdict::{
+    differences, discordant, judge, mcnemar_side, paired_power_text, partner_extremes,
+    permutation_side, permutation_text, t_side, t_text, Judged, Side, Word,
+};
 use crate::run::config::RewardKind;
-use crate::stats::student_t as stats;
+use crate::stats::aggregate::{iqm_ci, probability_of_improvement_ci};
+use crate::stats::binomial::clopper_pearson;
+use crate::stats::power::{power_rate_difference, seeds_for_rate_difference};
+use crate::stats::student_t::{clipped_text, Range, NON_NEGATIVE, UNIT};
+use crate::stats::{student_t, ALPHA, CONFIDENCE, POWER, REPS, SEED};
 
 /// A run whose test success is below this failed to train (table 3) [design §2].
 pub const TRAINING_FAILURE: f64 = 0.5;
@@ -62,8 +70,14 @@ impl<'a> CellRuns<'a> {
     }
 }
 
-fn interval_text(values: &[f64]) -> String {
-    stats::interval_text(values, 2)
+fn interval_text(values: &[f64], range: Range) -> String {
+    clipped_text(values, 2, range)
+}
+
+/// `k of n` as a rate with its exact 95 % interval: `0.20 [0.01, 0.72]`.
+fn rate_text(k: usize, n: usize) -> String {
+    let (lo, hi) = clopper_pearson(k as u64, n as u64, CONFIDENCE);
+    format!("{:.2} [{lo:.2}, {hi:.2}]", k as f64 / n.max(1) as f64)
 }
 
 fn per_seed(values: &[(u64, f64)]) -> String {
@@ -87,11 +101,11 @@ fn metrics_row(cells: &CellRuns<'_>) -> String {
         .collect();
     format!(
         "| {done} / {failed} / {missing} | {} | {} | {} | {} | {} | {} | {} |",
-        interval_text(&success),
-        interval_text(&cells.metric(|f| f.report.mean_error)),
-        interval_text(&cells.metric(|f| f.report.strict_reach_rate)),
-        interval_text(&cells.metric(|f| f.report.near_pass_rate)),
-        interval_text(&cells.metric(|f| f.report.stuck_rate)),
+        interval_text(&success, UNIT),
+        interval_text(&cells.metric(|f| f.report.mean_error), NON_NEGATIVE),
+        interval_text(&cells.metric(|f| f.report.strict_reach_rate), UNIT),
+        interval_text(&cells.metric(|f| f.report.near_pass_rate), UNIT),
+        interval_text(&cells.metric(|f| f.report.stuck_rate), UNIT),
         per_seed(&cells.success()),
         per_seed(&errors),
     )
@@ -197,8 +211,8 @@ pub fn table3(all: &[(GridRun, Outcome)]) -> String {
                 t,
                 "| {name} | {sigma} | {k} of {} | {} | {} | {} |",
                 fails.len(),
-                interval_text(&fails.iter().map(|f| f.1).collect::<Vec<_>>()),
-                interval_text(&values),
+                rate_text(k, fails.len()),
+                interval_text(&values, UNIT),
                 per_seed(&success),
             );
         }
@@ -206,24 +220,9 @@ pub fn table3(all: &[(GridRun, Outcome)]) -> String {
     t
 }
 
-/// Where a paired difference's 95 % interval lies.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Side {
-    /// Entirely above 0.
-    Above,
-    /// Entirely below 0.
-    Below,
-    /// Holds 0, or too few pairs for an interval.
-    Spans,
-}
-
-/// The side of 0 the interval of `values` lies on.
+/// The side of 0 the 95 % t interval of `values` lies on (the pre-registered rule).
 pub fn side(values: &[f64]) -> Side {
-    match stats::against(values, 0.0) {
-        std::cmp::Ordering::Greater => Side::Above,
-        std::cmp::Ordering::Less => Side::Below,
-        std::cmp::Ordering::Equal => Side::Spans,
-    }
+    t_side(values)
 }
 
 /// `a − b` for the seeds both have.
@@ -231,10 +230,6 @@ fn paired(a: &[(u64, f64)], b: &[(u64, f64)]) -> Vec<f64> {
     a.iter()
         .filter_map(|&(seed, x)| b.iter().find(|p| p.0 == seed).map(|p| x - p.1))
         .collect()
-}
-
-fn difference_text(values: &[f64]) -> String {
-    format!("{} over {} seeds", interval_text(values), values.len())
 }
 
 /// Success per seed of `agent` in `cell`'s other settings.
@@ -265,123 +260,217 @@ fn missing_runs(
         .sum()
 }
 
-/// The verdicts on claims 1–3, one paragraph each, by the rules written before the runs.
+/// The verdicts on claims 1–3, one paragraph each: the verdict by the rule written before the
+/// runs ("pre-registered", a 95 % t interval of paired differences) and beside it the verdict
+/// by exact tests ([`super::verdict`]), each with its test, p-value or interval and sensitivity, and
+/// the power of the comparison.
 ///
 /// A claim whose cells still miss runs is undecided: a rule read off part of its seeds could
 /// turn once the rest are in, so the page says how many are missing instead.
 pub fn verdicts(all: &[(GridRun, Outcome)]) -> String {
-    let word = |missing: usize, reproduced: bool, contradicted: bool| {
-        if missing > 0 {
-            format!("undecided ({missing} of its runs missing)")
-        } else if contradicted {
-            "contradicted".into()
-        } else if reproduced {
-            "reproduced".into()
-        } else {
-            "not reproduced".into()
-        }
-    };
     let mut text = String::new();
     let walls = |a| Cell::headline(a);
     let open = |a| Cell {
         walls: Walls::Without,
         ..Cell::headline(a)
     };
-
-    // Claim 1, first half: the paper's DCP against DDPG on the pinwheel, success paired by seed.
-    let d = paired(
-        &success_of(all, "dcp-paper", walls),
-        &success_of(all, "ddpg", walls),
-    );
-    let s = side(&d);
-    let adopted = paired(
-        &success_of(all, "dcp", walls),
-        &success_of(all, "ddpg", walls),
-    );
-    let _ = writeln!(
-        text,
-        "- **Claim 1, first half** (with walls, DCP reaches the goal more often than DDPG): \
-         **{}**. Success of the paper's DCP minus DDPG's, paired by seed: {}. (DCP as adopted \
-         minus DDPG: {}.)",
-        word(
-            missing_runs(all, &["dcp-paper", "ddpg"], walls),
-            s == Side::Above,
-            s == Side::Below
-        ),
-        difference_text(&d),
-        difference_text(&adopted)
-    );
-
-    // Claim 1, second half: the drop from open to walls, DDPG and DQN against DCP and PPO.
-    let per_seed_drop = |agent: &str| -> Vec<(u64, f64)> {
-        let o = success_of(all, agent, open);
-        let w = success_of(all, agent, walls);
-        o.iter()
-            .filter_map(|&(seed, x)| w.iter().find(|p| p.0 == seed).map(|p| (seed, x - p.1)))
-            .collect()
-    };
-    let mut sides = Vec::new();
-    let mut parts = Vec::new();
-    for hurt in ["ddpg", "dqn"] {
-        for spared in ["dcp-paper", "ppo"] {
-            let diff = paired(&per_seed_drop(hurt), &per_seed_drop(spared));
-            sides.push(side(&diff));
-            parts.push(format!("{hurt} − {spared} {}", difference_text(&diff)));
-        }
-    }
-    let _ = writeln!(
-        text,
-        "- **Claim 1, second half** (walls hurt DDPG and DQN more than DCP and PPO): **{}**. \
-         The drop of success from open arena to pinwheel, paired by seed: {}; the drops \
-         themselves: {}.",
-        word(
-            missing_runs(all, &["dcp-paper", "ddpg", "ppo", "dqn"], walls)
-                + missing_runs(all, &["dcp-paper", "ddpg", "ppo", "dqn"], open),
-            sides.iter().all(|s| *s == Side::Above),
-            sides.contains(&Side::Below)
-        ),
-        parts.join("; "),
-        ["dcp-paper", "ddpg", "ppo", "dqn"]
-            .map(|a| {
-                let drop: Vec<f64> = per_seed_drop(a).iter().map(|d| d.1).collect();
-                format!("{a} {}", difference_text(&drop))
-            })
-            .join(", ")
-    );
-
-    // Claim 2: LR against GR, DDPG and the paper's DCP.
     let lr = |a| Cell {
         reward: RewardKind::Lr,
         ..Cell::headline(a)
     };
-    let lr_minus_gr =
-        |agent: &str| paired(&success_of(all, agent, lr), &success_of(all, agent, walls));
-    let (dcp2, ddpg2) = (lr_minus_gr("dcp-paper"), lr_minus_gr("ddpg"));
-    let (sd, sg) = (side(&dcp2), side(&ddpg2));
-    let _ = writeln!(
-        text,
-        "- **Claim 2** (DCP's success is robust to the reward form; DDPG's drops with LR): \
-         **{}**. Success under LR minus under GR, paired by seed: the paper's DCP {}, DDPG {}.",
-        word(
-            missing_runs(all, &["dcp-paper", "ddpg"], walls)
-                + missing_runs(all, &["dcp-paper", "ddpg"], lr),
-            sg == Side::Below && sd != Side::Below,
-            sd == Side::Below && sg != Side::Below
-        ),
-        difference_text(&dcp2),
-        difference_text(&ddpg2)
+    let undecided = |missing: usize| format!("**undecided ({missing} of its runs missing)**");
+    text.push_str(
+        "Each claim has two verdicts. **Pre-registered**: the rule fixed before the runs, a 95 % \
+         Student-t interval of the paired differences off 0. **Exact**: the same comparison by an \
+         exact test at two-sided α = 0.05 (the sign-flip permutation test of paired differences \
+         of success; McNemar's exact test of paired pass/fail outcomes). Sensitivity: the fewest \
+         of the claim's runs whose change flips the verdict, a run changed to the lowest or \
+         highest value of the arm it is compared with (a pass/fail outcome: flipped), up to \
+         three runs at once. Power: the normal approximation of Colas et al. (2018) at the \
+         observed effect and spread.\n\n",
     );
 
-    // Claim 3: training failures under large noise, DDPG minus the paper's DCP, paired by σ and seed.
-    let mut diff = Vec::new();
-    for sigma in LARGE_SIGMAS {
-        let (g, c) = (
-            failures(all, &noise_cell("ddpg", sigma)),
-            failures(all, &noise_cell("dcp-paper", sigma)),
+    // Claim 1, first half: the paper's DCP against DDPG on the pinwheel, success paired by seed.
+    let missing = missing_runs(all, &["dcp-paper", "ddpg"], walls);
+    let adopted = paired(
+        &success_of(all, "dcp", walls),
+        &success_of(all, "ddpg", walls),
+    );
+    let head = "- **Claim 1, first half** (with walls, DCP reaches the goal more often than DDPG)";
+    if missing > 0 {
+        let _ = writeln!(text, "{head}: {}.", undecided(missing));
+    } else {
+        let runs = [arm(all, "dcp-paper", walls), arm(all, "ddpg", walls)];
+        let n = runs[0].len();
+        let d = differences(&runs[0], &runs[1]);
+        let j = judge_paired(
+            &runs,
+            n,
+            |i| i ^ 1,
+            |r| {
+                let s = t_side(&differences(&r[..n], &r[n..]));
+                Word::of(s == Side::Above, s == Side::Below)
+            },
+            |r| {
+                let s = permutation_side(&differences(&r[..n], &r[n..]), ALPHA);
+                Word::of(s == Side::Above, s == Side::Below)
+            },
         );
-        diff.extend(paired(&g, &c));
+        let _ = writeln!(
+            text,
+            "{head}: **{}** (pre-registered). Success of the paper's DCP minus DDPG's, paired by \
+             seed: {}; {}. Exact: **{}**, sign-flip test {}; {}; {}. (DCP as adopted minus \
+             DDPG: {}, sign-flip test {}.)",
+            j.pre.text(),
+            t_text(&d),
+            j.pre_sensitivity,
+            j.exact.text(),
+            permutation_text(&d),
+            j.exact_sensitivity,
+            paired_power_text(&d),
+            t_text(&adopted),
+            permutation_text(&adopted),
+        );
     }
-    let s = side(&diff);
+
+    // Claim 1, second half: the drop from open to walls, DDPG and DQN against DCP and PPO.
+    let four = ["ddpg", "dqn", "dcp-paper", "ppo"];
+    let missing = missing_runs(all, &four, walls) + missing_runs(all, &four, open);
+    let head = "- **Claim 1, second half** (walls hurt DDPG and DQN more than DCP and PPO)";
+    if missing > 0 {
+        let _ = writeln!(text, "{head}: {}.", undecided(missing));
+    } else {
+        // Arms: each agent open, then with walls; the drop is open minus walls.
+        let runs: Vec<Vec<f64>> = four
+            .iter()
+            .flat_map(|a| [arm(all, a, open), arm(all, a, walls)])
+            .collect();
+        let n = runs[0].len();
+        let drop = |r: &[f64], agent: usize| {
+            differences(
+                &r[2 * agent * n..(2 * agent + 1) * n],
+                &r[(2 * agent + 1) * n..(2 * agent + 2) * n],
+            )
+        };
+        let pairs = [(0, 2), (0, 3), (1, 2), (1, 3)];
+        let gaps = move |r: &[f64]| -> Vec<Vec<f64>> {
+            pairs
+                .iter()
+                .map(|&(h, s)| differences(&drop(r, h), &drop(r, s)))
+                .collect()
+        };
+        let j = judge_paired(
+            &runs,
+            n,
+            |i| i ^ 1,
+            |r| {
+                let sides: Vec<Side> = gaps(r).iter().map(|d| t_side(d)).collect();
+                Word::of(
+                    sides.iter().all(|s| *s == Side::Above),
+                    sides.contains(&Side::Below),
+                )
+            },
+            |r| {
+                let g = gaps(r);
+                let above = g.iter().all(|d| permutation_side(d, ALPHA) == Side::Above);
+                let below = g
+                    .iter()
+                    .any(|d| permutation_side(d, ALPHA / g.len() as f64) == Side::Below);
+                Word::of(above, below)
+            },
+        );
+        let flat = runs.concat();
+        let parts: Vec<String> = pairs
+            .iter()
+            .zip(gaps(&flat))
+            .map(|(&(h, s), d)| {
+                format!(
+                    "{} − {} {}, sign-flip test {}, {}",
+                    four[h],
+                    four[s],
+                    t_text(&d),
+                    permutation_text(&d),
+                    paired_power_text(&d)
+                )
+            })
+            .collect();
+        let drops: Vec<String> = (0..four.len())
+            .map(|a| format!("{} {}", four[a], t_text(&drop(&flat, a))))
+            .collect();
+        let _ = writeln!(
+            text,
+            "{head}: **{}** (pre-registered; {}). Exact: **{}** (all four above 0 at p < 0.05 \
+             to reproduce, any below at p < 0.0125 to contradict; {}). The drop of success from \
+             open arena to pinwheel, paired by seed: {}; the drops themselves: {}.",
+            j.pre.text(),
+            j.pre_sensitivity,
+            j.exact.text(),
+            j.exact_sensitivity,
+            parts.join("; "),
+            drops.join(", ")
+        );
+    }
+
+    // Claim 2: LR against GR, the paper's DCP and DDPG.
+    let missing = missing_runs(all, &["dcp-paper", "ddpg"], walls)
+        + missing_runs(all, &["dcp-paper", "ddpg"], lr);
+    let head = "- **Claim 2** (DCP's success is robust to the reward form; DDPG's drops with LR)";
+    if missing > 0 {
+        let _ = writeln!(text, "{head}: {}.", undecided(missing));
+    } else {
+        let runs = [
+            arm(all, "dcp-paper", lr),
+            arm(all, "dcp-paper", walls),
+            arm(all, "ddpg", lr),
+            arm(all, "ddpg", walls),
+        ];
+        let n = runs[0].len();
+        let drops = move |r: &[f64]| {
+            (
+                differences(&r[..n], &r[n..2 * n]),
+                differences(&r[2 * n..3 * n], &r[3 * n..]),
+            )
+        };
+        let rule = |sd: Side, sg: Side| {
+            Word::of(
+                sg == Side::Below && sd != Side::Below,
+                sd == Side::Below && sg != Side::Below,
+            )
+        };
+        let j = judge_paired(
+            &runs,
+            n,
+            |i| i ^ 1,
+            |r| {
+                let (d, g) = drops(r);
+                rule(t_side(&d), t_side(&g))
+            },
+            |r| {
+                let (d, g) = drops(r);
+                rule(permutation_side(&d, ALPHA), permutation_side(&g, ALPHA))
+            },
+        );
+        let (d, g) = drops(&runs.concat());
+        let _ = writeln!(
+            text,
+            "{head}: **{}** (pre-registered; {}). Exact: **{}** ({}). Success under LR minus \
+             under GR, paired by seed: the paper's DCP {}, sign-flip test {}, {}; DDPG {}, \
+             sign-flip test {}, {}.",
+            j.pre.text(),
+            j.pre_sensitivity,
+            j.exact.text(),
+            j.exact_sensitivity,
+            t_text(&d),
+            permutation_text(&d),
+            paired_power_text(&d),
+            t_text(&g),
+            permutation_text(&g),
+            paired_power_text(&g),
+        );
+    }
+
+    // Claim 3: training failures under large noise, DDPG against the paper's DCP, paired by σ
+    // and seed.
     let missing: usize = LARGE_SIGMAS
         .iter()
         .map(|&sigma| {
@@ -391,16 +480,126 @@ pub fn verdicts(all: &[(GridRun, Outcome)]) -> String {
             })
         })
         .sum();
-    let _ = writeln!(
-        text,
-        "- **Claim 3** (under large exploration noise DDPG's training fails far more often than \
-         DCP's): **{}**. Failed trainings of DDPG minus the paper's DCP, paired by σ and seed: {} \
-         pairs, mean {}.",
-        word(missing, s == Side::Above, s == Side::Below),
-        diff.len(),
-        interval_text(&diff)
-    );
+    let head = "- **Claim 3** (under large exploration noise DDPG's training fails far more often \
+                than DCP's)";
+    if missing > 0 {
+        let _ = writeln!(text, "{head}: {}.", undecided(missing));
+    } else {
+        let fails_of = |agent: &str| -> Vec<f64> {
+            LARGE_SIGMAS
+                .iter()
+                .flat_map(|&sigma| {
+                    let mut f = failures(all, &noise_cell(agent, sigma));
+                    f.sort_by_key(|p| p.0);
+                    f.into_iter().map(|p| p.1)
+                })
+                .collect()
+        };
+        let runs = [fails_of("ddpg"), fails_of("dcp-paper")];
+        let n = runs[0].len();
+        let alts: Vec<Vec<f64>> = runs.concat().iter().map(|v| vec![1.0 - v]).collect();
+        let j = judge(
+            &runs.concat(),
+            &alts,
+            |r| {
+                let s = t_side(&differences(&r[..n], &r[n..]));
+                Word::of(s == Side::Above, s == Side::Below)
+            },
+            |r| {
+                let s = mcnemar_side(&differences(&r[..n], &r[n..]), ALPHA);
+                Word::of(s == Side::Above, s == Side::Below)
+            },
+        );
+        let d = differences(&runs[0], &runs[1]);
+        let (b, c) = discordant(&d);
+        let k = |r: &[f64]| r.iter().filter(|v| **v > 0.5).count();
+        let (kg, kc) = (k(&runs[0]), k(&runs[1]));
+        let (pg, pc) = (kg as f64 / n as f64, kc as f64 / n as f64);
+        let needed =
+            seeds_for_rate_difference(pg, pc, ALPHA, POWER).map_or("–".into(), |s| s.to_string());
+        let _ = writeln!(
+            text,
+            "{head}: **{}** (pre-registered; failed trainings of DDPG minus the paper's DCP, \
+             paired by σ and seed: {n} pairs, mean {}; {}). Exact: **{}**, McNemar's exact \
+             test on the {} discordant pairs ({b} where only DDPG failed, {c} where only DCP \
+             did): p = {:.4}; {}. Failure rates: DDPG {kg} of {n}, {}; the paper's DCP {kc} of \
+             {n}, {}. Power {:.2} at {n} runs per agent for the observed {pg:.2} against \
+             {pc:.2}; {POWER} needs {needed} per agent.",
+            j.pre.text(),
+            student_t::interval_text(&d, 2),
+            j.pre_sensitivity,
+            j.exact.text(),
+            b + c,
+            crate::stats::binomial::mcnemar_exact(b, c),
+            j.exact_sensitivity,
+            rate_text(kg, n),
+            rate_text(kc, n),
+            power_rate_difference(pg, pc, n as u64, ALPHA),
+        );
+    }
     text
+}
+
+/// The success of `agent`'s runs in `cell`'s settings, by seed (a failed run as 0).
+fn arm(all: &[(GridRun, Outcome)], agent: &str, cell: impl Fn(Agent) -> Cell) -> Vec<f64> {
+    let mut runs = success_of(all, agent, cell);
+    runs.sort_by_key(|r| r.0);
+    runs.into_iter().map(|r| r.1).collect()
+}
+
+/// [`judge`] over arms of `n` runs each, a run's alternatives the extremes of its partner arm.
+fn judge_paired<A: AsRef<[f64]>>(
+    arms: &[A],
+    n: usize,
+    partner: fn(usize) -> usize,
+    pre: impl Fn(&[f64]) -> Word,
+    exact: impl Fn(&[f64]) -> Word,
+) -> Judged {
+    let runs: Vec<f64> = arms.iter().flat_map(|a| a.as_ref().to_vec()).collect();
+    let alts = partner_extremes(&runs, n, partner);
+    judge(&runs, &alts, pre, exact)
+}
+
+/// Table 1's cells as tasks: per agent, the interquartile mean of success over every run of
+/// its five network sizes, and the probability that a run of it beats a run of DDPG at the
+/// same size, each with a stratified bootstrap interval (runs resampled within each size).
+pub fn sizes_aggregate(all: &[(GridRun, Outcome)]) -> String {
+    let tasks = |agent: Agent| -> Vec<Vec<f64>> {
+        SIZES
+            .iter()
+            .map(|&size| {
+                let cell = Cell {
+                    size,
+                    ..Cell::headline(agent)
+                };
+                CellRuns::of(all, &cell)
+                    .success()
+                    .iter()
+                    .map(|s| s.1)
+                    .collect()
+            })
+            .collect()
+    };
+    let ddpg = tasks(Agent::named("ddpg").expect("ddpg is an agent"));
+    let mut t = String::from(
+        "| agent | runs | IQM of success [95 % stratified bootstrap] | P(a run beats DDPG's at the same size) [95 %] |\n|---|---|---|---|\n",
+    );
+    for agent in AGENTS {
+        let own = tasks(agent);
+        let runs: usize = own.iter().map(Vec::len).sum();
+        if own.iter().any(Vec::is_empty) {
+            let _ = writeln!(t, "| {} | {runs} | – | – |", agent.name);
+            continue;
+        }
+        let i = iqm_ci(&own, CONFIDENCE, REPS, SEED);
+        let poi = probability_of_improvement_ci(&own, &ddpg, CONFIDENCE, REPS, SEED);
+        let _ = writeln!(
+            t,
+            "| {} | {runs} | {:.2} [{:.2}, {:.2}] | {:.2} [{:.2}, {:.2}] |",
+            agent.name, i.estimate, i.lo, i.hi, poi.estimate, poi.lo, poi.hi
+        );
+    }
+    t
 }
 
 /// The runs not finished, as `cell seed` lines.
@@ -415,7 +614,7 @@ pub fn missing(all: &[(GridRun, Outcome)]) -> Vec<String> {
 /// range over all its runs.
 pub fn run_times(all: &[(GridRun, Outcome)]) -> String {
     let mut t = String::from(
-        "| agent | runs timed | seconds per run, 4×48 pinwheel (mean ± 95 %) | per seed | all its runs: min – max |\n|---|---|---|---|---|\n",
+        "| agent | runs timed | seconds per run, 4×48 pinwheel (mean [95 %]) | per seed | all its runs: min – max |\n|---|---|---|---|---|\n",
     );
     for agent in AGENTS {
         let headline = CellRuns::of(all, &Cell::headline(agent));
@@ -444,7 +643,7 @@ pub fn run_times(all: &[(GridRun, Outcome)]) -> String {
             .map(|(_, v)| format!("{v:.0}"))
             .collect::<Vec<_>>()
             .join(", ");
-        let mean = stats::interval_text(&values, 0);
+        let mean = clipped_text(&values, 0, NON_NEGATIVE);
         let _ = writeln!(
             t,
             "| {} | {} | {mean} | {per_seed} | {range} |",
@@ -460,8 +659,10 @@ pub fn body(grid: &Grid, all: &[(GridRun, Outcome)]) -> String {
     let mut page = String::new();
     let _ = writeln!(
         page,
-        "## Table 1: network sizes (pinwheel, GR)\n\nMean ± 95 % interval (Student t) over seeds \
-         0–{}; success counts a failed run as 0.\n\n{}",
+        "## Table 1: network sizes (pinwheel, GR)\n\nThe mean over seeds 0–{} and its 95 % \
+         Student-t interval, clipped to the quantity's range (a rate to [0, 1], an error to \
+         [0, ∞)); \"all 5 equal\" where every seed gave the same value, which leaves no spread \
+         to build an interval from. Success counts a failed run as 0.\n\n{}",
         grid.seeds.saturating_sub(1),
         table1(all)
     );
@@ -473,8 +674,19 @@ pub fn body(grid: &Grid, all: &[(GridRun, Outcome)]) -> String {
     let _ = writeln!(
         page,
         "## Table 3: training failure under large exploration noise (pinwheel, 4×48, GR)\n\nA \
-         failed training: success on fewer than half the test starts (or a run that failed).\n\n{}",
+         failed training: success on fewer than half the test starts (or a run that failed). The \
+         failure rate is a count of runs, shown with its exact (Clopper–Pearson) 95 % \
+         interval.\n\n{}",
         table3(all)
+    );
+    let _ = writeln!(
+        page,
+        "## Across network sizes (table 1's cells as tasks)\n\nThe interquartile mean of success \
+         over the runs of an agent's five sizes, and the probability that a run of it beats a \
+         run of DDPG at the same size (averaged over sizes, a tie counting half), each with a \
+         95 % stratified bootstrap interval ({REPS} resamples of the runs within each size, \
+         seed {SEED}), as rliable computes them.\n\n{}",
+        sizes_aggregate(all)
     );
     let _ = writeln!(
         page,
@@ -604,6 +816,48 @@ mod tests {
         );
     }
 
+    /// The verdict by exact tests on a claim's line.
+    fn exact_of<'a>(text: &'a str, claim: &str) -> &'a str {
+        let line = text
+            .lines()
+            .find(|l| l.contains(claim))
+            .expect("the claim's line");
+        let from = line.find("Exact: **").expect("an exact verdict") + 9;
+        &line[from..from + line[from..].find("**").expect("bold")]
+    }
+
+    #[test]
+    fn exact_verdicts_stand_beside_the_pre_registered_ones() {
+        // The paper's story: the t rule reproduces every claim; five pairs cannot reach
+        // p < 0.05 by a sign-flip test, but ten pass/fail pairs all one way can by McNemar's.
+        let jitter = |seed: u64| 0.01 * seed as f64;
+        let story = grid_with(|cell, seed| {
+            let agent = cell.agent.name;
+            match (cell.walls, cell.reward, cell.sigma) {
+                (Walls::Without, _, _) => 1.0,
+                (_, _, Some(_)) if agent == "ddpg" => 0.1,
+                (_, RewardKind::Lr, _) if agent == "ddpg" => 0.2 + jitter(seed),
+                _ if agent == "ddpg" || agent == "dqn" => 0.5 + jitter(seed),
+                _ => 0.9 + jitter(seed),
+            }
+        });
+        let text = verdicts(&story);
+        for claim in ["Claim 1, first half", "Claim 1, second half", "Claim 2"] {
+            assert_eq!(verdict_of(&text, claim), "reproduced", "{text}");
+            assert_eq!(exact_of(&text, claim), "not reproduced", "{text}");
+        }
+        assert_eq!(exact_of(&text, "Claim 3"), "reproduced", "{text}");
+        assert!(
+            text.contains("p = 0.0020"),
+            "McNemar on 10 pairs one way: {text}"
+        );
+        assert!(text.contains("p = 0.0625 (exact over 32)"), "{text}");
+        assert!(
+            text.contains("no change of up to 3 of the 10 runs flips it"),
+            "{text}"
+        );
+    }
+
     #[test]
     fn a_claim_with_missing_runs_is_undecided() {
         // The paper's story on every cell but one DDPG seed under large noise and LR.
@@ -640,7 +894,7 @@ mod tests {
         let table = run_times(&all);
         // training_seconds is 100 + seed for every run of the made-up grid.
         assert!(
-            table.contains("| dcp | 5 | 102 ± 2 | 100, 101, 102, 103, 104 | 100 – 104 ("),
+            table.contains("| dcp | 5 | 102 [100, 104] | 100, 101, 102, 103, 104 | 100 – 104 ("),
             "{table}"
         );
         assert_eq!(table.lines().count(), 2 + AGENTS.len());
@@ -655,11 +909,11 @@ mod tests {
         let table = layouts_table(&all);
         assert_eq!(table.lines().count(), 2 + 2 * AGENTS.len());
         assert!(
-            table.contains("| ddpg | pinwheel | 5 / 0 / 0 | 0.70 ± 0.20 |"),
+            table.contains("| ddpg | pinwheel | 5 / 0 / 0 | 0.70 [0.50, 0.90] |"),
             "{table}"
         );
         assert!(
-            table.contains("| ddpg | open arena | 5 / 0 / 0 | 1.00 ± 0.00 |"),
+            table.contains("| ddpg | open arena | 5 / 0 / 0 | 1.00 (all 5 equal) |"),
             "{table}"
         );
     }

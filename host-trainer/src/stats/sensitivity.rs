@@ -28,25 +28,14 @@ pub struct Sensitivity {
 }
 
 impl std::fmt::Display for Sensitivity {
-    /// `flipped by 1 run (any of 14 of the 20)`, `flipped by 2 runs (3 pairs of the 20)`, or
-    /// `no change of up to 3 of the 20 runs flips it`.
+    /// `one run flips it (14 of the 20 can)`, `2 runs flip it (15 sets of 2 of the 20 can)`,
+    /// or `no change of up to 3 of the 20 runs flips it`.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (sets, of, searched) = (self.sets, self.of, self.searched);
         match self.runs {
-            None => write!(
-                f,
-                "no change of up to {} of the {} runs flips it",
-                self.searched, self.of
-            ),
-            Some(1) => write!(
-                f,
-                "flipped by changing 1 run (any of {} of the {})",
-                self.sets, self.of
-            ),
-            Some(k) => write!(
-                f,
-                "flipped by changing {k} runs ({} sets of {k} of the {})",
-                self.sets, self.of
-            ),
+            None => write!(f, "no change of up to {searched} of the {of} runs flips it"),
+            Some(1) => write!(f, "one run flips it ({sets} of the {of} can)"),
+            Some(k) => write!(f, "{k} runs flip it ({sets} sets of {k} of the {of} can)"),
         }
     }
 }
@@ -62,7 +51,7 @@ impl std::fmt::Display for Sensitivity {
 /// let flip = |_: usize, v: f64| vec![1.0 - v];
 /// let s = sensitivity(&runs, flip, verdict, 3);
 /// assert_eq!((s.runs, s.sets), (Some(2), 6)); // any 2 of the 4 passes
-/// assert_eq!(s.to_string(), "flipped by changing 2 runs (6 sets of 2 of the 5)");
+/// assert_eq!(s.to_string(), "2 runs flip it (6 sets of 2 of the 5 can)");
 /// ```
 pub fn sensitivity<V: PartialEq>(
     values: &[f64],

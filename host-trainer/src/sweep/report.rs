@@ -1,5 +1,8 @@
 //! Reporting a sweep: one row per run, then per (task, algo) the mean and a 95 % Student-t
-//! interval over the finished seeds ([`crate::stats::student_t`]), as Markdown and JSON.
+//! interval over the finished seeds clipped to each column's range
+//! ([`crate::stats::student_t`]), and where a sweep spans several tasks, each algo's
+//! interquartile mean of success over every task with its stratified bootstrap interval
+//! ([`crate::stats::aggregate`]), as Markdown and JSON.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -9,7 +12,9 @@ use serde::Serialize;
 
 use super::record::{exit_text, RunRecord, Status};
 use crate::algorithms::Algo;
-use crate::stats::student_t::{self as stats, MeanInterval};
+use crate::stats::aggregate::iqm_ci;
+use crate::stats::student_t::{self as stats, clipped_interval, MeanInterval, Range};
+use crate::stats::{CONFIDENCE, REPS, SEED};
 use crate::Error;
 
 /// The summary table, in the sweep's output folder.
@@ -23,7 +28,12 @@ struct Column {
     key: &'static str,
     value: fn(&RunRecord) -> Option<f64>,
     decimals: usize,
+    /// The values the column can take: its interval is clipped to them.
+    range: Range,
 }
+
+/// A rate in percent.
+const PERCENT: Range = (0.0, 100.0);
 
 /// Rates are shown in percent, as `train` and `eval` print them.
 const COLUMNS: [Column; 6] = [
@@ -32,36 +42,42 @@ const COLUMNS: [Column; 6] = [
         key: "wall_seconds",
         value: |r| r.wall_seconds,
         decimals: 1,
+        range: stats::NON_NEGATIVE,
     },
     Column {
         header: "success %",
         key: "success_pct",
         value: |r| r.eval.map(|e| 100.0 * e.success_rate),
         decimals: 1,
+        range: PERCENT,
     },
     Column {
         header: "settled error",
         key: "mean_error",
         value: |r| r.eval.and_then(|e| e.mean_error),
         decimals: 3,
+        range: stats::NON_NEGATIVE,
     },
     Column {
         header: "stuck at margin %",
         key: "stuck_pct",
         value: |r| r.eval.map(|e| 100.0 * e.stuck_rate),
         decimals: 1,
+        range: PERCENT,
     },
     Column {
         header: "pass within 0.25 %",
         key: "near_pass_pct",
         value: |r| r.eval.and_then(|e| e.near_pass_rate).map(|v| 100.0 * v),
         decimals: 1,
+        range: PERCENT,
     },
     Column {
         header: "strict reach %",
         key: "strict_reach_pct",
         value: |r| r.eval.and_then(|e| e.strict_reach_rate).map(|v| 100.0 * v),
         decimals: 1,
+        range: PERCENT,
     },
 ];
 
@@ -84,9 +100,45 @@ fn groups(records: &[RunRecord]) -> Vec<((String, Algo), Vec<&RunRecord>)> {
     groups
 }
 
+fn column_values(runs: &[&RunRecord], column: &Column) -> Vec<f64> {
+    runs.iter().filter_map(|r| (column.value)(r)).collect()
+}
+
 fn column_interval(runs: &[&RunRecord], column: &Column) -> Option<MeanInterval> {
-    let values: Vec<f64> = runs.iter().filter_map(|r| (column.value)(r)).collect();
-    stats::mean_interval(&values)
+    stats::mean_interval(&column_values(runs, column))
+}
+
+/// Per algo over several tasks: the interquartile mean of success (percent) over every
+/// finished run, with its stratified bootstrap interval (runs resampled within each task).
+fn across_tasks(
+    records: &[RunRecord],
+) -> Vec<(Algo, usize, usize, crate::stats::bootstrap::Interval)> {
+    let groups = groups(records);
+    let mut algos: Vec<Algo> = Vec::new();
+    for ((_, algo), _) in &groups {
+        if !algos.contains(algo) {
+            algos.push(*algo);
+        }
+    }
+    algos
+        .into_iter()
+        .filter_map(|algo| {
+            let tasks: Vec<Vec<f64>> = groups
+                .iter()
+                .filter(|((_, a), runs)| *a == algo && !runs.is_empty())
+                .map(|(_, runs)| column_values(runs, &COLUMNS[1]))
+                .collect();
+            let runs = tasks.iter().map(Vec::len).sum();
+            (tasks.len() > 1).then(|| {
+                (
+                    algo,
+                    tasks.len(),
+                    runs,
+                    iqm_ci(&tasks, CONFIDENCE, REPS, SEED),
+                )
+            })
+        })
+        .collect()
 }
 
 /// The summary as a markdown table of runs, then a table of means with 95 % intervals.
@@ -127,9 +179,11 @@ pub fn markdown(records: &[RunRecord]) -> String {
             note.replace('|', "\\|")
         );
     }
-    md.push_str("\n## Mean ± 95 % confidence interval over the finished seeds\n\n");
+    md.push_str("\n## Mean and 95 % confidence interval over the finished seeds\n\n");
     md.push_str(
-        "Student's t, two-sided, n − 1 degrees of freedom; one seed has no interval (n/a).\n\n",
+        "Student's t, two-sided, n − 1 degrees of freedom, clipped to the column's range (a \
+         rate to 0–100 %, a time or an error to 0 and up); one seed, or seeds that all gave the \
+         same value, have no interval.\n\n",
     );
     let _ = writeln!(md, "| task | algo | n | {} |", headers.join(" | "));
     let _ = writeln!(md, "|---|---|---:|{}", "---:|".repeat(COLUMNS.len()));
@@ -139,16 +193,15 @@ pub fn markdown(records: &[RunRecord]) -> String {
             .map(|c| match column_interval(&runs, c) {
                 None => "-".into(),
                 Some(m) => {
-                    let half = m
-                        .half_width
-                        .map_or("n/a".into(), |h| format!("{h:.*}", c.decimals));
+                    let values = column_values(&runs, c);
+                    let text = stats::clipped_text(&values, c.decimals, c.range);
                     // Wall seconds exist only for runs this sweep ran, not for skipped ones.
                     let n = if m.n == runs.len() {
                         String::new()
                     } else {
                         format!(" (n={})", m.n)
                     };
-                    format!("{:.*} ± {half}{n}", c.decimals, m.mean)
+                    format!("{text}{n}")
                 }
             })
             .collect();
@@ -158,6 +211,22 @@ pub fn markdown(records: &[RunRecord]) -> String {
             runs.len(),
             cells.join(" | ")
         );
+    }
+    let across = across_tasks(records);
+    if !across.is_empty() {
+        let _ = writeln!(
+            md,
+            "\n## Success across tasks\n\nThe interquartile mean of success over every finished \
+             run of every task, with its 95 % stratified bootstrap interval ({REPS} resamples of \
+             the runs within each task, seed {SEED}).\n\n| algo | tasks | runs | IQM of success % |\n|---|---:|---:|---:|"
+        );
+        for (algo, tasks, runs, i) in across {
+            let _ = writeln!(
+                md,
+                "| {algo} | {tasks} | {runs} | {:.1} [{:.1}, {:.1}] |",
+                i.estimate, i.lo, i.hi
+            );
+        }
     }
     md
 }
@@ -179,8 +248,10 @@ struct GroupJson {
     algo: Algo,
     /// Runs with a result (finished or skipped).
     n: usize,
-    /// Per column key: `{ "n": .., "mean": .., "half_width": .. }` (`half_width` null for
-    /// n = 1; a column's n is below the group's for wall seconds, which skipped runs lack).
+    /// Per column key: `{ "n": .., "mean": .., "half_width": .., "lo": .., "hi": .. }`
+    /// (`half_width` null for n = 1; `lo` and `hi` the interval clipped to the column's range,
+    /// null without spread; a column's n is below the group's for wall seconds, which skipped
+    /// runs lack).
     columns: serde_json::Map<String, serde_json::Value>,
 }
 
@@ -193,8 +264,11 @@ pub fn json(records: &[RunRecord]) -> String {
                 .iter()
                 .filter_map(|c| {
                     let m = column_interval(&runs, c)?;
-                    let value =
-                        serde_json::json!({ "n": m.n, "mean": m.mean, "half_width": m.half_width });
+                    let (lo, hi) = clipped_interval(&column_values(&runs, c), c.range)
+                        .map_or((None, None), |(_, lo, hi)| (Some(lo), Some(hi)));
+                    let value = serde_json::json!({
+                        "n": m.n, "mean": m.mean, "half_width": m.half_width, "lo": lo, "hi": hi
+                    });
                     Some((c.key.to_string(), value))
                 })
                 .collect();
@@ -207,7 +281,7 @@ pub fn json(records: &[RunRecord]) -> String {
         })
         .collect();
     let doc = serde_json::json!({
-        "interval": "95 % two-sided Student's t over the finished seeds, df = n - 1",
+        "interval": "95 % two-sided Student's t over the finished seeds, df = n - 1; lo and hi clipped to the column's range (null without spread)",
         "runs": records,
         "groups": groups,
     });
@@ -264,15 +338,30 @@ mod tests {
         assert!(md.contains("exit 1: host-trainer: a \\| b"), "{md}");
         // success 10, 20, 30 %: mean 20, s = 10, t(0.975, 2) · 10 / √3 = 24.8.
         assert!(
-            md.contains("| nav-walls | dcp | 3 | 1.0 ± 0.0 | 20.0 ± 24.8 |"),
+            md.contains("| nav-walls | dcp | 3 | 1.0 (all 3 equal) | 20.0 [0.0, 44.8] |"),
             "{md}"
         );
+        assert!(!md.contains("Success across tasks"), "{md}");
         let one = markdown(&records[..1]);
-        assert!(one.contains("10.0 ± n/a"), "{one}");
+        assert!(one.contains("10.0 (1 seed)"), "{one}");
         let doc: serde_json::Value = serde_json::from_str(&json(&records)).expect("json");
         assert_eq!(doc["runs"].as_array().map(Vec::len), Some(4));
         assert_eq!(doc["groups"][0]["n"], 3);
         let half = doc["groups"][0]["columns"]["success_pct"]["half_width"].as_f64();
         assert!(half.is_some_and(|h| (h - 24.842).abs() < 1e-3), "{half:?}");
+    }
+
+    #[test]
+    fn several_tasks_get_an_interquartile_mean() {
+        let mut records: Vec<RunRecord> = (0..4)
+            .map(|seed| record(seed, Status::Finished, Some(0.1 * (seed + 1) as f64)))
+            .collect();
+        records.extend((0..4).map(|seed| RunRecord {
+            task: "nav-open".into(),
+            ..record(seed, Status::Finished, Some(0.9))
+        }));
+        let md = markdown(&records);
+        // Success 10, 20, 30, 40 and 90 × 4: the middle four of eight are 30, 40, 90, 90.
+        assert!(md.contains("| dcp | 2 | 8 | 62.5 ["), "{md}");
     }
 }
