@@ -379,3 +379,62 @@ fn a_chip_in_the_safe_state_answers_empty_actions_applied_as_zeros() {
         fake.join().expect("the fake chip ends when the host goes");
     }
 }
+
+/// A serial line that streams bad frames, and a frame of another protocol version, never
+/// restarts the wait for the hello: `--tick-timeout` bounds the whole wait, and the error says
+/// what came instead of blaming silence. The board is a pty.
+#[test]
+fn a_hello_stream_of_bad_frames_still_times_out() {
+    use std::io::Write;
+    use std::sync::atomic::Ordering;
+    let (mut board, port) = serialport::TTYPort::pair().expect("a pty");
+    let path = serialport::SerialPort::name(&port).expect("the pty's name");
+    let stop = Arc::new(AtomicBool::new(false));
+    let writer = {
+        let stop = Arc::clone(&stop);
+        std::thread::spawn(move || {
+            let mut buf = [0u8; MAX_FRAME];
+            let other = encode_version(&FromChip::Hello(hello()), VERSION + 1, &mut buf)
+                .expect("fits")
+                .to_vec();
+            let _ = board.write_all(&other);
+            while !stop.load(Ordering::SeqCst) {
+                // Line noise: bytes that are no frame, then a delimiter.
+                let _ = board.write_all(b"\x03noise\x00");
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        })
+    };
+    let started = std::time::Instant::now();
+    let (code, err) = cli(&[
+        "--blob",
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../models/nav-walls__dcp-paper__0.postcard"
+        ),
+        "--episodes",
+        "1",
+        "--hil",
+        &format!("serial:{path}"),
+        "--tick-timeout",
+        "1",
+    ]);
+    let took = started.elapsed();
+    stop.store(true, Ordering::SeqCst);
+    writer.join().expect("writer");
+    drop(port);
+    assert_eq!(code, Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        took < Duration::from_secs(4),
+        "the wait took {took:?}, for a timeout of 1 s"
+    );
+    let expected = format!("error: serial:{path}: no hello within 1.0 s: received ");
+    assert!(err.starts_with(&expected), "{err}");
+    assert!(
+        err.contains(
+            " bad frames and 1 frame of protocol version 2 (firmware-sim speaks version 1"
+        ),
+        "{err}"
+    );
+}
