@@ -438,3 +438,59 @@ fn a_hello_stream_of_bad_frames_still_times_out() {
         "{err}"
     );
 }
+
+/// A board that boots as its port opens sends its boot hello, then answers the host's request
+/// for one with a second hello: the second, before the first action, is the same boot, not a
+/// reset at tick 0.
+#[test]
+fn a_boot_hello_before_the_first_tick_is_not_a_reset() {
+    let (host, mut link) = UnixStream::pair().expect("socket pair");
+    let fake = std::thread::spawn(move || {
+        use std::io::Read;
+        let mut policy = BlobPolicy::boot(BLOB).expect("boots");
+        let mut buf = [0u8; MAX_FRAME];
+        send(
+            &mut link,
+            encode(&FromChip::Hello(hello()), &mut buf).expect("fits"),
+        );
+        let (mut rx, mut byte) = (Receiver::new(), [0u8; 1]);
+        while let Ok(1) = link.read(&mut byte) {
+            let answer = match rx.push(byte[0]).map(|f| f.and_then(decode::<ToChip>)) {
+                Some(Ok(ToChip::Hello)) => FromChip::Hello(hello()),
+                Some(Ok(ToChip::Observe { tick, observation })) => {
+                    let mut action = [0.0f32; 2];
+                    firmware_sim::controller::Controller::act(
+                        &mut policy,
+                        &observation,
+                        &mut action,
+                    );
+                    FromChip::Action {
+                        tick,
+                        action: Values::from_slice(&action).expect("fits"),
+                        ticks: 540,
+                    }
+                }
+                _ => continue,
+            };
+            send(&mut link, encode(&answer, &mut buf).expect("fits"));
+        }
+    });
+    let options = ChipOptions {
+        link_name: "fake".into(),
+        timeout: Duration::from_millis(300),
+        ask_hello: true,
+        interrupt: None,
+        budget: None,
+    };
+    let name = firmware_sim::controller::Controller::name(&BlobPolicy::boot(BLOB).expect("boots"));
+    let mut chip = HilChip::connect(Box::new(host), None, options, name, 2, 2).expect("hello");
+    let s = Scenario::builtin("nav-walls").expect("builtin");
+    let report = evaluate_controller(&mut chip, &s, &cfg()).expect("runs");
+    assert_eq!(report.stopped.as_ref().map(|s| &s.reason), None);
+    assert_eq!(
+        format!("{:?}", report.without_timing().episodes),
+        format!("{:?}", host_report().without_timing().episodes)
+    );
+    drop(chip);
+    fake.join().expect("the fake chip ends when the host goes");
+}

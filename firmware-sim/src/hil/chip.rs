@@ -365,7 +365,20 @@ impl HilChip {
         self.send(&ToChip::Observe { tick, observation })?;
         let waiting_for = format!("the action of tick {tick}");
         let deadline = Instant::now() + self.timeout;
-        match self.receive(deadline) {
+        let mut message = self.receive(deadline);
+        // A board that boots as its port opens sends its boot hello and then answers the
+        // host's request with another: before the first action, a hello is that boot, not a
+        // reset.
+        while let (Ok(FromChip::Hello(hello)), 0) = (&message, self.stats.ticks) {
+            if *hello != self.hello {
+                let (first, then) = (describe_boot(&self.hello), describe_boot(hello));
+                return Err(self.fail(format!(
+                    "the chip sent a second hello before its first action, naming another boot (first: {first}; then: {then}): it reset, or the port held an old boot's hello"
+                )));
+            }
+            message = self.receive(deadline);
+        }
+        match message {
             Ok(FromChip::Action {
                 tick: t,
                 action: a,
