@@ -494,3 +494,33 @@ fn a_boot_hello_before_the_first_tick_is_not_a_reset() {
     drop(chip);
     fake.join().expect("the fake chip ends when the host goes");
 }
+
+/// `--baud` with QEMU (whose UART has no speed), `--hil-firmware` with a board (which runs
+/// what is flashed on it) and `--baud 0` (B0 hangs up a real tty) were accepted and ignored.
+#[test]
+fn hil_flags_the_link_would_ignore_are_refused() {
+    let blob = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../models/nav-walls__dcp-paper__0.postcard"
+    );
+    let elf = concat!(env!("CARGO_MANIFEST_DIR"), "/Cargo.toml");
+    let cases: [(&[&str], &str); 3] = [
+        (
+            &["--blob", blob, "--hil", "qemu-m4f", "--baud", "9600"],
+            "error: --baud sets a serial port's speed; --hil qemu-m4f has none: drop --baud, or give --hil serial:PATH",
+        ),
+        (
+            &["--blob", blob, "--hil", "serial:/dev/ttyACM0", "--hil-firmware", elf],
+            "error: --hil-firmware is the ELF that QEMU runs; the board on serial:/dev/ttyACM0 runs the firmware flashed on it: drop --hil-firmware, or give --hil qemu-m4f|qemu-m3",
+        ),
+        (
+            &["--blob", blob, "--hil", "serial:/dev/ttyACM0", "--baud", "0"],
+            "error: invalid value '0' for '--baud <BAUD>': 0 is not in 1..=4294967295",
+        ),
+    ];
+    for (args, expected) in cases {
+        let (code, err) = cli(args);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert_eq!(err.trim_end(), expected, "{args:?}");
+    }
+}
