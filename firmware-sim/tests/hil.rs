@@ -524,3 +524,135 @@ fn hil_flags_the_link_would_ignore_are_refused() {
         assert_eq!(err.trim_end(), expected, "{args:?}");
     }
 }
+
+/// A 32-bit little-endian ARM ELF by hand: the slot symbols of firmware/memory.x and build
+/// attributes naming `cpu`, its Tag_CPU_arch and its Tag_CPU_arch_profile.
+fn arm_elf(cpu: &str, arch: u8, profile: u8) -> Vec<u8> {
+    let u16le = |v: u16| v.to_le_bytes().to_vec();
+    let u32le = |v: u32| v.to_le_bytes().to_vec();
+    // .ARM.attributes: version 'A', one "aeabi" subsection holding the file's attributes.
+    let mut tags = vec![67];
+    tags.extend(b"2.09\0");
+    tags.push(5);
+    tags.extend(cpu.as_bytes());
+    tags.extend([0, 6, arch, 7, profile]);
+    let mut file_attrs = vec![1];
+    file_attrs.extend(u32le(5 + tags.len() as u32));
+    file_attrs.extend(tags);
+    let mut attributes = vec![b'A'];
+    attributes.extend(u32le(4 + 6 + file_attrs.len() as u32));
+    attributes.extend(b"aeabi\0");
+    attributes.extend(file_attrs);
+    let strtab = b"\0_slot_a\0_slot_b\0_slot_size\0".to_vec();
+    let mut symtab = vec![0u8; 16];
+    for (name, value) in [(1u32, 0x0004_0000u32), (9, 0x0006_0000), (17, 0x0002_0000)] {
+        symtab.extend(u32le(name));
+        symtab.extend(u32le(value));
+        symtab.extend(u32le(0));
+        symtab.extend([0x10, 0]); // global, no type
+        symtab.extend(u16le(0xfff1)); // an absolute symbol
+    }
+    let shstrtab = b"\0.ARM.attributes\0.symtab\0.strtab\0.shstrtab\0".to_vec();
+    // The sections' bytes follow the 52-byte header; the section headers come last.
+    let bodies = [&attributes, &symtab, &strtab, &shstrtab];
+    let mut offsets = Vec::new();
+    let mut at = 52u32;
+    for body in bodies {
+        // Aligned, as the symbol table's entries must be.
+        at = at.next_multiple_of(4);
+        offsets.push(at);
+        at += body.len() as u32;
+    }
+    let shoff = at.next_multiple_of(4);
+    let mut elf = vec![0x7f, b'E', b'L', b'F', 1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0];
+    elf.extend(u16le(2)); // an executable
+    elf.extend(u16le(40)); // EM_ARM
+    elf.extend(u32le(1));
+    elf.extend(u32le(0x0000_0101)); // entry
+    elf.extend(u32le(0)); // no program headers
+    elf.extend(u32le(shoff));
+    elf.extend(u32le(0x0500_0000)); // EABI version 5
+    elf.extend(u16le(52));
+    elf.extend(u16le(32));
+    elf.extend(u16le(0));
+    elf.extend(u16le(40));
+    elf.extend(u16le(5));
+    elf.extend(u16le(4));
+    for (body, offset) in bodies.iter().zip(&offsets) {
+        elf.resize(*offset as usize, 0);
+        elf.extend(body.iter());
+    }
+    elf.resize(shoff as usize, 0);
+    elf.extend([0u8; 40]);
+    // name, type, flags, addr, offset, size, link, info, align, entsize
+    let headers = [
+        [
+            1,
+            0x7000_0003,
+            0,
+            0,
+            offsets[0],
+            attributes.len() as u32,
+            0,
+            0,
+            1,
+            0,
+        ],
+        [17, 2, 0, 0, offsets[1], symtab.len() as u32, 3, 1, 4, 16],
+        [25, 3, 0, 0, offsets[2], strtab.len() as u32, 0, 0, 1, 0],
+        [33, 3, 0, 0, offsets[3], shstrtab.len() as u32, 0, 0, 1, 0],
+    ];
+    for header in headers {
+        for field in header {
+            elf.extend(u32le(field));
+        }
+    }
+    elf
+}
+
+/// Only the ELF's machine was checked, which is ARM for Cortex-A firmware too: an A-profile
+/// ELF with the slot symbols passed as HIL firmware. The build attributes' profile decides.
+#[test]
+fn a_cortex_a_elf_with_the_slot_symbols_is_not_hil_firmware() {
+    use firmware_sim::hil::qemu::slot_addresses;
+    let dir = std::env::temp_dir().join(format!("firmware-sim-elf-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let cases = [
+        ("cortex-m4", 13, b'M', None),
+        ("cortex-m3", 10, b'M', None),
+        ("cortex-a9", 10, b'A', Some("built for an A-profile core (Cortex-A), architecture tag 10, not a Cortex-M (M-profile)")),
+        ("cortex-r5", 10, b'R', Some("built for an R-profile core (Cortex-R), architecture tag 10, not a Cortex-M (M-profile)")),
+    ];
+    for (cpu, arch, profile, refused) in cases {
+        let path = dir.join(format!("{cpu}.elf"));
+        std::fs::write(&path, arm_elf(cpu, arch, profile)).expect("write");
+        match (slot_addresses(&path), refused) {
+            (Ok(slots), None) => assert_eq!(
+                (slots.a, slots.b, slots.size),
+                (0x0004_0000, 0x0006_0000, 0x0002_0000),
+                "{cpu}"
+            ),
+            (Err(e), Some(reason)) => {
+                assert!(e.to_string().contains(reason), "{cpu}: {e}")
+            }
+            (outcome, _) => panic!("{cpu}: {outcome:?}"),
+        }
+    }
+    // And through the command line: one line, exit 2, before QEMU is looked for.
+    let elf = dir.join("cortex-a9.elf");
+    let (code, err) = cli(&[
+        "--blob",
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../models/nav-walls__dcp-paper__0.postcard"
+        ),
+        "--hil",
+        "qemu-m4f",
+        "--hil-firmware",
+        elf.to_str().expect("utf-8"),
+    ]);
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(code, Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("not a Cortex-M (M-profile)"), "{err}");
+}
