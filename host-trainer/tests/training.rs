@@ -1251,3 +1251,24 @@ fn a_team_export_is_written_aside_and_put_in_place_whole() {
     }
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
+
+/// PPO's actor was described as "4×48 tanh" in its module docs and the pages copied from them,
+/// while its blob (like DDPG's and DCP's) has ReLU hidden layers and a tanh output only.
+#[test]
+fn ppos_actor_is_described_with_the_activation_its_blob_carries() {
+    let out = scratch("ppo-activation");
+    let (trainer, run) = train_to_end(TrainConfig::smoke(Algo::Ppo, 0), &out);
+    trainer.export(&run).expect("export");
+    let blob = std::fs::read(run.file(folder::POLICY)).expect("blob");
+    let model = policy_core::model::Model::from_blob(&blob).expect("boots");
+    assert_eq!(model.header().activation, policy_core::Activation::Relu);
+    for (name, text) in [
+        ("ppo.rs", include_str!("../src/algorithms/ppo.rs")),
+        ("design.md", include_str!("../../docs/design.md")),
+        ("training.md", include_str!("../../docs/training.md")),
+    ] {
+        assert!(!text.contains("4×48 tanh actor"), "{name}");
+        assert!(text.contains("4×48 ReLU"), "{name}");
+    }
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
