@@ -702,8 +702,10 @@ impl Outputs {
             .svg
             .as_ref()
             .map(|p| {
-                let plot =
-                    AtomicFile::create(p).and_then(|f| SvgWriter::start(f, scenario, controller));
+                let wall_change = args.faults.parse::<Faults>().ok().and_then(|f| f.wall);
+                let plot = AtomicFile::create(p).and_then(|f| {
+                    SvgWriter::start_with_faults(f, scenario, controller, wall_change)
+                });
                 written(plot, p).map(|w| (w, p.clone()))
             })
             .transpose()?;
