@@ -656,3 +656,19 @@ fn a_cortex_a_elf_with_the_slot_symbols_is_not_hil_firmware() {
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains("not a Cortex-M (M-profile)"), "{err}");
 }
+
+/// `--hil-firmware DIR` said "no such file" of a folder that exists.
+#[test]
+fn a_folder_as_hil_firmware_is_named_a_folder() {
+    let blob = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../models/nav-walls__dcp-paper__0.postcard"
+    );
+    let dir = env!("CARGO_MANIFEST_DIR");
+    let (code, err) = cli(&["--blob", blob, "--hil", "qemu-m4f", "--hil-firmware", dir]);
+    assert_eq!(code, Some(2), "{err}");
+    assert_eq!(
+        err.trim_end(),
+        format!("error: --hil-firmware {dir}: a folder, not an ELF file: give the firmware's ELF, such as target/cortex-m/hil/m4f/firmware.elf")
+    );
+}

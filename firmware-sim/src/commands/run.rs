@@ -594,6 +594,12 @@ fn hil_flags_ok(args: &RunArgs) -> Result<()> {
 pub(crate) fn hil_firmware(args: &RunArgs, machine: Machine) -> Result<PathBuf> {
     if let Some(elf) = &args.hil_firmware {
         anyhow::ensure!(
+            !elf.is_dir(),
+            "--hil-firmware {}: a folder, not an ELF file: give the firmware's ELF, such as {}",
+            elf.display(),
+            machine.default_firmware(Path::new("target")).display()
+        );
+        anyhow::ensure!(
             elf.is_file(),
             "--hil-firmware {}: no such file",
             elf.display()
