@@ -672,3 +672,25 @@ fn a_folder_as_hil_firmware_is_named_a_folder() {
         format!("error: --hil-firmware {dir}: a folder, not an ELF file: give the firmware's ELF, such as target/cortex-m/hil/m4f/firmware.elf")
     );
 }
+
+/// `--tick-timeout 1e300` printed the number as 301 digits.
+#[test]
+fn a_huge_tick_timeout_is_named_in_exponent_form() {
+    let blob = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../models/nav-walls__dcp-paper__0.postcard"
+    );
+    let (code, err) = cli(&[
+        "--blob",
+        blob,
+        "--hil",
+        "serial:/dev/null",
+        "--tick-timeout",
+        "1e300",
+    ]);
+    assert_eq!(code, Some(2), "{err}");
+    assert_eq!(
+        err.trim_end(),
+        "error: --tick-timeout must be in (0, 3600] seconds, found 1e300"
+    );
+}

@@ -383,7 +383,8 @@ fn plant_test_config(args: &RunArgs) -> Result<PlantTestConfig> {
 fn seconds(flag: &str, s: f64) -> Result<Duration> {
     anyhow::ensure!(
         s.is_finite() && s > 0.0 && s <= 3600.0,
-        "{flag} must be in (0, 3600] seconds, found {s}"
+        "{flag} must be in (0, 3600] seconds, found {}",
+        firmware_sim::error::number(s)
     );
     Ok(Duration::from_secs_f64(s))
 }
