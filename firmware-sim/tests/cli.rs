@@ -920,3 +920,23 @@ fn a_reader_of_standard_error_that_goes_away_ends_the_run_with_141() {
     let status = child.wait().expect("wait");
     assert_eq!(status.code(), Some(141));
 }
+
+/// `--json /dev/stdout` with standard output a pipe was refused as "a symbolic link whose
+/// target cannot be reached" (the link goes through /proc/self/fd to a pipe, which has no
+/// path); it is written through, as a FIFO is.
+#[test]
+fn json_to_dev_stdout_in_a_pipe_is_written_through() {
+    let o = run(&[
+        "--controller",
+        "oracle",
+        "--episodes",
+        "2",
+        "--json",
+        "/dev/stdout",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let json = &text[text.find("\n{").expect("the report") + 1..];
+    let report: serde_json::Value = serde_json::from_str(json).expect("the JSON report");
+    assert_eq!(report["episodes"].as_array().map(Vec::len), Some(2));
+}
