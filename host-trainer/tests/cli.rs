@@ -1205,6 +1205,45 @@ fn team_bad_input_is_one_line_and_writes_nothing() {
     std::fs::remove_dir_all(&out_dir).expect("cleanup");
 }
 
+/// `team --resume OUTDIR` (the `--out` folder, not the team folder inside it) gave the system's
+/// raw missing-file error on OUTDIR/checkpoint.postcard; it names the team folder to give.
+#[test]
+fn team_resume_of_the_out_folder_names_the_team_inside() {
+    let out_dir = scratch("team-resume-out");
+    let dir = out_dir.to_str().expect("utf-8");
+    let out = host_trainer(&["team", "--resume", dir]);
+    assert_one_line_error(
+        &out,
+        &[
+            "no team checkpoint (checkpoint.postcard)",
+            "not a team folder",
+        ],
+    );
+    let tiny = [
+        "team",
+        "--players",
+        "2",
+        "--points",
+        "4",
+        "--out",
+        dir,
+        "--quiet",
+    ];
+    assert_ok(&host_trainer(&tiny));
+    let team = out_dir.join("badminton__dcp-t16__0");
+    let out = host_trainer(&["team", "--resume", dir]);
+    assert_one_line_error(
+        &out,
+        &[&format!(
+            "it holds the team folder {}; resume with --resume {}",
+            team.display(),
+            team.display()
+        )],
+    );
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("os error"));
+    std::fs::remove_dir_all(&out_dir).expect("cleanup");
+}
+
 /// `--threads` had no upper bound: 100,000 started threads one by one for over a minute. Above
 /// the cap (1024, the same on every machine) it is refused when the command line is parsed,
 /// in one line naming the range, before anything starts or is written.
