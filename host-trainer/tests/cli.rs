@@ -1463,3 +1463,75 @@ fn the_summary_after_resume_gives_the_runs_total_steps_and_this_parts() {
     );
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
+
+/// docs/cortex-m.md exported slot A as Intel HEX, then checked `policy.slot-a.bin` in
+/// firmware-sim, which no step had written. The page's steps run here in order: each export
+/// command as written, and every image a later step checks, flashes or loads must exist by
+/// then (slot records that verify, for the raw ones).
+#[test]
+fn the_cortex_m_pages_slot_steps_write_every_image_they_use() {
+    let page = include_str!("../../docs/cortex-m.md");
+    let start = page
+        .find("**2. A policy, any number of times.**")
+        .expect("step 2");
+    let end = page[start..]
+        .find("Any blob up to 64 wide")
+        .expect("the end of the steps");
+    let work = scratch("cortex-m-steps");
+    let runs = work.join("runs");
+    std::fs::create_dir_all(&runs).expect("runs");
+    for seed in ["0", "1"] {
+        let out = host_trainer(&[
+            "train",
+            "--episodes",
+            "2",
+            "--seed",
+            seed,
+            "--out",
+            runs.to_str().expect("utf-8"),
+            "--quiet",
+        ]);
+        assert_ok(&out);
+    }
+    let exists = |file: &str, step: &str| {
+        let path = work.join(file);
+        assert!(
+            path.is_file(),
+            "{step}: {file} was not written by an earlier step"
+        );
+        if file.ends_with(".bin") {
+            let image = std::fs::read(&path).expect("image");
+            policy_core::slot::read(&image).expect("a slot record");
+        }
+    };
+    let (mut exports, mut uses) = (0, 0);
+    let text = page[start..start + end].replace("\\\n", " ");
+    for line in text.lines().map(str::trim) {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        if let Some(args) = line.strip_prefix("cargo run --release -- export ") {
+            let args: Vec<&str> = std::iter::once("export")
+                .chain(args.split_whitespace())
+                .collect();
+            let out = command(&args).current_dir(&work).output().expect("runs");
+            assert_ok(&out);
+            exports += 1;
+        } else if line.contains("firmware-sim -- run") {
+            for flag in ["--slot-a", "--slot-b"] {
+                let at = words.iter().position(|w| *w == flag).expect(flag);
+                exists(words[at + 1], line);
+                uses += 1;
+            }
+        } else if line.starts_with("probe-rs download") {
+            exists(words.last().expect("a file"), line);
+            uses += 1;
+        } else if line.contains("loader,file=") {
+            for part in line.split("loader,file=").skip(1) {
+                let file = part.split([',', ' ']).next().expect("a file");
+                exists(file, line);
+                uses += 1;
+            }
+        }
+    }
+    assert_eq!((exports, uses), (5, 6), "the steps the page holds");
+    std::fs::remove_dir_all(&work).expect("cleanup");
+}
