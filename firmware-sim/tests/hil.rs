@@ -694,3 +694,110 @@ fn a_huge_tick_timeout_is_named_in_exponent_form() {
         "error: --tick-timeout must be in (0, 3600] seconds, found 1e300"
     );
 }
+
+/// `kill -9` of `firmware-sim run --hil qemu-*` left QEMU running (re-parented to init) and its
+/// scratch folder in the temporary folder. Here QEMU is a stand-in on `PATH` that connects to
+/// the UART socket, says the hello and then outlives its link by a minute unless it is killed:
+/// once the run has started, its scratch folder is already gone, and after `kill -9` of
+/// firmware-sim no process of the run is left. (scripts/cortex-m.sh does the same with the
+/// real QEMU and HIL firmware.)
+#[test]
+fn kill_9_of_a_hil_run_leaves_no_qemu_and_no_scratch_folder() {
+    use std::io::{BufRead, BufReader};
+    use std::os::unix::fs::PermissionsExt;
+    if !std::path::Path::new("/usr/bin/setpriv").is_file() {
+        eprintln!("no /usr/bin/setpriv: QEMU cannot die with firmware-sim here; not checked");
+        return;
+    }
+    let root = std::env::temp_dir().join(format!("firmware-sim-kill9-{}", std::process::id()));
+    let (bin, tmp) = (root.join("bin"), root.join("tmp"));
+    std::fs::create_dir_all(&bin).expect("dir");
+    std::fs::create_dir_all(&tmp).expect("dir");
+    let fake = bin.join("qemu-system-arm");
+    std::fs::write(
+        &fake,
+        "#!/usr/bin/env python3\n\
+         import os, socket, sys, time\n\
+         path = [a.split('path=')[1] for a in sys.argv if a.startswith('socket,id=hil,path=')][0]\n\
+         s = socket.socket(socket.AF_UNIX)\n\
+         s.connect(path)\n\
+         s.sendall(bytes.fromhex(os.environ['FAKE_CHIP_HELLO']))\n\
+         while s.recv(4096):\n    pass\n\
+         time.sleep(60)\n",
+    )
+    .expect("fake QEMU");
+    std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).expect("chmod");
+    let elf = root.join("firmware.elf");
+    std::fs::write(&elf, arm_elf("cortex-m4", 13, b'M')).expect("elf");
+    let mut buf = [0u8; MAX_FRAME];
+    let hello_frame = encode(&FromChip::Hello(hello()), &mut buf).expect("fits");
+    let hex: String = hello_frame.iter().map(|b| format!("{b:02x}")).collect();
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let mut run = Command::new(BIN)
+        .args(["run", "--blob"])
+        .arg(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../models/nav-walls__dcp-paper__0.postcard"
+        ))
+        .args([
+            "--episodes",
+            "1",
+            "--tick-timeout",
+            "30",
+            "--hil",
+            "qemu-m4f",
+        ])
+        .arg("--hil-firmware")
+        .arg(&elf)
+        .env("PATH", path)
+        .env("TMPDIR", &tmp)
+        .env("FAKE_CHIP_HELLO", hex)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("firmware-sim");
+    let pid = run.id();
+    let mut lines = BufReader::new(run.stdout.take().expect("stdout")).lines();
+    let started = lines
+        .next()
+        .and_then(Result::ok)
+        .unwrap_or_else(|| panic!("no line from the run ({:?})", run.try_wait()));
+    assert!(started.ends_with("slot A runs"), "{started}");
+    // The chip has said its hello and waits for its first observation's answer.
+    let scratch = || -> Vec<String> {
+        std::fs::read_dir(&tmp)
+            .expect("tmp")
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect()
+    };
+    assert_eq!(
+        scratch(),
+        Vec::<String>::new(),
+        "the scratch folder outlived the boot"
+    );
+    run.kill().expect("kill -9");
+    run.wait().expect("reaped");
+    // The stand-in names the run's socket, under our TMPDIR, on its command line.
+    let marker = format!("firmware-sim-hil-{pid}-");
+    let left = || -> Vec<String> {
+        std::fs::read_dir("/proc")
+            .expect("/proc")
+            .flatten()
+            .filter_map(|e| std::fs::read(e.path().join("cmdline")).ok())
+            .map(|c| String::from_utf8_lossy(&c).replace('\0', " "))
+            .filter(|c| c.contains(&marker))
+            .collect()
+    };
+    let deadline = std::time::Instant::now() + Duration::from_secs(5);
+    while !left().is_empty() && std::time::Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert_eq!(left(), Vec::<String>::new(), "QEMU outlived firmware-sim");
+    assert_eq!(scratch(), Vec::<String>::new());
+    let _ = std::fs::remove_dir_all(&root);
+}

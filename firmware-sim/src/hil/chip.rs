@@ -26,6 +26,9 @@ pub trait Backend: Send {
     /// Why the chip went away, if it knows (QEMU's exit status and last output line), waiting
     /// up to `grace` for it to go (a closed link usually means it is going).
     fn exit_note(&mut self, grace: Duration) -> Option<String>;
+    /// The chip said its hello: it has booted, so whatever it read at boot has been read
+    /// (QEMU's slot images), and what was kept for that can go.
+    fn booted(&mut self) {}
 }
 
 /// The chip in the loop (see the module docs).
@@ -211,6 +214,9 @@ impl HilChip {
             match chip.receive(deadline) {
                 Ok(FromChip::Hello(hello)) => {
                     chip.hello = hello;
+                    if let Some(backend) = chip.backend.as_mut() {
+                        backend.booted();
+                    }
                     return Ok(chip);
                 }
                 // A board's line may carry noise (or answers to an earlier host) before it.

@@ -3,6 +3,7 @@
 //! counts instructions), and kill it when the run ends, whatever way it ends.
 
 use std::fs;
+use std::io::{Read, Seek, SeekFrom};
 use std::os::unix::net::{UnixListener, UnixStream};
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
@@ -191,11 +192,17 @@ fn arm_core(file: &object::File<'_>) -> object::read::Result<ArmCore> {
 }
 
 /// A running QEMU: killed and reaped, and its scratch folder removed, when dropped.
+///
+/// The scratch folder (the UART socket, the slot images, QEMU's log) is removed as soon as the
+/// chip has booted: QEMU has read the images and holds its socket and log open, and the log is
+/// read through a handle kept here. A `kill -9` of firmware-sim after that leaves nothing
+/// behind (QEMU dies with it by its parent-death signal); one during QEMU's start leaves the
+/// folder to the next run's clean-up.
 #[derive(Debug)]
 pub struct Qemu {
     child: Child,
     dir: PathBuf,
-    log: PathBuf,
+    log: fs::File,
 }
 
 static RUNS: AtomicU32 = AtomicU32::new(0);
@@ -250,6 +257,8 @@ pub fn start(
     cmd.arg("-kernel").arg(elf).args(extra);
     let log = dir.join("qemu.log");
     let out = fs::File::create(&log).map_err(|e| io("cannot create QEMU's log", e))?;
+    // Read through its own handle: the folder goes once the chip has booted.
+    let log_reader = fs::File::open(&log).map_err(|e| io("cannot read QEMU's log", e))?;
     let err = out
         .try_clone()
         .map_err(|e| io("cannot create QEMU's log", e))?;
@@ -269,7 +278,11 @@ pub fn start(
         }
     })?;
     std::mem::forget(cleanup);
-    let mut qemu = Qemu { child, dir, log };
+    let mut qemu = Qemu {
+        child,
+        dir,
+        log: log_reader,
+    };
     let deadline = Instant::now() + timeout;
     loop {
         match listener.accept() {
@@ -318,8 +331,14 @@ impl Backend for Qemu {
                 _ => return None,
             }
         };
-        let log = fs::read_to_string(&self.log).unwrap_or_default();
+        let mut log = String::new();
+        let _ = self.log.seek(SeekFrom::Start(0));
+        let _ = self.log.read_to_string(&mut log);
         Some(format!("QEMU exited ({status}): {}", telling_line(&log)))
+    }
+
+    fn booted(&mut self) {
+        let _ = fs::remove_dir_all(&self.dir);
     }
 }
 
