@@ -511,6 +511,23 @@ hil_checks() {
   pid=$!; sleep 2; kill -INT "$pid"; wait "$pid"; HIL_RC=$?
   hil_expect "Ctrl-C" 1 "interrupted (Ctrl-C)" "$d/ctrlc.txt" && { grep -q '"episodes_run"' "$d/ctrlc.json" || hil_fail "Ctrl-C: no report written"; }
   hil_no_qemu "Ctrl-C" "$pid"
+  # kill -9 mid-run (no handler runs in firmware-sim): QEMU dies with it (its parent-death
+  # signal) and the run's scratch folder went when the chip said its hello. A second or two.
+  "$HIL_FS" run --blob "$HIL_BLOB" --episodes 100 --hil qemu-m4f >"$d/kill9.txt" 2>&1 &
+  pid=$!
+  for _ in $(seq 100); do grep -q 'runs$' "$d/kill9.txt" && break; sleep 0.05; done
+  if grep -q 'runs$' "$d/kill9.txt"; then
+    sleep 0.5; kill -9 "$pid"; wait "$pid" 2>/dev/null
+    for _ in $(seq 40); do pgrep -f "firmware-sim-hil-$pid-" >/dev/null || break; sleep 0.05; done
+    hil_no_qemu "kill -9" "$pid"
+    if compgen -G "${TMPDIR:-/tmp}/firmware-sim-hil-$pid-*" >/dev/null; then
+      hil_fail "kill -9: the run's scratch folder was left"
+    else
+      echo "HIL kill -9: no QEMU and no scratch folder left"
+    fi
+  else
+    hil_fail "kill -9: the run did not start ($(tail -1 "$d/kill9.txt"))"; kill -9 "$pid"; wait "$pid" 2>/dev/null
+  fi
   set -e
   if [ -n "$had_target" ]; then export CARGO_TARGET_DIR=$old_target; else unset CARGO_TARGET_DIR; fi
 }

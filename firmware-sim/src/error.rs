@@ -176,7 +176,13 @@ pub(crate) fn parse_error(e: &toml::de::Error, text: &str, origin: &str) -> Erro
 
 /// A number for a message: as written for ordinary magnitudes, in exponent form past them, so
 /// 1e308 or `f32::MAX` does not print as a 309- or 39-digit decimal.
-pub(crate) fn number<T>(v: T) -> String
+///
+/// ```
+/// use firmware_sim::error::number;
+/// assert_eq!(number(1e300), "1e300");
+/// assert_eq!(number(2.5), "2.5");
+/// ```
+pub fn number<T>(v: T) -> String
 where
     T: Into<f64> + fmt::Display + fmt::LowerExp + Copy,
 {

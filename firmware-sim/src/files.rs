@@ -75,6 +75,11 @@ fn target_of(path: &Path) -> io::Result<Target> {
         Err(e) => return Err(e),
     };
     if meta.file_type().is_symlink() {
+        // `/dev/stdout` into a pipe: a link (through /proc/self/fd) to a pipe that has no path
+        // to resolve, but opening the link writes into it.
+        if fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+            return Ok(Target::Through(path.to_path_buf()));
+        }
         let real = fs::canonicalize(path).map_err(|e| {
             io::Error::new(
                 e.kind(),

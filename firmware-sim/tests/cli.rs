@@ -542,9 +542,56 @@ fn streamed_json_and_svg_equal_the_library_report() {
     // its `float_roundtrip` feature, so the comparison above leaves timing out.)
     assert_eq!(
         std::fs::read_to_string(&svg).expect("svg written"),
-        svg::render(&s, &report)
+        svg::render_with_faults(&s, &report, cfg.faults.wall)
     );
     assert_eq!(names(&dir), ["p.svg", "r.json"]);
+}
+
+/// The trajectory SVG had no legend, axes or text (its orange paths were explained only in the
+/// source), and a wall that `--faults wall:...` added or moved was not drawn, so paths stopped
+/// in mid-air.
+#[test]
+fn the_trajectory_svg_has_a_legend_axes_and_the_walls_faults_add() {
+    let dir = scratch("svg-legend");
+    let plot = |faults: &str, name: &str| {
+        let svg = dir.join(name);
+        let o = run(&[
+            "--controller",
+            "straight",
+            "--episodes",
+            "4",
+            "--faults",
+            faults,
+            "--svg",
+            path(&svg),
+        ]);
+        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+        std::fs::read_to_string(&svg).expect("svg")
+    };
+    let added = plot("wall:20@-2/0/2/0", "added.svg");
+    for text in [
+        "nav-walls — straight</text>",
+        "settled: within 2 of the goal at the end",
+        "stuck at a wall (margin)",
+        "neither: wandered, looped or left the arena",
+        "success radius 2",
+        "wall from --faults, from tick 20",
+        ">-3</text>",
+        ">3</text>",
+        "x, y in arena units",
+    ] {
+        assert!(added.contains(text), "{text}");
+    }
+    // The added wall from (-2, 0) to (2, 0), in pixels, over the 13 walls of the scenario.
+    assert_eq!(added.matches(r#"class="wall""#).count(), 13);
+    let drawn = r##"class="wall fault" stroke="#1f5fbf" stroke-width="4" stroke-linecap="round" x1="204.00" y1="270.00" x2="364.00" y2="270.00""##;
+    assert!(added.contains(drawn), "{added}");
+    let moved = plot("wall:20@-1/-3/1/-3@8", "moved.svg");
+    assert_eq!(moved.matches(r#"class="wall""#).count(), 12);
+    assert_eq!(moved.matches(r#"class="wall moved""#).count(), 1);
+    assert_eq!(moved.matches(r#"class="wall fault""#).count(), 1);
+    assert!(moved.contains("wall from --faults, from tick 20: wall 8 moved here"));
+    assert!(moved.contains("that wall before tick 20"));
 }
 
 fn path(p: &Path) -> &str {
@@ -872,4 +919,24 @@ fn a_reader_of_standard_error_that_goes_away_ends_the_run_with_141() {
     drop(child.stderr.take()); // the reader goes away before the closing line
     let status = child.wait().expect("wait");
     assert_eq!(status.code(), Some(141));
+}
+
+/// `--json /dev/stdout` with standard output a pipe was refused as "a symbolic link whose
+/// target cannot be reached" (the link goes through /proc/self/fd to a pipe, which has no
+/// path); it is written through, as a FIFO is.
+#[test]
+fn json_to_dev_stdout_in_a_pipe_is_written_through() {
+    let o = run(&[
+        "--controller",
+        "oracle",
+        "--episodes",
+        "2",
+        "--json",
+        "/dev/stdout",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let json = &text[text.find("\n{").expect("the report") + 1..];
+    let report: serde_json::Value = serde_json::from_str(json).expect("the JSON report");
+    assert_eq!(report["episodes"].as_array().map(Vec::len), Some(2));
 }

@@ -11,6 +11,9 @@ fn documentation_transcripts_match_the_binary() {
         .parent()
         .expect("the crate lives in the workspace");
     std::env::set_current_dir(root).expect("the repository root");
+    // The pages write their examples' files under target/ (`scenario generate --out
+    // target/...`), which a build with CARGO_TARGET_DIR elsewhere never creates.
+    std::fs::create_dir_all("target").expect("the repository's target folder");
     trycmd::TestCases::new()
         .register_bin("firmware-sim", trycmd::cargo::cargo_bin!("firmware-sim"))
         .register_bin("host-trainer", trycmd::schema::Bin::Ignore)

@@ -102,3 +102,58 @@ fn heatmap_writes_svg_and_refuses_bad_input() {
     );
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// `heatmap --role serve --grid 200` played 8,000,000 serves (minutes) and wrote an SVG of about
+/// 400 MB, a square per serve. The serve grid is capped at what the picture can show, and
+/// the picture bins its points into the squares it draws, so its size does not grow with the
+/// grid.
+#[test]
+fn a_fine_serve_grid_is_refused_and_the_picture_is_bounded_by_its_squares() {
+    use firmware_sim::badminton::heatmap::{svg, MAX_SERVE_GRID};
+    let config = Config::builtin();
+    let serve = critic(3, 3);
+    let e = serve_map(&config, &serve, MAX_SERVE_GRID + 1).expect_err("too fine");
+    assert!(
+        e.to_string()
+            .starts_with("--grid: expected 1..=64 steps per action for a serve map"),
+        "{e}"
+    );
+    let dir = Scratch::new("heatmap-cli", "serve-grid");
+    std::fs::write(dir.path("serve-critic.postcard"), &serve).expect("write");
+    let out = dir.file("serve.svg");
+    let o = firmware_sim(
+        "heatmap",
+        &[
+            "--critic",
+            &dir.file("serve-critic.postcard"),
+            "--role",
+            "serve",
+            "--grid",
+            "200",
+            "--out",
+            &out,
+        ],
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(!std::path::Path::new(&out).exists());
+    // The catch map's finest grid: 40,000 points, drawn as the squares they fall in.
+    let catch = catch_map(&config, &critic(2, 1), 200).expect("catch map");
+    assert_eq!(catch.points.len(), 40_000);
+    let picture = svg(&catch, &config, "fine").expect("svg");
+    let coarse = svg(
+        &catch_map(&config, &critic(2, 1), 41).expect("catch map"),
+        &config,
+        "coarse",
+    )
+    .expect("svg");
+    assert!(picture.len() < 100_000, "{} bytes", picture.len());
+    let squares = |s: &str| s.matches("<rect").count();
+    assert!(
+        squares(&picture) <= squares(&coarse) + 40,
+        "{} squares for 40,000 points, {} for 1,681",
+        squares(&picture),
+        squares(&coarse)
+    );
+}

@@ -379,3 +379,425 @@ fn a_chip_in_the_safe_state_answers_empty_actions_applied_as_zeros() {
         fake.join().expect("the fake chip ends when the host goes");
     }
 }
+
+/// A serial line that streams bad frames, and a frame of another protocol version, never
+/// restarts the wait for the hello: `--tick-timeout` bounds the whole wait, and the error says
+/// what came instead of blaming silence. The board is a pty.
+#[test]
+fn a_hello_stream_of_bad_frames_still_times_out() {
+    use std::io::Write;
+    use std::sync::atomic::Ordering;
+    let (mut board, port) = serialport::TTYPort::pair().expect("a pty");
+    let path = serialport::SerialPort::name(&port).expect("the pty's name");
+    let stop = Arc::new(AtomicBool::new(false));
+    let writer = {
+        let stop = Arc::clone(&stop);
+        std::thread::spawn(move || {
+            let mut buf = [0u8; MAX_FRAME];
+            let other = encode_version(&FromChip::Hello(hello()), VERSION + 1, &mut buf)
+                .expect("fits")
+                .to_vec();
+            let _ = board.write_all(&other);
+            while !stop.load(Ordering::SeqCst) {
+                // Line noise: bytes that are no frame, then a delimiter.
+                let _ = board.write_all(b"\x03noise\x00");
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        })
+    };
+    let started = std::time::Instant::now();
+    let (code, err) = cli(&[
+        "--blob",
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../models/nav-walls__dcp-paper__0.postcard"
+        ),
+        "--episodes",
+        "1",
+        "--hil",
+        &format!("serial:{path}"),
+        "--tick-timeout",
+        "1",
+    ]);
+    let took = started.elapsed();
+    stop.store(true, Ordering::SeqCst);
+    writer.join().expect("writer");
+    drop(port);
+    assert_eq!(code, Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        took < Duration::from_secs(4),
+        "the wait took {took:?}, for a timeout of 1 s"
+    );
+    let expected = format!("error: serial:{path}: no hello within 1.0 s: received ");
+    assert!(err.starts_with(&expected), "{err}");
+    assert!(
+        err.contains(
+            " bad frames and 1 frame of protocol version 2 (firmware-sim speaks version 1"
+        ),
+        "{err}"
+    );
+}
+
+/// A board that boots as its port opens sends its boot hello, then answers the host's request
+/// for one with a second hello: the second, before the first action, is the same boot, not a
+/// reset at tick 0.
+#[test]
+fn a_boot_hello_before_the_first_tick_is_not_a_reset() {
+    let (host, mut link) = UnixStream::pair().expect("socket pair");
+    let fake = std::thread::spawn(move || {
+        use std::io::Read;
+        let mut policy = BlobPolicy::boot(BLOB).expect("boots");
+        let mut buf = [0u8; MAX_FRAME];
+        send(
+            &mut link,
+            encode(&FromChip::Hello(hello()), &mut buf).expect("fits"),
+        );
+        let (mut rx, mut byte) = (Receiver::new(), [0u8; 1]);
+        while let Ok(1) = link.read(&mut byte) {
+            let answer = match rx.push(byte[0]).map(|f| f.and_then(decode::<ToChip>)) {
+                Some(Ok(ToChip::Hello)) => FromChip::Hello(hello()),
+                Some(Ok(ToChip::Observe { tick, observation })) => {
+                    let mut action = [0.0f32; 2];
+                    firmware_sim::controller::Controller::act(
+                        &mut policy,
+                        &observation,
+                        &mut action,
+                    );
+                    FromChip::Action {
+                        tick,
+                        action: Values::from_slice(&action).expect("fits"),
+                        ticks: 540,
+                    }
+                }
+                _ => continue,
+            };
+            send(&mut link, encode(&answer, &mut buf).expect("fits"));
+        }
+    });
+    let options = ChipOptions {
+        link_name: "fake".into(),
+        timeout: Duration::from_millis(300),
+        ask_hello: true,
+        interrupt: None,
+        budget: None,
+    };
+    let name = firmware_sim::controller::Controller::name(&BlobPolicy::boot(BLOB).expect("boots"));
+    let mut chip = HilChip::connect(Box::new(host), None, options, name, 2, 2).expect("hello");
+    let s = Scenario::builtin("nav-walls").expect("builtin");
+    let report = evaluate_controller(&mut chip, &s, &cfg()).expect("runs");
+    assert_eq!(report.stopped.as_ref().map(|s| &s.reason), None);
+    assert_eq!(
+        format!("{:?}", report.without_timing().episodes),
+        format!("{:?}", host_report().without_timing().episodes)
+    );
+    drop(chip);
+    fake.join().expect("the fake chip ends when the host goes");
+}
+
+/// `--baud` with QEMU (whose UART has no speed), `--hil-firmware` with a board (which runs
+/// what is flashed on it) and `--baud 0` (B0 hangs up a real tty) were accepted and ignored.
+#[test]
+fn hil_flags_the_link_would_ignore_are_refused() {
+    let blob = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../models/nav-walls__dcp-paper__0.postcard"
+    );
+    let elf = concat!(env!("CARGO_MANIFEST_DIR"), "/Cargo.toml");
+    let cases: [(&[&str], &str); 3] = [
+        (
+            &["--blob", blob, "--hil", "qemu-m4f", "--baud", "9600"],
+            "error: --baud sets a serial port's speed; --hil qemu-m4f has none: drop --baud, or give --hil serial:PATH",
+        ),
+        (
+            &["--blob", blob, "--hil", "serial:/dev/ttyACM0", "--hil-firmware", elf],
+            "error: --hil-firmware is the ELF that QEMU runs; the board on serial:/dev/ttyACM0 runs the firmware flashed on it: drop --hil-firmware, or give --hil qemu-m4f|qemu-m3",
+        ),
+        (
+            &["--blob", blob, "--hil", "serial:/dev/ttyACM0", "--baud", "0"],
+            "error: invalid value '0' for '--baud <BAUD>': 0 is not in 1..=4294967295",
+        ),
+    ];
+    for (args, expected) in cases {
+        let (code, err) = cli(args);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert_eq!(err.trim_end(), expected, "{args:?}");
+    }
+}
+
+/// A 32-bit little-endian ARM ELF by hand: the slot symbols of firmware/memory.x and build
+/// attributes naming `cpu`, its Tag_CPU_arch and its Tag_CPU_arch_profile.
+fn arm_elf(cpu: &str, arch: u8, profile: u8) -> Vec<u8> {
+    let u16le = |v: u16| v.to_le_bytes().to_vec();
+    let u32le = |v: u32| v.to_le_bytes().to_vec();
+    // .ARM.attributes: version 'A', one "aeabi" subsection holding the file's attributes.
+    let mut tags = vec![67];
+    tags.extend(b"2.09\0");
+    tags.push(5);
+    tags.extend(cpu.as_bytes());
+    tags.extend([0, 6, arch, 7, profile]);
+    let mut file_attrs = vec![1];
+    file_attrs.extend(u32le(5 + tags.len() as u32));
+    file_attrs.extend(tags);
+    let mut attributes = vec![b'A'];
+    attributes.extend(u32le(4 + 6 + file_attrs.len() as u32));
+    attributes.extend(b"aeabi\0");
+    attributes.extend(file_attrs);
+    let strtab = b"\0_slot_a\0_slot_b\0_slot_size\0".to_vec();
+    let mut symtab = vec![0u8; 16];
+    for (name, value) in [(1u32, 0x0004_0000u32), (9, 0x0006_0000), (17, 0x0002_0000)] {
+        symtab.extend(u32le(name));
+        symtab.extend(u32le(value));
+        symtab.extend(u32le(0));
+        symtab.extend([0x10, 0]); // global, no type
+        symtab.extend(u16le(0xfff1)); // an absolute symbol
+    }
+    let shstrtab = b"\0.ARM.attributes\0.symtab\0.strtab\0.shstrtab\0".to_vec();
+    // The sections' bytes follow the 52-byte header; the section headers come last.
+    let bodies = [&attributes, &symtab, &strtab, &shstrtab];
+    let mut offsets = Vec::new();
+    let mut at = 52u32;
+    for body in bodies {
+        // Aligned, as the symbol table's entries must be.
+        at = at.next_multiple_of(4);
+        offsets.push(at);
+        at += body.len() as u32;
+    }
+    let shoff = at.next_multiple_of(4);
+    let mut elf = vec![0x7f, b'E', b'L', b'F', 1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0];
+    elf.extend(u16le(2)); // an executable
+    elf.extend(u16le(40)); // EM_ARM
+    elf.extend(u32le(1));
+    elf.extend(u32le(0x0000_0101)); // entry
+    elf.extend(u32le(0)); // no program headers
+    elf.extend(u32le(shoff));
+    elf.extend(u32le(0x0500_0000)); // EABI version 5
+    elf.extend(u16le(52));
+    elf.extend(u16le(32));
+    elf.extend(u16le(0));
+    elf.extend(u16le(40));
+    elf.extend(u16le(5));
+    elf.extend(u16le(4));
+    for (body, offset) in bodies.iter().zip(&offsets) {
+        elf.resize(*offset as usize, 0);
+        elf.extend(body.iter());
+    }
+    elf.resize(shoff as usize, 0);
+    elf.extend([0u8; 40]);
+    // name, type, flags, addr, offset, size, link, info, align, entsize
+    let headers = [
+        [
+            1,
+            0x7000_0003,
+            0,
+            0,
+            offsets[0],
+            attributes.len() as u32,
+            0,
+            0,
+            1,
+            0,
+        ],
+        [17, 2, 0, 0, offsets[1], symtab.len() as u32, 3, 1, 4, 16],
+        [25, 3, 0, 0, offsets[2], strtab.len() as u32, 0, 0, 1, 0],
+        [33, 3, 0, 0, offsets[3], shstrtab.len() as u32, 0, 0, 1, 0],
+    ];
+    for header in headers {
+        for field in header {
+            elf.extend(u32le(field));
+        }
+    }
+    elf
+}
+
+/// Only the ELF's machine was checked, which is ARM for Cortex-A firmware too: an A-profile
+/// ELF with the slot symbols passed as HIL firmware. The build attributes' profile decides.
+#[test]
+fn a_cortex_a_elf_with_the_slot_symbols_is_not_hil_firmware() {
+    use firmware_sim::hil::qemu::slot_addresses;
+    let dir = std::env::temp_dir().join(format!("firmware-sim-elf-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let cases = [
+        ("cortex-m4", 13, b'M', None),
+        ("cortex-m3", 10, b'M', None),
+        ("cortex-a9", 10, b'A', Some("built for an A-profile core (Cortex-A), architecture tag 10, not a Cortex-M (M-profile)")),
+        ("cortex-r5", 10, b'R', Some("built for an R-profile core (Cortex-R), architecture tag 10, not a Cortex-M (M-profile)")),
+    ];
+    for (cpu, arch, profile, refused) in cases {
+        let path = dir.join(format!("{cpu}.elf"));
+        std::fs::write(&path, arm_elf(cpu, arch, profile)).expect("write");
+        match (slot_addresses(&path), refused) {
+            (Ok(slots), None) => assert_eq!(
+                (slots.a, slots.b, slots.size),
+                (0x0004_0000, 0x0006_0000, 0x0002_0000),
+                "{cpu}"
+            ),
+            (Err(e), Some(reason)) => {
+                assert!(e.to_string().contains(reason), "{cpu}: {e}")
+            }
+            (outcome, _) => panic!("{cpu}: {outcome:?}"),
+        }
+    }
+    // And through the command line: one line, exit 2, before QEMU is looked for.
+    let elf = dir.join("cortex-a9.elf");
+    let (code, err) = cli(&[
+        "--blob",
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../models/nav-walls__dcp-paper__0.postcard"
+        ),
+        "--hil",
+        "qemu-m4f",
+        "--hil-firmware",
+        elf.to_str().expect("utf-8"),
+    ]);
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(code, Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("not a Cortex-M (M-profile)"), "{err}");
+}
+
+/// `--hil-firmware DIR` said "no such file" of a folder that exists.
+#[test]
+fn a_folder_as_hil_firmware_is_named_a_folder() {
+    let blob = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../models/nav-walls__dcp-paper__0.postcard"
+    );
+    let dir = env!("CARGO_MANIFEST_DIR");
+    let (code, err) = cli(&["--blob", blob, "--hil", "qemu-m4f", "--hil-firmware", dir]);
+    assert_eq!(code, Some(2), "{err}");
+    assert_eq!(
+        err.trim_end(),
+        format!("error: --hil-firmware {dir}: a folder, not an ELF file: give the firmware's ELF, such as target/cortex-m/hil/m4f/firmware.elf")
+    );
+}
+
+/// `--tick-timeout 1e300` printed the number as 301 digits.
+#[test]
+fn a_huge_tick_timeout_is_named_in_exponent_form() {
+    let blob = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../models/nav-walls__dcp-paper__0.postcard"
+    );
+    let (code, err) = cli(&[
+        "--blob",
+        blob,
+        "--hil",
+        "serial:/dev/null",
+        "--tick-timeout",
+        "1e300",
+    ]);
+    assert_eq!(code, Some(2), "{err}");
+    assert_eq!(
+        err.trim_end(),
+        "error: --tick-timeout must be in (0, 3600] seconds, found 1e300"
+    );
+}
+
+/// `kill -9` of `firmware-sim run --hil qemu-*` left QEMU running (re-parented to init) and its
+/// scratch folder in the temporary folder. Here QEMU is a stand-in on `PATH` that connects to
+/// the UART socket, says the hello and then outlives its link by a minute unless it is killed:
+/// once the run has started, its scratch folder is already gone, and after `kill -9` of
+/// firmware-sim no process of the run is left. (scripts/cortex-m.sh does the same with the
+/// real QEMU and HIL firmware.)
+#[test]
+fn kill_9_of_a_hil_run_leaves_no_qemu_and_no_scratch_folder() {
+    use std::io::{BufRead, BufReader};
+    use std::os::unix::fs::PermissionsExt;
+    if !std::path::Path::new("/usr/bin/setpriv").is_file() {
+        eprintln!("no /usr/bin/setpriv: QEMU cannot die with firmware-sim here; not checked");
+        return;
+    }
+    let root = std::env::temp_dir().join(format!("firmware-sim-kill9-{}", std::process::id()));
+    let (bin, tmp) = (root.join("bin"), root.join("tmp"));
+    std::fs::create_dir_all(&bin).expect("dir");
+    std::fs::create_dir_all(&tmp).expect("dir");
+    let fake = bin.join("qemu-system-arm");
+    std::fs::write(
+        &fake,
+        "#!/usr/bin/env python3\n\
+         import os, socket, sys, time\n\
+         path = [a.split('path=')[1] for a in sys.argv if a.startswith('socket,id=hil,path=')][0]\n\
+         s = socket.socket(socket.AF_UNIX)\n\
+         s.connect(path)\n\
+         s.sendall(bytes.fromhex(os.environ['FAKE_CHIP_HELLO']))\n\
+         while s.recv(4096):\n    pass\n\
+         time.sleep(60)\n",
+    )
+    .expect("fake QEMU");
+    std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).expect("chmod");
+    let elf = root.join("firmware.elf");
+    std::fs::write(&elf, arm_elf("cortex-m4", 13, b'M')).expect("elf");
+    let mut buf = [0u8; MAX_FRAME];
+    let hello_frame = encode(&FromChip::Hello(hello()), &mut buf).expect("fits");
+    let hex: String = hello_frame.iter().map(|b| format!("{b:02x}")).collect();
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let mut run = Command::new(BIN)
+        .args(["run", "--blob"])
+        .arg(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../models/nav-walls__dcp-paper__0.postcard"
+        ))
+        .args([
+            "--episodes",
+            "1",
+            "--tick-timeout",
+            "30",
+            "--hil",
+            "qemu-m4f",
+        ])
+        .arg("--hil-firmware")
+        .arg(&elf)
+        .env("PATH", path)
+        .env("TMPDIR", &tmp)
+        .env("FAKE_CHIP_HELLO", hex)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("firmware-sim");
+    let pid = run.id();
+    let mut lines = BufReader::new(run.stdout.take().expect("stdout")).lines();
+    let started = lines
+        .next()
+        .and_then(Result::ok)
+        .unwrap_or_else(|| panic!("no line from the run ({:?})", run.try_wait()));
+    assert!(started.ends_with("slot A runs"), "{started}");
+    // The chip has said its hello and waits for its first observation's answer.
+    let scratch = || -> Vec<String> {
+        std::fs::read_dir(&tmp)
+            .expect("tmp")
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect()
+    };
+    assert_eq!(
+        scratch(),
+        Vec::<String>::new(),
+        "the scratch folder outlived the boot"
+    );
+    run.kill().expect("kill -9");
+    run.wait().expect("reaped");
+    // The stand-in names the run's socket, under our TMPDIR, on its command line.
+    let marker = format!("firmware-sim-hil-{pid}-");
+    let left = || -> Vec<String> {
+        std::fs::read_dir("/proc")
+            .expect("/proc")
+            .flatten()
+            .filter_map(|e| std::fs::read(e.path().join("cmdline")).ok())
+            .map(|c| String::from_utf8_lossy(&c).replace('\0', " "))
+            .filter(|c| c.contains(&marker))
+            .collect()
+    };
+    let deadline = std::time::Instant::now() + Duration::from_secs(5);
+    while !left().is_empty() && std::time::Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert_eq!(left(), Vec::<String>::new(), "QEMU outlived firmware-sim");
+    assert_eq!(scratch(), Vec::<String>::new());
+    let _ = std::fs::remove_dir_all(&root);
+}

@@ -99,3 +99,32 @@ fn teams_with_a_blob_that_does_not_boot_says_fail_on_stderr() {
     assert!(err.starts_with("FAIL: "), "{err}");
     assert!(err.contains("did not boot"), "{err}");
 }
+
+/// A player folder without `player.toml` among a team's players (an export killed mid-way)
+/// was skipped, and the smaller team played with exit 0: it is refused in one line, naming the
+/// folder. A hidden folder (where an export writes before its players take their place) is not
+/// a player.
+#[test]
+fn a_player_folder_without_its_manifest_is_refused_not_skipped() {
+    let dir = Scratch::new("teams-cli", "incomplete");
+    let team = team_folder(&dir.path("team"));
+    std::fs::create_dir_all(dir.path("team/players/.players.partial/p00")).expect("dir");
+    let ok = teams(&["--a", &team, "--b", "scripted", "--points", "4"]);
+    assert_eq!(ok.status.code(), Some(0), "{}", stderr(&ok));
+    let cut = dir.path("team/players/p02");
+    std::fs::create_dir_all(&cut).expect("dir");
+    std::fs::copy(
+        Path::new(EXAMPLE).join("catch.postcard"),
+        cut.join("catch.postcard"),
+    )
+    .expect("copy");
+    let o = teams(&["--a", &team, "--b", "scripted", "--points", "4"]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains(&format!("{}", cut.display()))
+            && err.contains("without player.toml: an incomplete player"),
+        "{err}"
+    );
+}

@@ -103,6 +103,14 @@ pub enum Error {
         /// The parser's message (one line).
         message: String,
     },
+    /// A `reproduce` part that would run runs of a part already running on the same `--out`
+    /// (the same part again, or one that shares runs with it).
+    PartRunning {
+        /// The grid's `--out`.
+        path: PathBuf,
+        /// The running part and its process, and how it meets this one.
+        running: String,
+    },
     /// Another process writes into the folder (it holds the folder's lock).
     Locked {
         /// The run or sweep folder.
@@ -204,6 +212,11 @@ impl fmt::Display for Error {
             Error::GridRecord { path, message } => write!(
                 f,
                 "{} is not a grid record ({message}); it must hold experiment, seeds and quick as reproduce wrote them: restore it from the command that made the runs, or use another --out",
+                path.display()
+            ),
+            Error::PartRunning { path, running } => write!(
+                f,
+                "{}: {running}; wait for it or stop it (parts that share no run go side by side)",
                 path.display()
             ),
             Error::Locked { path, holder } => write!(

@@ -1205,6 +1205,45 @@ fn team_bad_input_is_one_line_and_writes_nothing() {
     std::fs::remove_dir_all(&out_dir).expect("cleanup");
 }
 
+/// `team --resume OUTDIR` (the `--out` folder, not the team folder inside it) gave the system's
+/// raw missing-file error on OUTDIR/checkpoint.postcard; it names the team folder to give.
+#[test]
+fn team_resume_of_the_out_folder_names_the_team_inside() {
+    let out_dir = scratch("team-resume-out");
+    let dir = out_dir.to_str().expect("utf-8");
+    let out = host_trainer(&["team", "--resume", dir]);
+    assert_one_line_error(
+        &out,
+        &[
+            "no team checkpoint (checkpoint.postcard)",
+            "not a team folder",
+        ],
+    );
+    let tiny = [
+        "team",
+        "--players",
+        "2",
+        "--points",
+        "4",
+        "--out",
+        dir,
+        "--quiet",
+    ];
+    assert_ok(&host_trainer(&tiny));
+    let team = out_dir.join("badminton__dcp-t16__0");
+    let out = host_trainer(&["team", "--resume", dir]);
+    assert_one_line_error(
+        &out,
+        &[&format!(
+            "it holds the team folder {}; resume with --resume {}",
+            team.display(),
+            team.display()
+        )],
+    );
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("os error"));
+    std::fs::remove_dir_all(&out_dir).expect("cleanup");
+}
+
 /// `--threads` had no upper bound: 100,000 started threads one by one for over a minute. Above
 /// the cap (1024, the same on every machine) it is refused when the command line is parsed,
 /// in one line naming the range, before anything starts or is written.
@@ -1423,4 +1462,76 @@ fn the_summary_after_resume_gives_the_runs_total_steps_and_this_parts() {
         "{stdout}"
     );
     std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
+/// docs/cortex-m.md exported slot A as Intel HEX, then checked `policy.slot-a.bin` in
+/// firmware-sim, which no step had written. The page's steps run here in order: each export
+/// command as written, and every image a later step checks, flashes or loads must exist by
+/// then (slot records that verify, for the raw ones).
+#[test]
+fn the_cortex_m_pages_slot_steps_write_every_image_they_use() {
+    let page = include_str!("../../docs/cortex-m.md");
+    let start = page
+        .find("**2. A policy, any number of times.**")
+        .expect("step 2");
+    let end = page[start..]
+        .find("Any blob up to 64 wide")
+        .expect("the end of the steps");
+    let work = scratch("cortex-m-steps");
+    let runs = work.join("runs");
+    std::fs::create_dir_all(&runs).expect("runs");
+    for seed in ["0", "1"] {
+        let out = host_trainer(&[
+            "train",
+            "--episodes",
+            "2",
+            "--seed",
+            seed,
+            "--out",
+            runs.to_str().expect("utf-8"),
+            "--quiet",
+        ]);
+        assert_ok(&out);
+    }
+    let exists = |file: &str, step: &str| {
+        let path = work.join(file);
+        assert!(
+            path.is_file(),
+            "{step}: {file} was not written by an earlier step"
+        );
+        if file.ends_with(".bin") {
+            let image = std::fs::read(&path).expect("image");
+            policy_core::slot::read(&image).expect("a slot record");
+        }
+    };
+    let (mut exports, mut uses) = (0, 0);
+    let text = page[start..start + end].replace("\\\n", " ");
+    for line in text.lines().map(str::trim) {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        if let Some(args) = line.strip_prefix("cargo run --release -- export ") {
+            let args: Vec<&str> = std::iter::once("export")
+                .chain(args.split_whitespace())
+                .collect();
+            let out = command(&args).current_dir(&work).output().expect("runs");
+            assert_ok(&out);
+            exports += 1;
+        } else if line.contains("firmware-sim -- run") {
+            for flag in ["--slot-a", "--slot-b"] {
+                let at = words.iter().position(|w| *w == flag).expect(flag);
+                exists(words[at + 1], line);
+                uses += 1;
+            }
+        } else if line.starts_with("probe-rs download") {
+            exists(words.last().expect("a file"), line);
+            uses += 1;
+        } else if line.contains("loader,file=") {
+            for part in line.split("loader,file=").skip(1) {
+                let file = part.split([',', ' ']).next().expect("a file");
+                exists(file, line);
+                uses += 1;
+            }
+        }
+    }
+    assert_eq!((exports, uses), (5, 6), "the steps the page holds");
+    std::fs::remove_dir_all(&work).expect("cleanup");
 }

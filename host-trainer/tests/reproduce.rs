@@ -289,6 +289,9 @@ fn experiment_two_trains_its_teams_in_slices_and_measures_them() {
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
 
+/// A second process of the same part is refused before any run starts, named as the part
+/// already running on that grid (it was once "one train, export or sweep writes a folder at a
+/// time", as if another command held the folder).
 #[test]
 fn a_second_process_of_the_same_part_is_refused() {
     let out = scratch("reproduce-lock");
@@ -296,7 +299,14 @@ fn a_second_process_of_the_same_part_is_refused() {
     std::fs::create_dir_all(&part).expect("part dir");
     let held = host_trainer::run::lock::acquire(&part).expect("the lock");
     let refused = reproduce(&out, &[]);
-    assert_one_line_error(&refused, &["is in use by"]);
+    assert_one_line_error(
+        &refused,
+        &[
+            "part 0/1 of this grid is already running there (host-trainer process",
+            "wait for it or stop it",
+        ],
+    );
+    assert!(!String::from_utf8_lossy(&refused.stderr).contains("train, export or sweep"));
     assert!(!out.join("runs").exists(), "no run started");
     drop(held);
     std::fs::remove_dir_all(&out).expect("cleanup");

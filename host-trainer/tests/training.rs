@@ -1235,4 +1235,69 @@ fn a_step_budget_ends_the_run_with_the_episode_that_reaches_it() {
         ..TrainConfig::smoke(Algo::Dcp, 3)
     };
     assert!(zero.validate().is_err());
+
+/// An export killed mid-way left `players/` with some players and a player folder without its
+/// manifest, which `firmware-sim teams` played as a smaller team. The players are written into
+/// a hidden sibling first and put in place whole: what a killed export left there is removed,
+/// and `players/` holds exactly the team's players.
+#[test]
+fn a_team_export_is_written_aside_and_put_in_place_whole() {
+    use host_trainer::team::config::TeamConfig;
+    use host_trainer::team::folder::{TeamRun, MANIFEST, PARTIAL_PLAYERS, PLAYERS};
+    let out = scratch("team-export");
+    let config = TeamConfig {
+        players: 2,
+        points: 4,
+        agent: TrainConfig::smoke(Algo::Dcp, 0).agent,
+        ..TeamConfig::default()
+    };
+    let run = TeamRun::create(config, &out).expect("team");
+    let dir = run.dir.path().to_path_buf();
+    // What a killed export leaves: a half-written hidden folder, and an old players/ holding a
+    // player this team does not have.
+    std::fs::create_dir_all(dir.join(PARTIAL_PLAYERS).join("p00")).expect("dir");
+    std::fs::write(
+        dir.join(PARTIAL_PLAYERS).join("p00/catch.postcard"),
+        b"half",
+    )
+    .expect("write");
+    std::fs::create_dir_all(dir.join(PLAYERS).join("p07")).expect("dir");
+    let folders = run.export().expect("export");
+    assert_eq!(folders, [dir.join("players/p00"), dir.join("players/p01")]);
+    assert!(!dir.join(PARTIAL_PLAYERS).exists());
+    let mut names: Vec<String> = std::fs::read_dir(dir.join(PLAYERS))
+        .expect("players")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["p00", "p01"]);
+    for folder in &folders {
+        let manifest = std::fs::read_to_string(folder.join(MANIFEST)).expect("manifest");
+        assert!(
+            manifest.contains(&format!("--p0 {}", folder.display())),
+            "the manifest names the folder it ends up in:\n{manifest}"
+        );
+    }
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+/// PPO's actor was described as "4×48 tanh" in its module docs and the pages copied from them,
+/// while its blob (like DDPG's and DCP's) has ReLU hidden layers and a tanh output only.
+#[test]
+fn ppos_actor_is_described_with_the_activation_its_blob_carries() {
+    let out = scratch("ppo-activation");
+    let (trainer, run) = train_to_end(TrainConfig::smoke(Algo::Ppo, 0), &out);
+    trainer.export(&run).expect("export");
+    let blob = std::fs::read(run.file(folder::POLICY)).expect("blob");
+    let model = policy_core::model::Model::from_blob(&blob).expect("boots");
+    assert_eq!(model.header().activation, policy_core::Activation::Relu);
+    for (name, text) in [
+        ("ppo.rs", include_str!("../src/algorithms/ppo.rs")),
+        ("design.md", include_str!("../../docs/design.md")),
+        ("training.md", include_str!("../../docs/training.md")),
+    ] {
+        assert!(!text.contains("4×48 tanh actor"), "{name}");
+        assert!(text.contains("4×48 ReLU"), "{name}");
+    }
+    std::fs::remove_dir_all(&out).expect("cleanup");
 }

@@ -19,8 +19,12 @@ use super::Config;
 use crate::env::Plant;
 use crate::Error;
 
-/// The most grid steps per action dimension.
+/// The most grid steps per action dimension of the catch map (N² critic evaluations).
 pub const MAX_GRID: usize = 200;
+/// The most grid steps per action dimension of the serve map: N³ serves, each played to its
+/// landing point (about 30 µs each), for a picture of some 600 squares. 64 steps are 262,144
+/// serves, seconds of work and hundreds per square; 200 were 8,000,000, minutes.
+pub const MAX_SERVE_GRID: usize = 64;
 
 /// A critic's values at points of the court (own frame of player 0 = world frame).
 #[derive(Clone, Debug, PartialEq)]
@@ -53,7 +57,7 @@ pub struct Map {
 /// ```
 pub fn catch_map(config: &Config, critic: &[u8], n: usize) -> Result<Map, Error> {
     let critic = boot_critic(critic, Role::Catch)?;
-    check_grid(n)?;
+    check_grid(n, MAX_GRID, "")?;
     let mut game = Badminton::new(config)?;
     let mut server = PlayerKind::Scripted.build(config, 0, 1);
     game.set_server(1);
@@ -103,7 +107,12 @@ pub fn catch_map(config: &Config, critic: &[u8], n: usize) -> Result<Map, Error>
 /// ball lands (the plant plays the serve to its dead ball); net balls are counted apart.
 pub fn serve_map(config: &Config, critic: &[u8], n: usize) -> Result<Map, Error> {
     let critic = boot_critic(critic, Role::Serve)?;
-    check_grid(n)?;
+    check_grid(
+        n,
+        MAX_SERVE_GRID,
+        " for a serve map, whose N³ serves are each played to their landing (the picture shows \
+         some 600 squares: more steps add work, not detail)",
+    )?;
     let mut game = Badminton::new(config)?;
     game.set_server(0);
     let turn = game.reset(0);
@@ -147,9 +156,10 @@ pub fn serve_map(config: &Config, critic: &[u8], n: usize) -> Result<Map, Error>
     })
 }
 
-/// The map as an SVG picture: the court's outline and net, each point a square coloured by its
-/// Q on the viridis scale from the map's smallest Q (dark) to its largest (yellow); the catch
-/// map's incoming ball as a red cross.
+/// The map as an SVG picture: the court's outline and net, the points binned into squares of a
+/// fifteenth of half the court's length, each coloured by the mean Q of its points on the
+/// viridis scale from the map's smallest Q (dark) to its largest (yellow); the catch map's
+/// incoming ball as a red cross.
 pub fn svg(map: &Map, config: &Config, title: &str) -> Result<String, Error> {
     let court = Court::of(&config.court);
     let (l, w) = (court.half_length, court.half_width);
@@ -198,8 +208,10 @@ fn draw(
         .y_desc("y (m)")
         .draw()?;
     let span = (hi - lo).max(f32::MIN_POSITIVE);
-    let cell = 2.0 * l / 60.0;
-    chart.draw_series(map.points.iter().map(|&(x, y, q)| {
+    let side = l / CELLS_PER_HALF_LENGTH;
+    let cell = side / 2.0;
+    let drawn = cells(&map.points, side, (l + 1.0, w + 1.0));
+    chart.draw_series(drawn.into_iter().map(|(x, y, q)| {
         let colour = if q.is_finite() {
             ViridisRGB::get_color(f64::from((q - lo) / span))
         } else {
@@ -222,6 +234,38 @@ fn draw(
     root.present()
 }
 
+/// Drawn cells along half the court's length: the squares of the picture.
+const CELLS_PER_HALF_LENGTH: f64 = 15.0;
+
+/// The points as the picture shows them: binned into squares of `side` (each the mean of its
+/// finite Qs, NaN if it has none), those beyond the drawn area `(x, y)` left out. The picture's
+/// size is then bounded by the court's area, whatever the grid (a 200-step serve grid made an
+/// SVG of 400 MB when every point was a square of its own).
+fn cells(points: &[(f64, f64, f32)], side: f64, (xm, ym): (f64, f64)) -> Vec<(f64, f64, f32)> {
+    let mut bins = std::collections::BTreeMap::<(i64, i64), (f64, u32)>::new();
+    for &(x, y, q) in points {
+        if x.abs() > xm || y.abs() > ym {
+            continue;
+        }
+        let key = ((x / side).floor() as i64, (y / side).floor() as i64);
+        let bin = bins.entry(key).or_insert((0.0, 0));
+        if q.is_finite() {
+            *bin = (bin.0 + f64::from(q), bin.1 + 1);
+        }
+    }
+    let centre = |i: i64| (i as f64 + 0.5) * side;
+    bins.into_iter()
+        .map(|((i, j), (sum, n))| {
+            let q = if n == 0 {
+                f32::NAN
+            } else {
+                (sum / f64::from(n)) as f32
+            };
+            (centre(i), centre(j), q)
+        })
+        .collect()
+}
+
 /// The landing point of a flight that lands (in or out); none for a net ball.
 fn landing(fate: Fate) -> Option<Vec2> {
     match fate {
@@ -239,13 +283,13 @@ fn grid(i: usize, n: usize) -> f32 {
     }
 }
 
-fn check_grid(n: usize) -> Result<(), Error> {
-    if (1..=MAX_GRID).contains(&n) {
+fn check_grid(n: usize, max: usize, why: &str) -> Result<(), Error> {
+    if (1..=max).contains(&n) {
         Ok(())
     } else {
         Err(Error::Config {
             field: "--grid",
-            message: format!("expected 1..={MAX_GRID} steps per action, found {n}"),
+            message: format!("expected 1..={max} steps per action{why}, found {n}"),
         })
     }
 }

@@ -177,8 +177,21 @@ pub fn team_of(arg: &str) -> Result<Vec<PlayerKind>, Error> {
     let mut folders = Vec::new();
     for entry in std::fs::read_dir(&dir).map_err(io)? {
         let folder = entry.map_err(io)?.path();
+        // A hidden folder is not a player (an export writes its players into one first).
+        let hidden = folder
+            .file_name()
+            .is_some_and(|n| n.to_string_lossy().starts_with('.'));
         if folder.join(super::blob_player::MANIFEST).is_file() {
             folders.push(folder);
+        } else if folder.is_dir() && !hidden {
+            // Playing the others would be a smaller team than the one trained, without a word.
+            return Err(Error::Player {
+                player: folder.display().to_string(),
+                message: format!(
+                    "a folder among the team's players without {}: an incomplete player (an export stopped mid-way?); export the team again, or remove the folder",
+                    super::blob_player::MANIFEST
+                ),
+            });
         }
     }
     folders.sort();

@@ -26,7 +26,8 @@ pub(crate) struct HeatmapArgs {
     /// The SVG file to write.
     #[arg(long)]
     out: PathBuf,
-    /// Grid steps per action dimension (catch: N×N targets; serve: N×N×N serves).
+    /// Grid steps per action dimension (catch: N×N targets, N at most 200; serve: N×N×N
+    /// serves, N at most 64).
     #[arg(long, default_value_t = 41)]
     grid: usize,
     /// Badminton scenario: badminton or a scenario file.

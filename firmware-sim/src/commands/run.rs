@@ -145,9 +145,9 @@ pub(crate) struct RunArgs {
     /// (or m3), where `bash scripts/cortex-m.sh --hil-only` builds it].
     #[arg(long, requires = "hil")]
     hil_firmware: Option<PathBuf>,
-    /// Serial speed for --hil serial:PATH.
-    #[arg(long, requires = "hil", default_value_t = 115_200)]
-    baud: u32,
+    /// Serial speed for --hil serial:PATH, in baud [default: 115200].
+    #[arg(long, requires = "hil", value_parser = clap::value_parser!(u32).range(1..))]
+    baud: Option<u32>,
     /// The longest wait, in seconds, for the chip's hello or for one tick's action.
     #[arg(long, requires = "hil", default_value_t = 5.0)]
     tick_timeout: f64,
@@ -159,6 +159,9 @@ pub(crate) struct RunArgs {
     #[arg(long, requires = "hil", hide = true, allow_hyphen_values = true)]
     hil_qemu_arg: Vec<String>,
 }
+
+/// `--baud` when not given: the HIL firmware's UART speed.
+const DEFAULT_BAUD: u32 = 115_200;
 
 /// Where `--hil` finds the chip.
 #[derive(Clone, Debug)]
@@ -182,6 +185,7 @@ pub(crate) fn parse_hil(s: &str) -> Result<HilTarget, String> {
 
 /// Runs the evaluation; `Ok(passed)`. All input is checked before the first episode.
 pub(crate) fn run(args: &RunArgs) -> Result<bool> {
+    hil_flags_ok(args)?;
     outputs_ok(args.json.as_deref(), args.svg.as_deref())?;
     if let Some(command) = &args.plant_cmd {
         return run_on_plant(args, command);
@@ -379,7 +383,8 @@ fn plant_test_config(args: &RunArgs) -> Result<PlantTestConfig> {
 fn seconds(flag: &str, s: f64) -> Result<Duration> {
     anyhow::ensure!(
         s.is_finite() && s > 0.0 && s <= 3600.0,
-        "{flag} must be in (0, 3600] seconds, found {s}"
+        "{flag} must be in (0, 3600] seconds, found {}",
+        firmware_sim::error::number(s)
     );
     Ok(Duration::from_secs_f64(s))
 }
@@ -505,7 +510,8 @@ pub(crate) fn connect_chip(
                 )
             }
             (HilTarget::Serial(path), _) => {
-                let port = open_serial(path, args.baud).map_err(firmware_sim::Error::Hil)?;
+                let baud = args.baud.unwrap_or(DEFAULT_BAUD);
+                let port = open_serial(path, baud).map_err(firmware_sim::Error::Hil)?;
                 (format!("serial:{path}"), Box::new(port), None)
             }
             (HilTarget::Qemu(_), None) => unreachable!("QEMU targets have a firmware"),
@@ -570,9 +576,30 @@ pub(crate) fn connect_chip(
     Ok((chip, host.error))
 }
 
+/// Refuses the `--hil` flags that the chosen link would ignore: a speed for QEMU's UART, an ELF
+/// for a board (which runs what is flashed on it).
+fn hil_flags_ok(args: &RunArgs) -> Result<()> {
+    match &args.hil {
+        Some(HilTarget::Qemu(machine)) if args.baud.is_some() => anyhow::bail!(
+            "--baud sets a serial port's speed; --hil {} has none: drop --baud, or give --hil serial:PATH",
+            machine.name()
+        ),
+        Some(HilTarget::Serial(path)) if args.hil_firmware.is_some() => anyhow::bail!(
+            "--hil-firmware is the ELF that QEMU runs; the board on serial:{path} runs the firmware flashed on it: drop --hil-firmware, or give --hil qemu-m4f|qemu-m3"
+        ),
+        _ => Ok(()),
+    }
+}
+
 /// The HIL firmware ELF: `--hil-firmware`, else where scripts/cortex-m.sh builds it.
 pub(crate) fn hil_firmware(args: &RunArgs, machine: Machine) -> Result<PathBuf> {
     if let Some(elf) = &args.hil_firmware {
+        anyhow::ensure!(
+            !elf.is_dir(),
+            "--hil-firmware {}: a folder, not an ELF file: give the firmware's ELF, such as {}",
+            elf.display(),
+            machine.default_firmware(Path::new("target")).display()
+        );
         anyhow::ensure!(
             elf.is_file(),
             "--hil-firmware {}: no such file",
@@ -682,8 +709,10 @@ impl Outputs {
             .svg
             .as_ref()
             .map(|p| {
-                let plot =
-                    AtomicFile::create(p).and_then(|f| SvgWriter::start(f, scenario, controller));
+                let wall_change = args.faults.parse::<Faults>().ok().and_then(|f| f.wall);
+                let plot = AtomicFile::create(p).and_then(|f| {
+                    SvgWriter::start_with_faults(f, scenario, controller, wall_change)
+                });
                 written(plot, p).map(|w| (w, p.clone()))
             })
             .transpose()?;

@@ -26,6 +26,9 @@ pub trait Backend: Send {
     /// Why the chip went away, if it knows (QEMU's exit status and last output line), waiting
     /// up to `grace` for it to go (a closed link usually means it is going).
     fn exit_note(&mut self, grace: Duration) -> Option<String>;
+    /// The chip said its hello: it has booted, so whatever it read at boot has been read
+    /// (QEMU's slot images), and what was kept for that can go.
+    fn booted(&mut self) {}
 }
 
 /// The chip in the loop (see the module docs).
@@ -204,18 +207,36 @@ impl HilChip {
         if options.ask_hello {
             chip.send(&ToChip::Hello)?;
         }
+        // One deadline for the whole wait: what comes before the hello does not restart it.
+        let deadline = Instant::now() + chip.timeout;
+        let mut before = BeforeHello::default();
         loop {
-            match chip.receive("the hello") {
+            match chip.receive(deadline) {
                 Ok(FromChip::Hello(hello)) => {
                     chip.hello = hello;
+                    if let Some(backend) = chip.backend.as_mut() {
+                        backend.booted();
+                    }
                     return Ok(chip);
                 }
                 // A board's line may carry noise (or answers to an earlier host) before it.
-                Ok(_) | Err(Frame::Bad(_)) if options.ask_hello => continue,
+                Ok(other) if options.ask_hello => before.messages.push(what(&other)),
+                Err(Frame::Bad(hil_protocol::Error::Version { found })) if options.ask_hello => {
+                    before.versions.push(found)
+                }
+                Err(Frame::Bad(_)) if options.ask_hello => before.bad += 1,
                 Ok(other) => {
                     return Err(
                         chip.fail(format!("the chip sent {} before its hello", what(&other)))
                     )
+                }
+                Err(Frame::Silent) if !before.is_empty() => {
+                    let text = format!(
+                        "no hello within {:.1} s: received {}",
+                        chip.timeout.as_secs_f64(),
+                        before.describe()
+                    );
+                    return Err(chip.fail(text));
                 }
                 Err(e) => return Err(chip.frame_error(e, "the hello")),
             }
@@ -260,9 +281,8 @@ impl HilChip {
         Ok(())
     }
 
-    /// The next frame from the chip, within the timeout.
-    fn receive(&mut self, waiting_for: &str) -> Result<FromChip, Frame> {
-        let deadline = Instant::now() + self.timeout;
+    /// The next frame from the chip, before `deadline`.
+    fn receive(&mut self, deadline: Instant) -> Result<FromChip, Frame> {
         loop {
             while self.inpos < self.inbuf.len() {
                 let byte = self.inbuf[self.inpos];
@@ -280,7 +300,6 @@ impl HilChip {
             }
             let now = Instant::now();
             if now >= deadline {
-                let _ = waiting_for;
                 return Err(Frame::Silent);
             }
             self.inbuf.resize(4096, 0);
@@ -351,7 +370,21 @@ impl HilChip {
         })?;
         self.send(&ToChip::Observe { tick, observation })?;
         let waiting_for = format!("the action of tick {tick}");
-        match self.receive(&waiting_for) {
+        let deadline = Instant::now() + self.timeout;
+        let mut message = self.receive(deadline);
+        // A board that boots as its port opens sends its boot hello and then answers the
+        // host's request with another: before the first action, a hello is that boot, not a
+        // reset.
+        while let (Ok(FromChip::Hello(hello)), 0) = (&message, self.stats.ticks) {
+            if *hello != self.hello {
+                let (first, then) = (describe_boot(&self.hello), describe_boot(hello));
+                return Err(self.fail(format!(
+                    "the chip sent a second hello before its first action, naming another boot (first: {first}; then: {then}): it reset, or the port held an old boot's hello"
+                )));
+            }
+            message = self.receive(deadline);
+        }
+        match message {
             Ok(FromChip::Action {
                 tick: t,
                 action: a,
@@ -388,6 +421,64 @@ impl HilChip {
                 Err(self.fail(format!("the chip refused tick {tick}: {reason}")))
             }
             Err(e) => Err(self.frame_error(e, &waiting_for)),
+        }
+    }
+}
+
+/// What came on a serial line before the hello.
+#[derive(Default)]
+struct BeforeHello {
+    /// Frames that did not decode (noise, a cut frame).
+    bad: usize,
+    /// The versions of frames of another protocol version.
+    versions: Vec<u16>,
+    /// Messages other than a hello.
+    messages: Vec<&'static str>,
+}
+
+impl BeforeHello {
+    fn is_empty(&self) -> bool {
+        self.bad == 0 && self.versions.is_empty() && self.messages.is_empty()
+    }
+
+    /// `14 bad frames, 1 other message (an action) and 1 frame of protocol version 2 ...`.
+    fn describe(&self) -> String {
+        let plural =
+            |n: usize, one: &str, many: &str| format!("{n} {}", if n == 1 { one } else { many });
+        let mut parts = Vec::new();
+        if self.bad > 0 {
+            parts.push(plural(self.bad, "bad frame", "bad frames"));
+        }
+        if !self.messages.is_empty() {
+            let mut kinds = self.messages.clone();
+            kinds.sort_unstable();
+            kinds.dedup();
+            parts.push(format!(
+                "{} ({})",
+                plural(
+                    self.messages.len(),
+                    "message other than a hello",
+                    "messages other than a hello"
+                ),
+                kinds.join(", ")
+            ));
+        }
+        if !self.versions.is_empty() {
+            let mut versions = self.versions.clone();
+            versions.sort_unstable();
+            versions.dedup();
+            let versions: Vec<String> = versions.iter().map(u16::to_string).collect();
+            parts.push(format!(
+                "{} of protocol version {} (firmware-sim speaks version {}: flash a HIL firmware of this version)",
+                plural(self.versions.len(), "frame", "frames"),
+                versions.join(", "),
+                hil_protocol::VERSION
+            ));
+        }
+        match parts.split_last() {
+            Some((last, [])) => last.clone(),
+            Some((last, rest)) => format!("{} and {last}", rest.join(", ")),
+            None => "nothing".to_string(),
         }
     }
 }

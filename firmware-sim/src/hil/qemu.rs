@@ -3,6 +3,7 @@
 //! counts instructions), and kill it when the run ends, whatever way it ends.
 
 use std::fs;
+use std::io::{Read, Seek, SeekFrom};
 use std::os::unix::net::{UnixListener, UnixStream};
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
@@ -77,6 +78,14 @@ pub fn slot_addresses(elf: &Path) -> Result<SlotAddresses, Error> {
             file.architecture()
         )));
     }
+    let core =
+        arm_core(&file).map_err(|e| bad(format!("unreadable ARM build attributes ({e})")))?;
+    if !core.is_m_profile() {
+        return Err(bad(format!(
+            "built for {}, not a Cortex-M (M-profile): give the HIL firmware that scripts/cortex-m.sh --hil-only builds",
+            core.describe()
+        )));
+    }
     let find = |name: &str| {
         file.symbols()
             .find(|s| s.name() == Ok(name))
@@ -94,12 +103,106 @@ pub fn slot_addresses(elf: &Path) -> Result<SlotAddresses, Error> {
     })
 }
 
+/// What an ARM ELF's build attributes (`.ARM.attributes`, the "aeabi" file attributes) say
+/// about the core it was built for: every ARM toolchain (rustc's LLVM, arm-none-eabi-gcc)
+/// writes them, and they tell an M-profile core from an A- or R-profile one, which the ELF's
+/// machine (ARM for all three) does not.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct ArmCore {
+    /// Tag_CPU_arch: 11 v6-M, 12 v6S-M, 13 v7E-M, 16 v8-M baseline, 17 v8-M mainline, 21
+    /// v8.1-M mainline; 10 is v7 (A, R or M: the profile says which).
+    arch: Option<u64>,
+    /// Tag_CPU_arch_profile: `A`, `R`, `M` or `S` (A or R), as its character.
+    profile: Option<u8>,
+}
+
+impl ArmCore {
+    fn is_m_profile(self) -> bool {
+        match self.profile {
+            Some(p) => p == b'M',
+            None => matches!(self.arch, Some(11 | 12 | 13 | 16 | 17 | 21)),
+        }
+    }
+
+    fn describe(self) -> String {
+        let profile = match self.profile {
+            Some(b'A') => "an A-profile core (Cortex-A)".to_string(),
+            Some(b'R') => "an R-profile core (Cortex-R)".to_string(),
+            Some(b'S') => "an A- or R-profile core".to_string(),
+            Some(p) => format!("a core of profile {:?}", char::from(p)),
+            None => "a core of no stated profile".to_string(),
+        };
+        match (self.arch, self.profile) {
+            (None, None) => "a core its build attributes do not name (no .ARM.attributes)".into(),
+            (Some(arch), _) => format!("{profile}, architecture tag {arch}"),
+            (None, _) => profile,
+        }
+    }
+}
+
+/// Reads Tag_CPU_arch and Tag_CPU_arch_profile from the ELF's file attributes.
+fn arm_core(file: &object::File<'_>) -> object::read::Result<ArmCore> {
+    use object::read::elf::AttributesSection;
+    use object::ObjectSection;
+    let mut core = ArmCore::default();
+    let Some(section) = file.section_by_name(".ARM.attributes") else {
+        return Ok(core);
+    };
+    let data = section.data()?;
+    let attributes = AttributesSection::<object::elf::FileHeader32<object::Endianness>>::new(
+        file.endianness(),
+        data,
+    )?;
+    let mut subsections = attributes.subsections()?;
+    while let Some(subsection) = subsections.next()? {
+        if subsection.vendor() != b"aeabi" {
+            continue;
+        }
+        let mut subsubsections = subsection.subsubsections();
+        while let Some(subsubsection) = subsubsections.next()? {
+            // Tag_File: attributes of the whole file.
+            if subsubsection.tag() != 1 {
+                continue;
+            }
+            let mut reader = subsubsection.attributes();
+            while let Some(tag) = reader.read_tag()? {
+                // The ARM ABI's rule for a tag's type: 4, 5 and 67 are strings, 32 a number
+                // then a string; other tags below 32 numbers, above it odd ones strings.
+                match tag {
+                    4 | 5 | 67 => {
+                        reader.read_string()?;
+                    }
+                    32 => {
+                        reader.read_integer()?;
+                        reader.read_string()?;
+                    }
+                    6 => core.arch = Some(reader.read_integer()?),
+                    7 => core.profile = u8::try_from(reader.read_integer()?).ok(),
+                    t if t > 32 && t % 2 == 1 => {
+                        reader.read_string()?;
+                    }
+                    _ => {
+                        reader.read_integer()?;
+                    }
+                }
+            }
+        }
+    }
+    Ok(core)
+}
+
 /// A running QEMU: killed and reaped, and its scratch folder removed, when dropped.
+///
+/// The scratch folder (the UART socket, the slot images, QEMU's log) is removed as soon as the
+/// chip has booted: QEMU has read the images and holds its socket and log open, and the log is
+/// read through a handle kept here. A `kill -9` of firmware-sim after that leaves nothing
+/// behind (QEMU dies with it by its parent-death signal); one during QEMU's start leaves the
+/// folder to the next run's clean-up.
 #[derive(Debug)]
 pub struct Qemu {
     child: Child,
     dir: PathBuf,
-    log: PathBuf,
+    log: fs::File,
 }
 
 static RUNS: AtomicU32 = AtomicU32::new(0);
@@ -154,6 +257,8 @@ pub fn start(
     cmd.arg("-kernel").arg(elf).args(extra);
     let log = dir.join("qemu.log");
     let out = fs::File::create(&log).map_err(|e| io("cannot create QEMU's log", e))?;
+    // Read through its own handle: the folder goes once the chip has booted.
+    let log_reader = fs::File::open(&log).map_err(|e| io("cannot read QEMU's log", e))?;
     let err = out
         .try_clone()
         .map_err(|e| io("cannot create QEMU's log", e))?;
@@ -173,7 +278,11 @@ pub fn start(
         }
     })?;
     std::mem::forget(cleanup);
-    let mut qemu = Qemu { child, dir, log };
+    let mut qemu = Qemu {
+        child,
+        dir,
+        log: log_reader,
+    };
     let deadline = Instant::now() + timeout;
     loop {
         match listener.accept() {
@@ -222,13 +331,14 @@ impl Backend for Qemu {
                 _ => return None,
             }
         };
-        let log = fs::read_to_string(&self.log).unwrap_or_default();
-        let last = log
-            .lines()
-            .rev()
-            .find(|l| !l.trim().is_empty())
-            .unwrap_or("no output");
-        Some(format!("QEMU exited ({status}): {}", last.trim()))
+        let mut log = String::new();
+        let _ = self.log.seek(SeekFrom::Start(0));
+        let _ = self.log.read_to_string(&mut log);
+        Some(format!("QEMU exited ({status}): {}", telling_line(&log)))
+    }
+
+    fn booted(&mut self) {
+        let _ = fs::remove_dir_all(&self.dir);
     }
 }
 
@@ -238,6 +348,23 @@ impl Drop for Qemu {
         let _ = self.child.wait();
         let _ = fs::remove_dir_all(&self.dir);
     }
+}
+
+/// The line of QEMU's output that says what went wrong: a fatal error is followed by a register
+/// dump (`R00=...`, `FPSCR: 00000000`), so the last line that names QEMU, a fatal error or a
+/// lockup, else the last line (a firmware's own last words, `DONE`).
+fn telling_line(log: &str) -> &str {
+    let lines = || log.lines().map(str::trim).filter(|l| !l.is_empty());
+    let telling = |l: &&str| {
+        let l = l.to_ascii_lowercase();
+        ["qemu", "fatal", "lockup", "error", "abort"]
+            .iter()
+            .any(|w| l.contains(w))
+    };
+    lines()
+        .rfind(telling)
+        .or_else(|| lines().next_back())
+        .unwrap_or("no output")
 }
 
 /// Removes the scratch folders of firmware-sim processes that are gone (killed before they
@@ -267,5 +394,22 @@ struct Cleanup(PathBuf);
 impl Drop for Cleanup {
     fn drop(&mut self) {
         let _ = fs::remove_dir_all(&self.0);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// Regression: a QEMU fatal error was reported as its register dump's last line.
+    #[test]
+    fn a_qemu_fatal_error_is_reported_by_its_fatal_line_not_the_register_dump() {
+        let log = "qemu: fatal: Lockup: can't escalate 3 to HardFault (current priority -1)\n\n\
+                   R00=00000000 R01=00000000 R02=00000000 R03=00000000\n\
+                   XPSR=40000003 -Z-- T handler\nFPSCR: 00000000\n";
+        assert_eq!(
+            super::telling_line(log),
+            "qemu: fatal: Lockup: can't escalate 3 to HardFault (current priority -1)"
+        );
+        assert_eq!(super::telling_line("boot\nDONE\n"), "DONE");
+        assert_eq!(super::telling_line(""), "no output");
     }
 }

@@ -3,7 +3,7 @@
 //! `ppo_continuous_action.py`.
 //!
 //! ```text
-//! policy   π(a|s) = N(P(s), diag(exp(log_std))²)   P: the 4×48 tanh actor; log_std: a vector
+//! policy   π(a|s) = N(P(s), diag(exp(log_std))²)   P: the actor (4×48 ReLU, tanh output); log_std: a vector
 //! value    V(s): a separate 4×48 network
 //! collect  a rollout of 2,048 plant steps with π (episodes run on across rollouts)
 //! GAE      A_t = δ_t + γλ A_{t+1},  δ_t = r_t + γ V(s_{t+1}) − V(s_t)

@@ -88,7 +88,16 @@ pub(crate) fn reproduce_command(args: ReproduceArgs) -> Result<ExitCode> {
     std::fs::create_dir_all(&part_dir)
         .with_context(|| format!("cannot create {}", part_dir.display()))?;
     // One process per part: a second one would run the same runs beside the first.
-    let _lock = lock::acquire(&part_dir)?;
+    let _lock = lock::acquire(&part_dir).map_err(|e| match e {
+        host_trainer::Error::Locked { holder, .. } => host_trainer::Error::PartRunning {
+            path: args.out.clone(),
+            running: format!(
+                "part {}/{} of this grid is already running there ({holder})",
+                slice.index, slice.count
+            ),
+        },
+        e => e,
+    })?;
     // Another part's runs may be this part's too (the whole grid beside `--slice 0/2`).
     reproduce::folder::refuse_overlapping_parts(&args.out, slice)?;
     let plan = reproduce::plan(&args.out, &grid, slice)?;

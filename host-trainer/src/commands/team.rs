@@ -59,6 +59,7 @@ pub(crate) struct TeamArgs {
 pub(crate) fn team_command(args: TeamArgs) -> Result<ExitCode> {
     let (mut team, _lock) = match &args.resume {
         Some(dir) => {
+            holds_a_team(dir)?;
             let team = TeamRun::resume(dir, args.points)?;
             let lock = lock::acquire(team.dir.path())?;
             (team, lock)
@@ -127,4 +128,41 @@ pub(crate) fn team_command(args: TeamArgs) -> Result<ExitCode> {
         team.dir.path().join(team::folder::PLAYERS).display()
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// `--resume DIR` names a team's folder: one holding its checkpoint. The `--out` folder that
+/// holds the team (the usual slip) is named with the team folder inside it, rather than as the
+/// system's missing `checkpoint.postcard`.
+fn holds_a_team(dir: &Path) -> Result<()> {
+    use host_trainer::run::folder::CHECKPOINT;
+    if !dir.is_dir() || dir.join(CHECKPOINT).is_file() {
+        // A missing folder, or one with a checkpoint: resume says what is wrong with it.
+        return Ok(());
+    }
+    let mut inside: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map(|entries| {
+            entries
+                .flatten()
+                .map(|e| e.path())
+                .filter(|p| p.join(CHECKPOINT).is_file())
+                .collect()
+        })
+        .unwrap_or_default();
+    inside.sort();
+    let shown: Vec<String> = inside.iter().map(|p| p.display().to_string()).collect();
+    match shown.as_slice() {
+        [] => anyhow::bail!(
+            "--resume {}: no team checkpoint ({CHECKPOINT}) in it: not a team folder (give the folder host-trainer team wrote, SCENARIO__ALGO__SEED)",
+            dir.display()
+        ),
+        [one] => anyhow::bail!(
+            "--resume {}: no team checkpoint ({CHECKPOINT}) in it: it holds the team folder {one}; resume with --resume {one}",
+            dir.display()
+        ),
+        many => anyhow::bail!(
+            "--resume {}: no team checkpoint ({CHECKPOINT}) in it: it holds the team folders {}; give one of them",
+            dir.display(),
+            many.join(", ")
+        ),
+    }
 }

@@ -272,10 +272,10 @@ pub fn refuse_overlapping_parts(out: &Path, slice: Slice) -> Result<(), Error> {
             } else {
                 format!("process {holder}")
             };
-            return Err(Error::Locked {
+            return Err(Error::PartRunning {
                 path: out.to_path_buf(),
-                holder: format!(
-                    "part {}/{} (host-trainer {holder}), which shares runs with part {}/{}",
+                running: format!(
+                    "part {}/{} is running there (host-trainer {holder}), which shares runs with part {}/{}",
                     other.index, other.count, slice.index, slice.count
                 ),
             });

@@ -44,6 +44,8 @@ pub fn exported(dir: &std::path::Path, config: &TeamConfig) -> bool {
 pub const MAGIC: &[u8; 8] = b"DCPTEAM1";
 /// The folder of the exported players, inside the team folder.
 pub const PLAYERS: &str = "players";
+/// Where an export writes the players before they replace [`PLAYERS`].
+pub const PARTIAL_PLAYERS: &str = ".players.partial";
 pub use firmware_sim::badminton::blob_player::MANIFEST;
 
 /// Everything needed to continue a team's training.
@@ -307,19 +309,27 @@ impl TeamRun {
 
     /// Exports every player into `players/pNN/`: its three actor blobs, its critics (where the
     /// algorithm has one), the scenario and the manifest. Returns the player folders.
+    ///
+    /// All or nothing: the players are written into a hidden sibling, `.players.partial`, which
+    /// then takes the place of `players/`, so an export killed mid-way leaves the last complete
+    /// `players/` (or none), never a smaller team that `firmware-sim teams` would play.
     pub fn export(&self) -> Result<Vec<std::path::PathBuf>, Error> {
         let algo = self.config.team_name();
         let algo = algo.split("__").nth(1).unwrap_or("team");
         let players = self.dir.path().join(PLAYERS);
+        let partial = self.dir.path().join(PARTIAL_PLAYERS);
         let io = |path: &std::path::Path| {
             let path = path.to_path_buf();
             move |source| Error::Io { path, source }
         };
-        std::fs::create_dir_all(&players).map_err(io(&players))?;
+        if partial.exists() {
+            std::fs::remove_dir_all(&partial).map_err(io(&partial))?;
+        }
+        std::fs::create_dir_all(&partial).map_err(io(&partial))?;
         let mut folders = Vec::new();
         for (p, player) in self.team.players.iter().enumerate() {
             let name = player_name(p, self.team.players.len());
-            let dir = players.join(&name);
+            let dir = partial.join(&name);
             std::fs::create_dir_all(&dir).map_err(io(&dir))?;
             let dir = RunDir::open(&dir)?;
             let file = |role: Role, suffix: &str| format!("{}{suffix}.postcard", role.name());
@@ -351,11 +361,15 @@ impl TeamRun {
             })?;
             let header = format!(
                 "# A badminton player of three agents, written by host-trainer team; played by\n# firmware-sim match --p0 {}\n",
-                dir.path().display()
+                players.join(&name).display()
             );
             dir.write(MANIFEST, (header + &text).as_bytes())?;
-            folders.push(dir.path().to_path_buf());
+            folders.push(players.join(&name));
         }
+        if players.exists() {
+            std::fs::remove_dir_all(&players).map_err(io(&players))?;
+        }
+        std::fs::rename(&partial, &players).map_err(io(&players))?;
         Ok(folders)
     }
 }
