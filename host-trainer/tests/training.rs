@@ -1235,6 +1235,7 @@ fn a_step_budget_ends_the_run_with_the_episode_that_reaches_it() {
         ..TrainConfig::smoke(Algo::Dcp, 3)
     };
     assert!(zero.validate().is_err());
+}
 
 /// An export killed mid-way left `players/` with some players and a player folder without its
 /// manifest, which `firmware-sim teams` played as a smaller team. The players are written into
