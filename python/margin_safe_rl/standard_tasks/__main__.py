@@ -140,7 +140,7 @@ def _one(args: argparse.Namespace) -> int:
 
 def _speed(args: argparse.Namespace) -> int:
     out = Path(args.out)
-    lock = grid.GridLock(out)
+    lock = grid.GridLock(out, ".speed.lock")
     try:
         result = grid.measure_speed(out, _programs(args), args.steps)
     finally:
@@ -150,6 +150,18 @@ def _speed(args: argparse.Namespace) -> int:
         f"SB3 {1e3 * result['sb3_seconds_per_step']:.3f} ms/step, ratio {result['ratio']:.1f}, "
         f"toolkit time in the Python environment {100 * result['python_share']:.1f} %"
     )
+    return 0
+
+
+def _chip(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    lock = grid.GridLock(out, ".chip.lock")
+    try:
+        chip = grid.chip_figures(out, Path(args.repo), args.tasks)
+    finally:
+        lock.release()
+    for name, figures in chip.items():
+        print(f"{name}: {figures['act']}")
     return 0
 
 
@@ -203,6 +215,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     sp.add_argument("--steps", type=int, default=5000)
     sp.add_argument("--host-trainer", help="the host-trainer program (default: on PATH)")
     sp.add_argument("--firmware-sim", help="the firmware-sim program (default: on PATH)")
+    c = commands.add_parser("chip", help="each task's DCP blob (seed 0) on the Cortex-M4F under QEMU")
+    c.add_argument("--out", required=True, help="the grid's folder (chip.json is written there)")
+    c.add_argument("--repo", default=".", help="the repository (for scripts/cortex-m.sh)")
+    c.add_argument("--tasks", type=_names, default=grid.all_tasks())
     st = commands.add_parser("status", help="what is done in a grid's folder")
     st.add_argument("--out", required=True)
     st.add_argument("--seeds", type=_seeds, default=list(range(5)))
@@ -212,6 +228,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return _serve(args)
         if args.command == "one":
             return _one(args)
+        if args.command == "chip":
+            return _chip(args)
         if args.command == "speed":
             if args.steps < 2000:
                 raise grid.GridError("--steps must be at least 2000 (1000 of them before the first update)")

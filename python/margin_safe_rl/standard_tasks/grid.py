@@ -347,6 +347,38 @@ def measure_speed(out: Path, programs: Programs, steps: int) -> dict[str, Any]:
     return result
 
 
+def chip_figures(out: Path, repo: Path, tasks: Iterable[str]) -> dict[str, Any]:
+    """Each task's DCP blob of seed 0 on the Cortex-M4F under QEMU (``scripts/cortex-m.sh``, its
+    ``m4f-trained`` variant: built, bit-exact with the host, instructions per ``act``, flash),
+    gathered into ``OUT/chip.json``; a task whose blob the example firmware cannot hold (more
+    than 8 observations or actions) says so."""
+    path = out / "chip.json"
+    chip: dict[str, Any] = json.loads(path.read_text()) if path.exists() else {}
+    for task_name in tasks:
+        found = sorted((run_folder(out, task_name, "dcp", 0) / "train").glob("*/policy.postcard"))
+        if not found or task_name in chip:
+            continue
+        report = out / f"chip-{task_name}.json"
+        log = out / f"chip-{task_name}.log"
+        argv = ["bash", str(repo / "scripts" / "cortex-m.sh"), "--blob", str(found[0]),
+                "--no-slot-cases", "--no-hil", "--out", str(report)]
+        env = dict(os.environ, VARIANTS="m4f-trained")
+        status = _run(argv, log, env)
+        text = log.read_text()
+        if status != 0 or not report.exists():
+            reason = "the example firmware holds at most 8 observations and 8 actions" if "observations" in text and "at most" in text else f"cortex-m.sh exited {status} (see {log.name})"
+            chip[task_name] = {"act": f"not run: {reason}"}
+        else:
+            variant = json.loads(report.read_text())["variants"][0]
+            ins, flash = variant["instructions"], variant["flash"]
+            exact = "bit-exact" if variant["check"]["bit_exact"] else "NOT bit-exact"
+            chip[task_name] = {
+                "act": f"{ins['act_mean']:,.0f} instructions ({ins['per_mac']:.2f} per MAC), {exact}; flash {flash['total']:,} B with the blob",
+            }
+        _write_atomic(path, json.dumps(chip, indent=1) + "\n")
+    return chip
+
+
 def plan(
     out: Path, tasks: Iterable[str], agents: Iterable[str], seeds: Iterable[int], retry_failed: bool
 ) -> list[tuple[str, str, int]]:
@@ -368,16 +400,17 @@ def plan(
 
 
 class GridLock:
-    """One grid writer per folder: a second is refused at once, naming the folder."""
+    """One writer of each kind per folder (the grid's runs; the chip figures; the speed
+    measurement, each its own ``name``): a second is refused at once, naming the folder."""
 
-    def __init__(self, out: Path) -> None:
+    def __init__(self, out: Path, name: str = ".grid.lock") -> None:
         out.mkdir(parents=True, exist_ok=True)
-        self._file = open(out / ".grid.lock", "w")
+        self._file = open(out / name, "w")
         try:
             fcntl.flock(self._file, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             self._file.close()
-            raise GridError(f"another grid is running in {out} (it holds {out / '.grid.lock'})") from None
+            raise GridError(f"another grid is running in {out} (it holds {out / name})") from None
 
     def release(self) -> None:
         self._file.close()
