@@ -616,15 +616,19 @@ fn speed(grid: &Grid) -> String {
     match &grid.speed {
         None => md.push_str("Not yet measured.\n\n"),
         Some(v) => {
+            let f = |key: &str| v[key].as_f64().unwrap_or(f64::NAN);
             let _ = writeln!(
                 md,
-                "{} (CPU: {}): the toolkit's TD3 (2×400) {:.3} ms per environment step, SB3's TD3 ([400, 300]) {:.3} ms: SB3 takes {:.1}× the toolkit's time. The toolkit's run spent {:.1} % of its time in the Python environment.\n",
+                "{} (CPU: {}), the toolkit's TD3 (2×400) against SB3's TD3 ([400, 300]), per environment step:\n\n| | toolkit | SB3 | SB3 ÷ toolkit |\n|---|---|---|---|\n| processor time | {:.3} ms | {:.3} ms | {:.1} |\n| wall time | {:.3} ms | {:.3} ms | {:.1} |\n\nThe toolkit's training loop spent {:.1} % of its wall time inside the Python environment's `reset` and `step` (the plant link's own cost, framing and the pipe, is apart: [performance.md](../performance.md#the-plant-link)).\n",
                 v["what"].as_str().unwrap_or(""),
                 v["cpu"].as_str().unwrap_or("?"),
-                1e3 * v["toolkit_seconds_per_step"].as_f64().unwrap_or(f64::NAN),
-                1e3 * v["sb3_seconds_per_step"].as_f64().unwrap_or(f64::NAN),
-                v["ratio"].as_f64().unwrap_or(f64::NAN),
-                100.0 * v["python_share"].as_f64().unwrap_or(f64::NAN),
+                1e3 * f("toolkit_cpu_seconds_per_step"),
+                1e3 * f("sb3_cpu_seconds_per_step"),
+                f("cpu_ratio"),
+                1e3 * f("toolkit_seconds_per_step"),
+                1e3 * f("sb3_seconds_per_step"),
+                f("ratio"),
+                100.0 * f("python_share"),
             );
         }
     }
