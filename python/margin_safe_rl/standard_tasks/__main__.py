@@ -102,6 +102,7 @@ def _run(args: argparse.Namespace) -> int:
     try:
         todo = grid.plan(out, args.tasks, args.agents, args.seeds, args.retry_failed)
         programs = _programs(args)
+        os.environ["FIRMWARE_SIM"] = programs.firmware_sim  # nav-walls's plant (see `_one`)
         if not todo:
             print(f"nothing to run: every asked run in {out} is done")
             return 0
@@ -133,6 +134,9 @@ def _run(args: argparse.Namespace) -> int:
 
 def _one(args: argparse.Namespace) -> int:
     programs = grid.Programs(args.host_trainer, args.firmware_sim)
+    # nav-walls is firmware-sim's plant: its Gymnasium environment (and the plant the trainer
+    # starts) find the simulator here.
+    os.environ["FIRMWARE_SIM"] = args.firmware_sim
     seeds = grid.test_seeds(programs, args.test_episodes)
     grid.run_one(Path(args.out), task(args.task), args.agent, args.seed, programs, seeds, args.steps)
     return 0
