@@ -616,20 +616,27 @@ fn speed(grid: &Grid) -> String {
     match &grid.speed {
         None => md.push_str("Not yet measured.\n\n"),
         Some(v) => {
-            let f = |key: &str| v[key].as_f64().unwrap_or(f64::NAN);
             let _ = writeln!(
                 md,
-                "{} (CPU: {}), the toolkit's TD3 (2×400) against SB3's TD3 ([400, 300]), per environment step:\n\n| | toolkit | SB3 | SB3 ÷ toolkit |\n|---|---|---|---|\n| processor time | {:.3} ms | {:.3} ms | {:.1} |\n| wall time | {:.3} ms | {:.3} ms | {:.1} |\n\nThe toolkit's training loop spent {:.1} % of its wall time inside the Python environment's `reset` and `step` (the plant link's own cost, framing and the pipe, is apart: [performance.md](../performance.md#the-plant-link)).\n",
+                "{} (CPU: {}), the toolkit's TD3 against SB3's TD3, per environment step (processor time, the steadier figure on a shared machine; wall time beside it):\n\n| toolkit | SB3 | toolkit ms | SB3 ms | SB3 ÷ toolkit | wall: SB3 ÷ toolkit | toolkit time in the Python environment |\n|---|---|---|---|---|---|---|",
                 v["what"].as_str().unwrap_or(""),
                 v["cpu"].as_str().unwrap_or("?"),
-                1e3 * f("toolkit_cpu_seconds_per_step"),
-                1e3 * f("sb3_cpu_seconds_per_step"),
-                f("cpu_ratio"),
-                1e3 * f("toolkit_seconds_per_step"),
-                1e3 * f("sb3_seconds_per_step"),
-                f("ratio"),
-                100.0 * f("python_share"),
             );
+            for row in v["rows"].as_array().into_iter().flatten() {
+                let f = |key: &str| row[key].as_f64().unwrap_or(f64::NAN);
+                let _ = writeln!(
+                    md,
+                    "| {} | {} | {:.3} | {:.3} | {:.1} | {:.1} | {:.1} % |",
+                    row["toolkit"].as_str().unwrap_or("?"),
+                    row["sb3"].as_str().unwrap_or("?"),
+                    1e3 * f("toolkit_cpu_seconds_per_step"),
+                    1e3 * f("sb3_cpu_seconds_per_step"),
+                    f("cpu_ratio"),
+                    f("ratio"),
+                    100.0 * f("python_share"),
+                );
+            }
+            md.push_str("\nThe Python environment's share is the time inside its `reset` and `step`; the plant link's own cost (framing and the pipe) is apart: [performance.md](../performance.md#the-plant-link).\n\n");
         }
     }
     md

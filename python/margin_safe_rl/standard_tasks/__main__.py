@@ -149,23 +149,13 @@ def _speed(args: argparse.Namespace) -> int:
         result = grid.measure_speed(out, _programs(args), args.steps)
     finally:
         lock.release()
-    print(
-        f"{result['what']}: toolkit {1e3 * result['toolkit_seconds_per_step']:.3f} ms/step, "
-        f"SB3 {1e3 * result['sb3_seconds_per_step']:.3f} ms/step, ratio {result['ratio']:.1f}, "
-        f"toolkit time in the Python environment {100 * result['python_share']:.1f} %"
-    )
-    return 0
-
-
-def _chip(args: argparse.Namespace) -> int:
-    out = Path(args.out)
-    lock = grid.GridLock(out, ".chip.lock")
-    try:
-        chip = grid.chip_figures(out, Path(args.repo), args.tasks)
-    finally:
-        lock.release()
-    for name, figures in chip.items():
-        print(f"{name}: {figures['act']}")
+    for row in result["rows"]:
+        print(
+            f"{result['what']}: toolkit {row['toolkit']} {1e3 * row['toolkit_cpu_seconds_per_step']:.3f} ms/step, "
+            f"SB3 {row['sb3']} {1e3 * row['sb3_cpu_seconds_per_step']:.3f} ms/step (processor time), "
+            f"SB3/toolkit {row['cpu_ratio']:.1f} (wall {row['ratio']:.1f}); "
+            f"toolkit time in the Python environment {100 * row['python_share']:.1f} %"
+        )
     return 0
 
 

@@ -282,41 +282,43 @@ SPEED_BATCH = 256
 SPEED_WARMUP = 1000
 
 
-def measure_speed(out: Path, programs: Programs, steps: int) -> dict[str, Any]:
-    """Wall time per environment step on pendulum, one run after the other on one core: the
-    toolkit's TD3 (2x400) through the plant link against SB3's TD3 ([400, 300]), both with
-    batch 256, the first update after 1,000 steps, one update per step and the actor every
-    second (TD3's delay); ``OUT/speed.json``."""
+SPEED_SIZES = ((ZOO_NET, [400, 300]), (DEFAULT_NET, [48, 48, 48, 48]))
+
+
+def _cpu_name() -> str:
     import platform
 
-    from .sb3_agents import build
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "?"
+
+
+def _speed_row(out: Path, programs: Programs, steps: int, hidden: str, net_arch: list[int]) -> dict[str, Any]:
+    import resource
+
     from .recorder import make_env
+    from .sb3_agents import build
 
     t = task("pendulum")
-    folder = out / "speed"
-    if folder.exists():
-        import shutil
-
-        shutil.rmtree(folder)
+    folder = out / "speed" / hidden
     folder.mkdir(parents=True)
     config = folder / "toolkit.toml"
-    config.write_text(
-        f"eval_episodes = 1\n[agent]\nbatch = {SPEED_BATCH}\nwarmup_steps = {SPEED_WARMUP}\n"
-    )
+    config.write_text(f"eval_episodes = 1\n[agent]\nbatch = {SPEED_BATCH}\nwarmup_steps = {SPEED_WARMUP}\n")
     record = folder / "train.jsonl"
     argv = [
         programs.host_trainer, "train", "--plant-cmd", programs.serve(t.name, record=record),
-        "--algo", "td3", "--hidden", ZOO_NET, "--env-steps", str(steps), "--episodes", str(steps),
+        "--algo", "td3", "--hidden", hidden, "--env-steps", str(steps), "--episodes", str(steps),
         "--seed", "0", "--out", str(folder), "--threads", "1", "--quiet", "--config", str(config),
     ]
-    import resource
-
     children = resource.getrusage(resource.RUSAGE_CHILDREN)
     status = _run(argv, folder / "log.txt")
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     # The trainer's and its Python plant's processor time: on a machine shared with other work
-    # (as every machine of a busy team is) processor time is the steadier figure; wall time is
-    # recorded beside it.
+    # processor time is the steadier figure; wall time is recorded beside it.
     toolkit_cpu = (after.ru_utime + after.ru_stime) - (children.ru_utime + children.ru_stime)
     if status != 0:
         raise GridError(f"the toolkit's speed run exited {status} (see {folder / 'log.txt'})")
@@ -328,7 +330,7 @@ def measure_speed(out: Path, programs: Programs, steps: int) -> dict[str, Any]:
     python_seconds = training[-1]["env_seconds"] if training else 0.0
 
     env = make_env(t)
-    model, _ = build(t, "td3", 0, env)
+    model, _ = build(t, "td3", 0, env, net_arch=net_arch)
     model.learning_starts = SPEED_WARMUP
     model.batch_size = SPEED_BATCH
     started, cpu_started = time.perf_counter(), time.process_time()
@@ -336,17 +338,10 @@ def measure_speed(out: Path, programs: Programs, steps: int) -> dict[str, Any]:
     sb3_seconds = time.perf_counter() - started
     sb3_cpu = time.process_time() - cpu_started
     env.close()
-    cpu = platform.processor() or "?"
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    result = {
-        "what": f"pendulum, {toolkit_steps} steps, batch {SPEED_BATCH}, first update after {SPEED_WARMUP}, one core",
-        "cpu": cpu,
+    return {
+        "toolkit": hidden,
+        "sb3": str(net_arch),
+        "steps": toolkit_steps,
         "toolkit_seconds_per_step": toolkit_seconds / toolkit_steps,
         "sb3_seconds_per_step": sb3_seconds / toolkit_steps,
         "ratio": sb3_seconds / toolkit_seconds,
@@ -355,40 +350,26 @@ def measure_speed(out: Path, programs: Programs, steps: int) -> dict[str, Any]:
         "cpu_ratio": sb3_cpu / toolkit_cpu,
         "python_share": python_seconds / toolkit_seconds,
     }
+
+
+def measure_speed(out: Path, programs: Programs, steps: int) -> dict[str, Any]:
+    """Time per environment step on pendulum, one run after the other on one core: the
+    toolkit's TD3 through the plant link against SB3's TD3, at the Zoo's size (2x400 against
+    [400, 300]) and at the toolkit's (4x48 against [48, 48, 48, 48]); both with batch 256, the
+    first update after 1,000 steps, one update per step and the actor every second (TD3's
+    delay); ``OUT/speed.json``."""
+    import shutil
+
+    if (out / "speed").exists():
+        shutil.rmtree(out / "speed")
+    rows = [_speed_row(out, programs, steps, hidden, arch) for hidden, arch in SPEED_SIZES]
+    result = {
+        "what": f"pendulum, {steps} steps, batch {SPEED_BATCH}, first update after {SPEED_WARMUP}, one core",
+        "cpu": _cpu_name(),
+        "rows": rows,
+    }
     _write_atomic(out / "speed.json", json.dumps(result, indent=1) + "\n")
     return result
-
-
-def chip_figures(out: Path, repo: Path, tasks: Iterable[str]) -> dict[str, Any]:
-    """Each task's DCP blob of seed 0 on the Cortex-M4F under QEMU (``scripts/cortex-m.sh``, its
-    ``m4f-trained`` variant: built, bit-exact with the host, instructions per ``act``, flash),
-    gathered into ``OUT/chip.json``; a task whose blob the example firmware cannot hold (more
-    than 8 observations or actions) says so."""
-    path = out / "chip.json"
-    chip: dict[str, Any] = json.loads(path.read_text()) if path.exists() else {}
-    for task_name in tasks:
-        found = sorted((run_folder(out, task_name, "dcp", 0) / "train").glob("*/policy.postcard"))
-        if not found or task_name in chip:
-            continue
-        report = out / f"chip-{task_name}.json"
-        log = out / f"chip-{task_name}.log"
-        argv = ["bash", str(repo / "scripts" / "cortex-m.sh"), "--blob", str(found[0]),
-                "--no-slot-cases", "--no-hil", "--out", str(report)]
-        env = dict(os.environ, VARIANTS="m4f-trained")
-        status = _run(argv, log, env)
-        text = log.read_text()
-        if status != 0 or not report.exists():
-            reason = "the example firmware holds at most 8 observations and 8 actions" if "observations" in text and "at most" in text else f"cortex-m.sh exited {status} (see {log.name})"
-            chip[task_name] = {"act": f"not run: {reason}"}
-        else:
-            variant = json.loads(report.read_text())["variants"][0]
-            ins, flash = variant["instructions"], variant["flash"]
-            exact = "bit-exact" if variant["check"]["bit_exact"] else "NOT bit-exact"
-            chip[task_name] = {
-                "act": f"{ins['act_mean']:,.0f} instructions ({ins['per_mac']:.2f} per MAC), {exact}; flash {flash['total']:,} B with the blob",
-            }
-        _write_atomic(path, json.dumps(chip, indent=1) + "\n")
-    return chip
 
 
 def plan(

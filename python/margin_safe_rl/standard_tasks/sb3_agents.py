@@ -26,9 +26,13 @@ def _classes() -> dict[str, Any]:
     return {"td3": TD3, "sac": SAC, "ddpg": DDPG}
 
 
-def build(task: Task, algo: str, seed: int, env: Any, steps: Optional[int] = None) -> tuple[Any, int]:
+def build(
+    task: Task, algo: str, seed: int, env: Any, steps: Optional[int] = None,
+    net_arch: Optional[list[int]] = None,
+) -> tuple[Any, int]:
     """The SB3 model for ``task`` and ``algo`` and its budget in steps (``steps`` overrides the
-    Zoo's, and then caps ``learning_starts`` at half of it, for the tiny runs CI makes)."""
+    Zoo's, and then caps ``learning_starts`` at half of it, for the tiny runs CI makes;
+    ``net_arch`` the Zoo's network, for the speed measurement's second size)."""
     import torch
     from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
 
@@ -40,6 +44,8 @@ def build(task: Task, algo: str, seed: int, env: Any, steps: Optional[int] = Non
         kwargs["learning_starts"] = min(kwargs["learning_starts"], steps // 2)
     elif steps is not None:
         kwargs["learning_starts"] = min(100, steps // 2)  # SB3's default, capped alike
+    if net_arch is not None:
+        kwargs["policy_kwargs"] = dict(kwargs.get("policy_kwargs", {}), net_arch=net_arch)
     if entry.noise is not None:
         kind, std = entry.noise
         n = env.action_space.shape[0]
