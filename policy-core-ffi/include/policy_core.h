@@ -114,7 +114,8 @@
 // A pointer argument is NULL (`what`: the argument's name).
 #define DCP_ERR_NULL_POINTER -100
 
-// A pointer argument is not aligned for its type (`what`: the argument's name).
+// A pointer argument is not aligned for its type (`what`: the argument's name; a misaligned
+// `err` itself gets the code alone, since nothing can be written through it).
 #define DCP_ERR_MISALIGNED -101
 
 // A length runs past the end of the address space (`what`: the argument's name).

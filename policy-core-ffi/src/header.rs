@@ -114,5 +114,5 @@ pub unsafe extern "C" fn dcp_verify(
         Ok(())
     };
     // SAFETY: `err` is NULL or writable, by the caller's contract.
-    unsafe { finish(err, run()) }
+    unsafe { finish(err, run) }
 }

@@ -127,7 +127,7 @@ pub unsafe extern "C" fn dcp_slot_choose(
         }
     };
     // SAFETY: `err` is NULL or writable, by the caller's contract.
-    unsafe { finish(err, run()) }
+    unsafe { finish(err, run) }
 }
 
 /// Reads one slot record's header (magic, header CRC, length): its sequence number into
@@ -169,5 +169,5 @@ pub unsafe extern "C" fn dcp_slot_read(
         Ok(())
     };
     // SAFETY: `err` is NULL or writable, by the caller's contract.
-    unsafe { finish(err, run()) }
+    unsafe { finish(err, run) }
 }

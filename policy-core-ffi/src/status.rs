@@ -55,7 +55,8 @@ pub const DCP_ERR_SLOT_OVERFLOW: i32 = -20;
 pub const DCP_ERR_OTHER: i32 = -99;
 /// A pointer argument is NULL (`what`: the argument's name).
 pub const DCP_ERR_NULL_POINTER: i32 = -100;
-/// A pointer argument is not aligned for its type (`what`: the argument's name).
+/// A pointer argument is not aligned for its type (`what`: the argument's name; a misaligned
+/// `err` itself gets the code alone, since nothing can be written through it).
 pub const DCP_ERR_MISALIGNED: i32 = -101;
 /// A length runs past the end of the address space (`what`: the argument's name).
 pub const DCP_ERR_BAD_LENGTH: i32 = -102;
@@ -216,16 +217,22 @@ pub extern "C" fn dcp_status_name(code: i32) -> *const c_char {
         .as_ptr()
 }
 
-/// Writes `result` into `*err` (if `err` is neither NULL nor misaligned) and returns its code.
+/// Runs a call and writes its outcome into `*err` (unless `err` is NULL); returns its code. A
+/// misaligned `err` is refused like every other misaligned pointer: `DCP_ERR_MISALIGNED`
+/// before anything runs (nothing is written anywhere).
 ///
 /// # Safety
 /// `err` is NULL or points to memory writable as a `DcpError`.
-pub(crate) unsafe fn finish(err: *mut DcpError, result: Result<(), Failure>) -> i32 {
+pub(crate) unsafe fn finish(err: *mut DcpError, run: impl FnOnce() -> Result<(), Failure>) -> i32 {
+    if !err.is_aligned() {
+        return DCP_ERR_MISALIGNED;
+    }
+    let result = run();
     let code = match &result {
         Ok(()) => DCP_OK,
         Err(f) => f.code(),
     };
-    if !err.is_null() && err.is_aligned() {
+    if !err.is_null() {
         let out = describe(code, result.err());
         // SAFETY: `err` is non-NULL and aligned (checked above) and, by the caller's contract,
         // writable as a DcpError; `write` does not read the old (possibly uninitialised) value.

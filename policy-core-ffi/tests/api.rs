@@ -707,6 +707,39 @@ fn misaligned_and_overlapping_buffers_are_error_codes() {
     }
 }
 
+/// Regression: a misaligned `dcp_error *` was taken for NULL (the call ran and reported
+/// success with nothing written), while every other misaligned pointer is an error. It is now
+/// refused the same way, before the call does anything: a model storage stays unloaded.
+#[test]
+fn a_misaligned_error_pointer_is_refused_like_every_other_pointer() {
+    let actor = golden("actor_4x48.postcard");
+    let mut raw = vec![0u64; size_of::<DcpError>() / 8 + 2];
+    // SAFETY: one byte into a buffer with room for a DcpError after it.
+    let odd = unsafe { raw.as_mut_ptr().cast::<u8>().add(1).cast::<DcpError>() };
+    let mut m = new_model();
+    // SAFETY: every pointer is valid for its length; `odd` is writable.
+    unsafe {
+        assert_eq!(
+            dcp_model_load(actor.as_ptr(), actor.len(), &mut m, odd),
+            DCP_ERR_MISALIGNED
+        );
+        let (mut floats, mut scratch) = (0usize, [0.0f32; 96]);
+        assert_eq!(dcp_scratch_floats(&m, &mut floats, null_mut()), DCP_ERR_NOT_LOADED);
+        let (obs, mut action) = ([0.5f32, -0.25], [7.0f32; 2]);
+        let loaded = load(&actor);
+        assert_eq!(
+            dcp_act(&loaded, obs.as_ptr(), 2, scratch.as_mut_ptr(), 96, action.as_mut_ptr(), 2, odd),
+            DCP_ERR_MISALIGNED
+        );
+        assert_eq!(action, [7.0; 2], "nothing is written");
+        assert_eq!(
+            dcp_verify(actor.as_ptr(), actor.len(), null_mut(), odd),
+            DCP_ERR_MISALIGNED
+        );
+    }
+    assert!(raw.iter().all(|&w| w == 0), "nothing was written through err");
+}
+
 fn hex(t: &str) -> u32 {
     u32::from_str_radix(t, 16).expect("hex")
 }
