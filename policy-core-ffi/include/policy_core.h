@@ -249,7 +249,9 @@ extern "C" {
 
 // Verifies the `len` bytes at `blob` completely (what `dcp_model_load` checks: magic, version,
 // header, limits, length, CRC, every parameter) and writes what they hold to `*out`.
-// Returns `DCP_OK` or the first check that failed; `*out` is written only on success.
+// Returns `DCP_OK` or the first check that failed; `*out` is written only on success. `out`
+// is required: NULL gives `DCP_ERR_NULL_POINTER` without verifying (`dcp_model_load` verifies
+// as completely and keeps the model).
 //
 // # Safety
 // `blob` is NULL or points to `len` readable bytes; `out` is NULL or points to a writable
@@ -311,7 +313,9 @@ int32_t dcp_scratch_floats(const struct dcp_model *model,
 // inside the blob's bounds for every input, NaN and infinities included. `obs_len` and
 // `action_len` must be the blob's sizes (`DCP_ERR_SIZE_MISMATCH`); `scratch` holds
 // `scratch_len` floats, at least `dcp_scratch_floats` (`DCP_ERR_SCRATCH_TOO_SMALL`); on a
-// critic: `DCP_ERR_WRONG_KIND`. `action` is written only on success.
+// critic: `DCP_ERR_WRONG_KIND`. `action` is written only on success. `obs`, `scratch` and
+// `action` must not overlap one another, so an action cannot be written over its own
+// observation (`DCP_ERR_OVERLAP`; copy the observation first).
 //
 // # Safety
 // `model` is NULL or a zeroed or loaded `dcp_model` whose blob is still in place; `obs` is NULL

@@ -88,7 +88,9 @@ impl DcpHeader {
 
 /// Verifies the `len` bytes at `blob` completely (what `dcp_model_load` checks: magic, version,
 /// header, limits, length, CRC, every parameter) and writes what they hold to `*out`.
-/// Returns `DCP_OK` or the first check that failed; `*out` is written only on success.
+/// Returns `DCP_OK` or the first check that failed; `*out` is written only on success. `out`
+/// is required: NULL gives `DCP_ERR_NULL_POINTER` without verifying (`dcp_model_load` verifies
+/// as completely and keeps the model).
 ///
 /// # Safety
 /// `blob` is NULL or points to `len` readable bytes; `out` is NULL or points to a writable

@@ -263,7 +263,9 @@ unsafe fn pass<'a>(
 /// inside the blob's bounds for every input, NaN and infinities included. `obs_len` and
 /// `action_len` must be the blob's sizes (`DCP_ERR_SIZE_MISMATCH`); `scratch` holds
 /// `scratch_len` floats, at least `dcp_scratch_floats` (`DCP_ERR_SCRATCH_TOO_SMALL`); on a
-/// critic: `DCP_ERR_WRONG_KIND`. `action` is written only on success.
+/// critic: `DCP_ERR_WRONG_KIND`. `action` is written only on success. `obs`, `scratch` and
+/// `action` must not overlap one another, so an action cannot be written over its own
+/// observation (`DCP_ERR_OVERLAP`; copy the observation first).
 ///
 /// # Safety
 /// `model` is NULL or a zeroed or loaded `dcp_model` whose blob is still in place; `obs` is NULL

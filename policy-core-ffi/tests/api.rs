@@ -740,6 +740,22 @@ fn a_misaligned_error_pointer_is_refused_like_every_other_pointer() {
     assert!(raw.iter().all(|&w| w == 0), "nothing was written through err");
 }
 
+/// `obs` and `action` may not be the same buffer (nor overlap): `action` is written while the
+/// forward pass may still read `obs`, so the call refuses it with `DCP_ERR_OVERLAP`.
+#[test]
+fn an_action_written_over_its_observation_is_an_overlap() {
+    let actor = golden("actor_4x48.postcard");
+    let m = load(&actor);
+    let (mut buf, mut scratch, mut e) = ([0.5f32, -0.25], [0.0f32; 96], new_error());
+    // SAFETY: both pointers are `buf`, valid for two floats.
+    let status = unsafe {
+        dcp_act(&m, buf.as_ptr(), 2, scratch.as_mut_ptr(), 96, buf.as_mut_ptr(), 2, &mut e)
+    };
+    assert_eq!(status, DCP_ERR_OVERLAP);
+    assert_eq!(text(&e.what), "action and obs");
+    assert_eq!(buf, [0.5, -0.25], "the observation is left as it was");
+}
+
 fn hex(t: &str) -> u32 {
     u32::from_str_radix(t, 16).expect("hex")
 }
