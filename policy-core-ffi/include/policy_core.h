@@ -179,6 +179,9 @@ typedef struct dcp_header {
   uint32_t scratch_width;
   // The label's bytes (UTF-8), NUL-terminated.
   char label[DCP_LABEL_LEN];
+  // Zero: the three bytes that align `label_len`, named so that no byte of the struct is
+  // padding the library leaves unwritten.
+  uint8_t reserved[3];
   // The label's length in bytes, NUL excluded.
   uint32_t label_len;
   // Payload bytes.
@@ -196,6 +199,9 @@ typedef struct dcp_header {
 typedef struct dcp_error {
   // The status the function returned (`DCP_OK` on success).
   int32_t code;
+  // Zero: the four bytes that align the `size_t` fields on 64-bit targets (present on every
+  // target, so that no byte of the struct is padding the library leaves unwritten).
+  uint32_t reserved;
   // `DCP_ERR_NON_FINITE_PARAMETER`: the parameter; `DCP_ERR_INVALID_PARAMETER`: the
   // dimension.
   size_t index;
@@ -237,6 +243,9 @@ typedef struct dcp_slot_status {
 typedef struct dcp_boot {
   // `DCP_SLOT_A`, `DCP_SLOT_B` or `DCP_SLOT_NONE`.
   uint32_t running;
+  // Zero: the four bytes that align `a` on 64-bit targets (present on every target, so that
+  // no byte of the struct is padding the library leaves unwritten).
+  uint32_t reserved;
   // Slot A's fate.
   struct dcp_slot_status a;
   // Slot B's fate.

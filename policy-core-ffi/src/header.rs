@@ -43,6 +43,9 @@ pub struct DcpHeader {
     pub scratch_width: u32,
     /// The label's bytes (UTF-8), NUL-terminated.
     pub label: [c_char; DCP_LABEL_LEN],
+    /// Zero: the three bytes that align `label_len`, named so that no byte of the struct is
+    /// padding the library leaves unwritten.
+    pub reserved: [u8; 3],
     /// The label's length in bytes, NUL excluded.
     pub label_len: u32,
     /// Payload bytes.
@@ -78,6 +81,7 @@ impl DcpHeader {
             choices: s.choices.into(),
             scratch_width: u32::try_from(model.scratch_width()).unwrap_or(u32::MAX),
             label,
+            reserved: [0; 3],
             label_len: h.label.len() as u32,
             payload_len: h.payload_len,
             crc,

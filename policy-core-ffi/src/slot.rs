@@ -40,6 +40,9 @@ pub struct DcpSlotStatus {
 pub struct DcpBoot {
     /// `DCP_SLOT_A`, `DCP_SLOT_B` or `DCP_SLOT_NONE`.
     pub running: u32,
+    /// Zero: the four bytes that align `a` on 64-bit targets (present on every target, so that
+    /// no byte of the struct is padding the library leaves unwritten).
+    pub reserved: u32,
     /// Slot A's fate.
     pub a: DcpSlotStatus,
     /// Slot B's fate.
@@ -108,6 +111,7 @@ pub unsafe extern "C" fn dcp_slot_choose(
                 Some((SlotId::B, _)) => DCP_SLOT_B,
                 None => DCP_SLOT_NONE,
             },
+            reserved: 0,
             a: status(chosen.a),
             b: status(chosen.b),
         };

@@ -95,6 +95,9 @@ pub const DCP_MESSAGE_LEN: usize = 160;
 pub struct DcpError {
     /// The status the function returned (`DCP_OK` on success).
     pub code: i32,
+    /// Zero: the four bytes that align the `size_t` fields on 64-bit targets (present on every
+    /// target, so that no byte of the struct is padding the library leaves unwritten).
+    pub reserved: u32,
     /// `DCP_ERR_NON_FINITE_PARAMETER`: the parameter; `DCP_ERR_INVALID_PARAMETER`: the
     /// dimension.
     pub index: usize,
@@ -245,6 +248,7 @@ pub(crate) unsafe fn finish(err: *mut DcpError, run: impl FnOnce() -> Result<(),
 pub(crate) fn describe(code: i32, failure: Option<Failure>) -> DcpError {
     let mut out = DcpError {
         code,
+        reserved: 0,
         index: 0,
         expected: 0,
         found: 0,

@@ -724,11 +724,23 @@ fn a_misaligned_error_pointer_is_refused_like_every_other_pointer() {
             DCP_ERR_MISALIGNED
         );
         let (mut floats, mut scratch) = (0usize, [0.0f32; 96]);
-        assert_eq!(dcp_scratch_floats(&m, &mut floats, null_mut()), DCP_ERR_NOT_LOADED);
+        assert_eq!(
+            dcp_scratch_floats(&m, &mut floats, null_mut()),
+            DCP_ERR_NOT_LOADED
+        );
         let (obs, mut action) = ([0.5f32, -0.25], [7.0f32; 2]);
         let loaded = load(&actor);
         assert_eq!(
-            dcp_act(&loaded, obs.as_ptr(), 2, scratch.as_mut_ptr(), 96, action.as_mut_ptr(), 2, odd),
+            dcp_act(
+                &loaded,
+                obs.as_ptr(),
+                2,
+                scratch.as_mut_ptr(),
+                96,
+                action.as_mut_ptr(),
+                2,
+                odd
+            ),
             DCP_ERR_MISALIGNED
         );
         assert_eq!(action, [7.0; 2], "nothing is written");
@@ -737,7 +749,10 @@ fn a_misaligned_error_pointer_is_refused_like_every_other_pointer() {
             DCP_ERR_MISALIGNED
         );
     }
-    assert!(raw.iter().all(|&w| w == 0), "nothing was written through err");
+    assert!(
+        raw.iter().all(|&w| w == 0),
+        "nothing was written through err"
+    );
 }
 
 /// `obs` and `action` may not be the same buffer (nor overlap): `action` is written while the
@@ -749,11 +764,34 @@ fn an_action_written_over_its_observation_is_an_overlap() {
     let (mut buf, mut scratch, mut e) = ([0.5f32, -0.25], [0.0f32; 96], new_error());
     // SAFETY: both pointers are `buf`, valid for two floats.
     let status = unsafe {
-        dcp_act(&m, buf.as_ptr(), 2, scratch.as_mut_ptr(), 96, buf.as_mut_ptr(), 2, &mut e)
+        dcp_act(
+            &m,
+            buf.as_ptr(),
+            2,
+            scratch.as_mut_ptr(),
+            96,
+            buf.as_mut_ptr(),
+            2,
+            &mut e,
+        )
     };
     assert_eq!(status, DCP_ERR_OVERLAP);
     assert_eq!(text(&e.what), "action and obs");
     assert_eq!(buf, [0.5, -0.25], "the observation is left as it was");
+}
+
+/// No struct of the API has padding: every byte is a named field the library writes (zero for
+/// the `reserved` ones), so a caller that copies or hashes a struct reads no stale stack bytes.
+#[test]
+fn the_api_structs_have_no_padding() {
+    let word = size_of::<usize>();
+    assert_eq!(size_of::<DcpHeader>(), 10 * 4 + DCP_LABEL_LEN + 3 + 4 * 4);
+    assert_eq!(
+        size_of::<DcpError>(),
+        4 + 4 + 6 * word + DCP_WHAT_LEN + DCP_MESSAGE_LEN
+    );
+    assert_eq!(size_of::<DcpSlotStatus>(), 4 + 4 + size_of::<DcpError>());
+    assert_eq!(size_of::<DcpBoot>(), 4 + 4 + 2 * size_of::<DcpSlotStatus>());
 }
 
 fn hex(t: &str) -> u32 {
