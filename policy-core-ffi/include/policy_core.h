@@ -389,6 +389,10 @@ int32_t dcp_action_bounds(const struct dcp_model *model,
 // `DCP_OK` when a slot runs, `DCP_ERR_NO_SLOT` when none does (`*model` then holds no model;
 // run the safe state), or a pointer error (then `*out` is not written).
 //
+// A board with one slot passes NULL and 0 for the other: an absent slot is an empty one
+// (`DCP_ERR_SLOT_EMPTY` in its status), and the present slot runs if it verifies. NULL with a
+// non-zero length is `DCP_ERR_NULL_POINTER`.
+//
 // # Safety
 // `slot_a` and `slot_b` are NULL or point to `a_len` and `b_len` readable bytes that outlive
 // every use of `*model` and do not change; `out` is NULL or a writable `dcp_boot`; `model` is

@@ -72,6 +72,10 @@ fn status(s: Status) -> DcpSlotStatus {
 /// `DCP_OK` when a slot runs, `DCP_ERR_NO_SLOT` when none does (`*model` then holds no model;
 /// run the safe state), or a pointer error (then `*out` is not written).
 ///
+/// A board with one slot passes NULL and 0 for the other: an absent slot is an empty one
+/// (`DCP_ERR_SLOT_EMPTY` in its status), and the present slot runs if it verifies. NULL with a
+/// non-zero length is `DCP_ERR_NULL_POINTER`.
+///
 /// # Safety
 /// `slot_a` and `slot_b` are NULL or point to `a_len` and `b_len` readable bytes that outlive
 /// every use of `*model` and do not change; `out` is NULL or a writable `dcp_boot`; `model` is
@@ -90,8 +94,8 @@ pub unsafe extern "C" fn dcp_slot_choose(
     err: *mut DcpError,
 ) -> i32 {
     let run = || -> Result<(), Failure> {
-        let a = Raw::new(slot_a, a_len, "slot_a")?;
-        let b = Raw::new(slot_b, b_len, "slot_b")?;
+        let a = Raw::optional(slot_a, a_len, "slot_a")?;
+        let b = Raw::optional(slot_b, b_len, "slot_b")?;
         let boot = one(out.cast_const(), "out")?;
         let storage = one(model.cast_const(), "model")?;
         for r in [&a, &b] {

@@ -794,6 +794,83 @@ fn the_api_structs_have_no_padding() {
     assert_eq!(size_of::<DcpBoot>(), 4 + 4 + 2 * size_of::<DcpSlotStatus>());
 }
 
+/// Regression: a board with one slot had to pass a dummy second region, as
+/// `dcp_slot_choose(a, len, NULL, 0, ...)` failed the boot with `DCP_ERR_NULL_POINTER`. NULL
+/// with length 0 is now an absent slot, reported empty; NULL with a length is still an error.
+#[test]
+fn a_board_with_one_slot_passes_null_for_the_other() {
+    let actor = golden("actor_4x48.postcard");
+    let image = [&slot::header(3, actor.len()).expect("header")[..], &actor].concat();
+    for a_is_present in [true, false] {
+        let (mut boot, mut m, mut e) = (
+            core::mem::MaybeUninit::<DcpBoot>::zeroed(),
+            new_model(),
+            new_error(),
+        );
+        let (a, a_len, b, b_len) = if a_is_present {
+            (image.as_ptr(), image.len(), null(), 0)
+        } else {
+            (null(), 0, image.as_ptr(), image.len())
+        };
+        // SAFETY: the present slot is `image`; the absent one is NULL with length 0.
+        let code = unsafe {
+            dcp_slot_choose(
+                a,
+                a_len,
+                b,
+                b_len,
+                2,
+                2,
+                64,
+                boot.as_mut_ptr(),
+                &mut m,
+                &mut e,
+            )
+        };
+        assert_eq!(code, DCP_OK, "{}", text(&e.message));
+        // SAFETY: written by the successful call.
+        let boot = unsafe { boot.assume_init() };
+        let (present, absent) = if a_is_present {
+            (boot.a, boot.b)
+        } else {
+            (boot.b, boot.a)
+        };
+        assert_eq!(
+            boot.running,
+            if a_is_present { DCP_SLOT_A } else { DCP_SLOT_B }
+        );
+        assert_eq!((present.state, present.sequence), (DCP_SLOT_RUNNING, 3));
+        assert_eq!(
+            (absent.state, absent.error.code),
+            (DCP_SLOT_FAILED, DCP_ERR_SLOT_EMPTY)
+        );
+    }
+    let (mut boot, mut m, mut e) = (
+        core::mem::MaybeUninit::<DcpBoot>::zeroed(),
+        new_model(),
+        new_error(),
+    );
+    // SAFETY: slot B is NULL with a length: refused before anything is read.
+    let code = unsafe {
+        dcp_slot_choose(
+            image.as_ptr(),
+            image.len(),
+            null(),
+            64,
+            2,
+            2,
+            64,
+            boot.as_mut_ptr(),
+            &mut m,
+            &mut e,
+        )
+    };
+    assert_eq!(
+        (code, text(&e.what).as_str()),
+        (DCP_ERR_NULL_POINTER, "slot_b")
+    );
+}
+
 fn hex(t: &str) -> u32 {
     u32::from_str_radix(t, 16).expect("hex")
 }

@@ -85,6 +85,16 @@ static void padding(const uint8_t *actor, size_t actor_len, const uint8_t *slot_
     free(model);
 }
 
+/* A board with one slot: NULL and 0 for the other. */
+static void one_slot(const uint8_t *slot_a, size_t a_len) {
+    dcp_boot boot;
+    dcp_error err;
+    static dcp_model model;
+    int32_t status = dcp_slot_choose(slot_a, a_len, NULL, 0, 2, 2, 64, &boot, &model, &err);
+    check("one_slot", status == DCP_OK && boot.running == DCP_SLOT_A &&
+          boot.b.error.code == DCP_ERR_SLOT_EMPTY, err.message);
+}
+
 int main(int argc, char **argv) {
     size_t actor_len, a_len;
     uint8_t *actor, *slot_a;
@@ -95,6 +105,7 @@ int main(int argc, char **argv) {
     actor = read_file(argv[1], &actor_len);
     slot_a = read_file(argv[2], &a_len);
     padding(actor, actor_len, slot_a, a_len);
+    one_slot(slot_a, a_len);
     free(actor);
     free(slot_a);
     return failures == 0 ? 0 : 1;
