@@ -67,6 +67,9 @@ pub const DCP_ERR_NOT_LOADED: i32 = -104;
 /// `dcp_slot_choose`: neither slot holds a policy that runs here (each slot's reason is in the
 /// `dcp_boot`); run the safe state.
 pub const DCP_ERR_NO_SLOT: i32 = -105;
+/// `dcp_abi_check`: the header the caller was compiled with is not this library's ABI version
+/// (`expected`: the library's, `found`: the header's).
+pub const DCP_ERR_ABI_MISMATCH: i32 = -106;
 
 /// `DCP_KIND_*`: what a blob holds (`dcp_header.kind`, `DCP_ERR_WRONG_KIND`'s numbers).
 pub const DCP_KIND_ACTOR: u32 = 0;
@@ -124,6 +127,8 @@ pub(crate) enum Failure {
     Core(Error),
     /// The C caller's misuse: a `DCP_ERR_*` code and the argument it concerns.
     Api { code: i32, what: &'static str },
+    /// A header of another ABI version than the library's.
+    AbiMismatch { library: u32, header: u32 },
 }
 
 impl From<Error> for Failure {
@@ -141,6 +146,7 @@ impl Failure {
         match self {
             Failure::Core(e) => code_of(e),
             Failure::Api { code, .. } => *code,
+            Failure::AbiMismatch { .. } => DCP_ERR_ABI_MISMATCH,
         }
     }
 }
@@ -177,7 +183,7 @@ pub fn code_of(e: &Error) -> i32 {
 }
 
 /// Every code and its name, as `dcp_status_name` returns them.
-const NAMES: [(i32, &core::ffi::CStr); 28] = [
+const NAMES: [(i32, &core::ffi::CStr); 29] = [
     (DCP_OK, c"Ok"),
     (DCP_ERR_WRONG_MAGIC, c"WrongMagic"),
     (DCP_ERR_UNSUPPORTED_VERSION, c"UnsupportedVersion"),
@@ -206,6 +212,7 @@ const NAMES: [(i32, &core::ffi::CStr); 28] = [
     (DCP_ERR_OVERLAP, c"Overlap"),
     (DCP_ERR_NOT_LOADED, c"NotLoaded"),
     (DCP_ERR_NO_SLOT, c"NoSlot"),
+    (DCP_ERR_ABI_MISMATCH, c"AbiMismatch"),
 ];
 
 /// The name of a status code, as policy-core names its error variants (`"ChecksumMismatch"`,
@@ -269,6 +276,14 @@ pub(crate) fn describe(code: i32, failure: Option<Failure>) -> DcpError {
                 name.and_then(|n| n.to_str().ok()).unwrap_or("error")
             );
             what
+        }
+        Some(Failure::AbiMismatch { library, header }) => {
+            let _ = write!(
+                CText::new(&mut out.message),
+                "ABI mismatch: the library is ABI version {library}, the header {header}"
+            );
+            (out.expected, out.found) = (library as usize, header as usize);
+            "ABI version"
         }
         Some(Failure::Core(e)) => {
             let _ = write!(CText::new(&mut out.message), "{e}");

@@ -2,7 +2,7 @@
  * program can check. Built with ASan and UBSan, and run again under valgrind (memcheck), which
  * reports any byte of a struct the library filled but left uninitialised.
  *
- * usage: contract ACTOR_BLOB SLOT_A
+ * usage: contract ACTOR_BLOB CRITIC_BLOB SLOT_A
  * output: one "OK name" line per check, or "FAIL name: what" and exit status 1.
  */
 #include <stdint.h>
@@ -95,18 +95,54 @@ static void one_slot(const uint8_t *slot_a, size_t a_len) {
           boot.b.error.code == DCP_ERR_SLOT_EMPTY, err.message);
 }
 
+/* The ABI check: this program's header against the library it is linked with. The Rust test
+ * also builds it against a header whose DCP_ABI_VERSION was changed, which must be refused. */
+static void abi(void) {
+    dcp_error err;
+    int32_t status = DCP_ABI_CHECK(&err);
+    int same = DCP_ABI_VERSION == dcp_abi_version();
+    printf("ABI header=%u library=%u status=%d %s\n", (unsigned)DCP_ABI_VERSION,
+           (unsigned)dcp_abi_version(), (int)status, dcp_status_name(status));
+    check("abi", status == (same ? DCP_OK : DCP_ERR_ABI_MISMATCH) &&
+          (same || (err.expected == dcp_abi_version() && err.found == DCP_ABI_VERSION)),
+          err.message);
+}
+
+/* The compile-time sizes are what the library reports for the golden blobs. */
+static void sizes(const uint8_t *actor, size_t actor_len, const uint8_t *critic, size_t critic_len) {
+    static float actor_scratch[DCP_SCRATCH_FLOATS(DCP_SCRATCH_WIDTH_ACTOR(2, 2, 48))];
+    static float critic_scratch[DCP_SCRATCH_FLOATS(DCP_SCRATCH_WIDTH_CRITIC(2, 2, 32))];
+    static dcp_model a, c;
+    size_t a_floats = 0, c_floats = 0;
+    dcp_header header;
+    int ok = dcp_model_load(actor, actor_len, &a, NULL) == DCP_OK &&
+             dcp_model_load(critic, critic_len, &c, NULL) == DCP_OK &&
+             dcp_scratch_floats(&a, &a_floats, NULL) == DCP_OK &&
+             dcp_scratch_floats(&c, &c_floats, NULL) == DCP_OK &&
+             dcp_model_header(&a, &header, NULL) == DCP_OK;
+    printf("SIZES actor=%zu/%zu critic=%zu/%zu\n", a_floats,
+           sizeof actor_scratch / sizeof(float), c_floats, sizeof critic_scratch / sizeof(float));
+    check("sizes", ok && a_floats == sizeof actor_scratch / sizeof(float) &&
+          c_floats == sizeof critic_scratch / sizeof(float) &&
+          header.scratch_width == DCP_SCRATCH_WIDTH_ACTOR(2, 2, 48), "macro and library differ");
+}
+
 int main(int argc, char **argv) {
-    size_t actor_len, a_len;
-    uint8_t *actor, *slot_a;
-    if (argc != 3) {
-        fprintf(stderr, "usage: contract ACTOR_BLOB SLOT_A\n");
+    size_t actor_len, critic_len, a_len;
+    uint8_t *actor, *critic, *slot_a;
+    if (argc != 4) {
+        fprintf(stderr, "usage: contract ACTOR_BLOB CRITIC_BLOB SLOT_A\n");
         return 2;
     }
     actor = read_file(argv[1], &actor_len);
-    slot_a = read_file(argv[2], &a_len);
+    critic = read_file(argv[2], &critic_len);
+    slot_a = read_file(argv[3], &a_len);
+    abi();
+    sizes(actor, actor_len, critic, critic_len);
     padding(actor, actor_len, slot_a, a_len);
     one_slot(slot_a, a_len);
     free(actor);
+    free(critic);
     free(slot_a);
     return failures == 0 ? 0 : 1;
 }
