@@ -871,6 +871,78 @@ fn a_board_with_one_slot_passes_null_for_the_other() {
     );
 }
 
+/// Reentrancy, as docs/c-api.md states it: calls share no state, so a call may be preempted
+/// by another (an interrupt, a thread) on the same model or another one, each with its own
+/// scratch and outputs, and both give the bits they give alone. Two threads act on one shared
+/// model and a third on a second model, interleaved at whatever points the scheduler picks.
+#[test]
+fn calls_on_one_model_or_two_at_once_give_the_bits_they_give_alone() {
+    let actor = golden("actor_4x48.postcard");
+    let critic = golden("critic_2x32.postcard");
+    let (shared, other) = (load(&actor), load(&critic));
+    let observations: Vec<[f32; 2]> = (0..2000)
+        .map(|k| [k as f32 * 0.013 - 9.0, 4.0 - k as f32 * 0.007])
+        .collect();
+    let alone_act = |o: &[f32; 2]| {
+        let (mut scratch, mut action) = ([0.0f32; 96], [0.0f32; 2]);
+        // SAFETY: every pointer is a live local or the shared model, with room for its length.
+        let code = unsafe {
+            dcp_act(
+                &shared,
+                o.as_ptr(),
+                2,
+                scratch.as_mut_ptr(),
+                96,
+                action.as_mut_ptr(),
+                2,
+                null_mut(),
+            )
+        };
+        assert_eq!(code, DCP_OK);
+        action.map(f32::to_bits)
+    };
+    let alone_q = |o: &[f32; 2]| {
+        let (mut scratch, mut q) = ([0.0f32; 64], 0.0f32);
+        let unit = [o[0] / 10.0, o[1] / 10.0];
+        // SAFETY: as above, with the second model.
+        let code = unsafe {
+            dcp_q(
+                &other,
+                o.as_ptr(),
+                2,
+                unit.as_ptr(),
+                2,
+                scratch.as_mut_ptr(),
+                64,
+                &mut q,
+                null_mut(),
+            )
+        };
+        assert_eq!(code, DCP_OK);
+        q.to_bits()
+    };
+    let want_act: Vec<[u32; 2]> = observations.iter().map(alone_act).collect();
+    let want_q: Vec<u32> = observations.iter().map(alone_q).collect();
+    std::thread::scope(|s| {
+        let acting = [
+            s.spawn(|| observations.iter().map(alone_act).collect::<Vec<_>>()),
+            s.spawn(|| {
+                observations
+                    .iter()
+                    .rev()
+                    .map(alone_act)
+                    .rev()
+                    .collect::<Vec<_>>()
+            }),
+        ];
+        let scoring = s.spawn(|| observations.iter().map(alone_q).collect::<Vec<_>>());
+        for t in acting {
+            assert_eq!(t.join().expect("thread"), want_act);
+        }
+        assert_eq!(scoring.join().expect("thread"), want_q);
+    });
+}
+
 fn hex(t: &str) -> u32 {
     u32::from_str_radix(t, 16).expect("hex")
 }
