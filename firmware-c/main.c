@@ -63,6 +63,12 @@ __attribute__((noinline, used)) void fw_mark(uint32_t id) {
  * safe state; `boot` says why each slot failed). */
 static int32_t boot(const uint8_t *slot_a, const uint8_t *slot_b, size_t slot_size,
                     dcp_boot *out) {
+    /* A library of another ABI version than this header: no slot runs (the safe state). */
+    int32_t abi = DCP_ABI_CHECK(NULL);
+    if (abi != DCP_OK) {
+        *out = (dcp_boot){0};
+        return abi;
+    }
     return dcp_slot_choose(slot_a, slot_size, slot_b, slot_size, OBS, ACT, W, out, &model, NULL);
 }
 

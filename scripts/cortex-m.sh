@@ -44,8 +44,14 @@
 #                   variants run that actor with DCP's compare step on the device (feature
 #                   `refine`, the critic in the CRITIC region), T = 4 and 16 proposals per tick
 #                   (skipped without it).
-# Environment: PREFIX (private compiler prefix, default /opt/rust-web), RUST_WEB_VERSION (pin a
-# Debian rustc-web version), VARIANTS (space-separated subset of the names below), EXTRA_FEATURES
+# Budgets: firmware/budgets.txt limits flash, RAM and instructions per multiply-accumulate of
+# named variants (the aims docs/performance.md reports as met); a variant that passes one makes
+# the script exit non-zero with the variant, the figure and the budget. Its `toolchain` line pins
+# the compiler the figures belong to (a Debian rustc-web version, rustc's release and LLVM):
+# the script installs that version and refuses to run with another.
+# Environment: PREFIX (private compiler prefix, default /opt/rust-web), RUST_WEB_VERSION (the
+# Debian rustc-web version; default: the pin in firmware/budgets.txt; another one stops the
+# script before it builds, as the budgets belong to the pinned one), VARIANTS (space-separated subset of the names below), EXTRA_FEATURES
 # (firmware features, if any), QEMU_TIMEOUT (seconds, default 60), SIZE_OPT_LEVEL (opt-level of
 # the release-size profile: z (default) or s),
 # CARGO_TARGET_DIR (everything this script builds goes under <it or target/>/cortex-m).
@@ -60,12 +66,17 @@
 #   * emulator: qemu-system-arm from bookworm-backports (bookworm's 7.2 would remove qemu-utils 10),
 #     with a tiny TCG plugin (firmware/qemu-plugin/icount.c) for exact instruction counts.
 # A second run finds everything in place, makes no network access for the toolchain, and only
-# rebuilds what changed. Exit status: 0 = every variant built, ran, matched the host.
+# rebuilds what changed. Exit status: 0 = every variant built, ran, matched the host and stayed
+# within its budgets (firmware/budgets.txt).
 set -euo pipefail
 
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 PREFIX=${PREFIX:-/opt/rust-web}
-RUST_WEB_VERSION=${RUST_WEB_VERSION:-}
+BUDGETS=$ROOT/firmware/budgets.txt
+# The pin: `toolchain rustc-web DEBIAN_VERSION rustc RELEASE llvm LLVM_VERSION`.
+read -r _ _ PIN_DEBIAN _ PIN_RELEASE _ PIN_LLVM < <(grep -m1 '^toolchain ' "$BUDGETS") \
+  || { echo "cortex-m.sh: error: $BUDGETS: expected a 'toolchain rustc-web VERSION rustc RELEASE llvm VERSION' line, found none" >&2; exit 1; }
+RUST_WEB_VERSION=${RUST_WEB_VERSION:-$PIN_DEBIAN}
 BASE=$(realpath -m "${CARGO_TARGET_DIR:-$ROOT/target}")
 WORK=$BASE/cortex-m
 OUT=$BASE/cortex-m-report.json
@@ -149,7 +160,7 @@ while [ $# -gt 0 ]; do
     --no-hil) HIL=0; shift ;;
     --hil-only) HIL_ONLY=1; shift ;;
     --refine-run) [ $# -ge 2 ] || die "--refine-run needs a run folder"; REFINE_RUN=$(realpath "$2"); shift 2 ;;
-    -h|--help) sed -n '2,42p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,/^set -euo/p' "${BASH_SOURCE[0]}" | sed '$d; s/^# \{0,1\}//'; exit 0 ;;
     *) die "unknown argument $1 (see --help)" ;;
   esac
 done
@@ -246,6 +257,14 @@ for t in thumbv7em-none-eabihf thumbv7m-none-eabi; do
   "$RUSTC_X" --print target-list | grep -qx "$t" || die "rustc-web does not know $t"
 done
 echo "$("$RUSTC_X" -V) | $(cargo -V) | $(qemu-system-arm --version | head -1)"
+# The budgets' figures belong to the pinned compiler: another one would move them silently.
+RUSTC_RELEASE=$("$RUSTC_X" -vV | sed -n 's/^release: //p'); RUSTC_LLVM=$("$RUSTC_X" -vV | sed -n 's/^LLVM version: //p')
+[ "$RUSTC_RELEASE $RUSTC_LLVM" = "$PIN_RELEASE $PIN_LLVM" ] \
+  || die "expected rustc $PIN_RELEASE with LLVM $PIN_LLVM (the pin in firmware/budgets.txt, rustc-web $PIN_DEBIAN), found rustc $RUSTC_RELEASE with LLVM $RUSTC_LLVM: install the pinned one, or re-measure and move the pin"
+# Every budget names a variant of this script (a renamed variant would leave its budget unchecked).
+for b in $(grep -v '^[[:space:]]*\(#\|toolchain \|$\)' "$BUDGETS" | awk '{print $1}' | sort -u); do
+  printf '%s\n' "${ALL_VARIANTS[@]}" | cut -d: -f1 | grep -qx "$b" || die "firmware/budgets.txt: expected a variant of this script, found $b"
+done
 [ "$INSTALL_ONLY" = 1 ] && { step done; exit 0; }
 
 #--------------------------------------------------------------------------------------------------
@@ -256,6 +275,10 @@ HOST_ENV=(env -u RUSTC -u RUSTC_BOOTSTRAP -u RUSTFLAGS -u CARGO_ENCODED_RUSTFLAG
 (cd "$ROOT" && "${HOST_ENV[@]}" CARGO_TARGET_DIR="$WORK/host" \
   cargo build --release --locked -q --manifest-path firmware/host-check/Cargo.toml)
 HC=$WORK/host/release/host-check
+# Its own tests (the budget check among them), from the same release build.
+(cd "$ROOT" && "${HOST_ENV[@]}" CARGO_TARGET_DIR="$WORK/host" \
+  cargo test --release --locked -q --manifest-path firmware/host-check/Cargo.toml >"$WORK/host-check-tests.log" 2>&1) \
+  || { tail -20 "$WORK/host-check-tests.log"; die "host-check's tests failed (log: $WORK/host-check-tests.log)"; }
 PLUGIN_SRC=$ROOT/firmware/qemu-plugin/icount.c
 PLUGIN_SO=$WORK/libicount.so
 if [ ! -f "$PLUGIN_SO" ] || [ "$PLUGIN_SRC" -nt "$PLUGIN_SO" ]; then
@@ -681,15 +704,23 @@ fi
 step "report"
 [ ${#JSONS[@]} -gt 0 ] || die "no variant ran: ${FAILED[*]}"
 mkdir -p "$(dirname "$OUT")"
-"$HC" report --out "$OUT" \
-  --meta "rustc=$("$RUSTC_X" -V)" --meta "cargo=$(cargo -V)" \
+# The report, then the budgets: a budget passed is one line naming the variant, figure and budget.
+set +e
+"$HC" report --out "$OUT" --budgets "$BUDGETS" \
+  --meta "rustc=$("$RUSTC_X" -V) (rustc-web $RUST_WEB_VERSION, LLVM $RUSTC_LLVM)" --meta "cargo=$(cargo -V)" \
   --meta "qemu=$(qemu-system-arm --version | head -1)" \
   --meta "profile=release: opt-level 3, fat LTO, codegen-units 1, panic abort, -Zbuild-std=core; release-s: the same at opt-level s; release-size: the same at opt-level $SIZE_OPT_LEVEL (per variant: the profile column)" \
   --meta "encodings=every firmware runs f32, f16 and int8 blobs except the *-int8-only* variants (int8 only; per variant: firmware_encodings)" \
   --meta "c firmware=the c-* variants: firmware-c/ (arm-none-eabi-gcc $(arm-none-eabi-gcc -dumpversion), ${C_FLAGS[*]}) linked with policy-core-ffi built with the release profile" \
   --meta "instructions=exact counts from a TCG plugin between fw_mark calls (mark cost subtracted)" \
   --meta "command=${VARIANTS:+VARIANTS=\"$VARIANTS\" }${SIZE_OPT_LEVEL_SET:+SIZE_OPT_LEVEL=$SIZE_OPT_LEVEL }${EXTRA_FEATURES:+EXTRA_FEATURES=$EXTRA_FEATURES }bash scripts/cortex-m.sh${BLOB:+ --blob $BLOB}${REFINE_RUN:+ --refine-run $REFINE_RUN}" \
-  "${JSONS[@]}"
+  "${JSONS[@]}" 2>"$WORK/report.err"
+rc=$?
+set -e
+if [ $rc != 0 ]; then
+  cat "$WORK/report.err" >&2
+  FAILED+=("$(sed 's/^host-check: error: //' "$WORK/report.err")")
+fi
 if [ ${#SLOT_JSONS[@]} -gt 0 ]; then
   echo "slot cases (M4F, release; boot = choosing and verifying, in instructions):"
   "$HC" slot-table "${OUT%.json}-slots.md" "${SLOT_JSONS[@]}"

@@ -36,6 +36,16 @@ impl<T> Raw<T> {
         Ok(Raw { ptr, len, name })
     }
 
+    /// `len` values of `T` from `ptr` as [`Raw::new`], except that NULL with `len` 0 is an empty
+    /// buffer (an absent optional region, such as a board's missing second slot).
+    pub(crate) fn optional(ptr: *const T, len: usize, name: &'static str) -> Result<Self, Failure> {
+        if ptr.is_null() && len == 0 {
+            let ptr = core::ptr::NonNull::<T>::dangling().as_ptr().cast_const();
+            return Ok(Raw { ptr, len: 0, name });
+        }
+        Raw::new(ptr, len, name)
+    }
+
     /// The pointer.
     pub(crate) fn ptr(&self) -> *const T {
         self.ptr

@@ -43,6 +43,9 @@ pub struct DcpHeader {
     pub scratch_width: u32,
     /// The label's bytes (UTF-8), NUL-terminated.
     pub label: [c_char; DCP_LABEL_LEN],
+    /// Zero: the three bytes that align `label_len`, named so that no byte of the struct is
+    /// padding the library leaves unwritten.
+    pub reserved: [u8; 3],
     /// The label's length in bytes, NUL excluded.
     pub label_len: u32,
     /// Payload bytes.
@@ -78,6 +81,7 @@ impl DcpHeader {
             choices: s.choices.into(),
             scratch_width: u32::try_from(model.scratch_width()).unwrap_or(u32::MAX),
             label,
+            reserved: [0; 3],
             label_len: h.label.len() as u32,
             payload_len: h.payload_len,
             crc,
@@ -88,7 +92,9 @@ impl DcpHeader {
 
 /// Verifies the `len` bytes at `blob` completely (what `dcp_model_load` checks: magic, version,
 /// header, limits, length, CRC, every parameter) and writes what they hold to `*out`.
-/// Returns `DCP_OK` or the first check that failed; `*out` is written only on success.
+/// Returns `DCP_OK` or the first check that failed; `*out` is written only on success. `out`
+/// is required: NULL gives `DCP_ERR_NULL_POINTER` without verifying (`dcp_model_load` verifies
+/// as completely and keeps the model).
 ///
 /// # Safety
 /// `blob` is NULL or points to `len` readable bytes; `out` is NULL or points to a writable
@@ -114,5 +120,5 @@ pub unsafe extern "C" fn dcp_verify(
         Ok(())
     };
     // SAFETY: `err` is NULL or writable, by the caller's contract.
-    unsafe { finish(err, run()) }
+    unsafe { finish(err, run) }
 }

@@ -10,6 +10,8 @@
 //! - [`dcp_act`], [`dcp_q`], [`dcp_choose`]: run it with a caller's scratch of
 //!   [`dcp_scratch_floats`] floats.
 //! - [`dcp_slot_choose`]: the A/B flash slot rule, as the Rust example firmware boots.
+//! - [`dcp_abi_check`]: refuses a header of another ABI version ([`DCP_ABI_VERSION`]) than the
+//!   library's.
 //!
 //! **Memory.** Nothing is allocated and there are no globals: every byte the library touches is
 //! an argument. The blob's bytes (in flash, usually) must outlive every model loaded from them
@@ -36,12 +38,14 @@
 #[cfg(not(target_os = "none"))]
 extern crate std;
 
+mod abi;
 mod buffers;
 mod header;
 mod model;
 mod slot;
 mod status;
 
+pub use abi::{dcp_abi_check, dcp_abi_version, DCP_ABI_VERSION, DCP_MAX_SCRATCH_WIDTH};
 pub use header::{dcp_verify, DcpHeader};
 pub use header::{DCP_ACTIVATION_RELU, DCP_ACTIVATION_TANH, DCP_LABEL_LEN};
 pub use model::{

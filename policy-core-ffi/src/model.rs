@@ -116,7 +116,7 @@ unsafe fn load(
         Ok(())
     };
     // SAFETY: `err` is NULL or writable, by the caller's contract.
-    unsafe { finish(err, run()) }
+    unsafe { finish(err, run) }
 }
 
 /// Writes a zero tag into a storage.
@@ -188,7 +188,7 @@ pub unsafe extern "C" fn dcp_model_header(
         Ok(())
     };
     // SAFETY: `err` is NULL or writable, by the caller's contract.
-    unsafe { finish(err, run()) }
+    unsafe { finish(err, run) }
 }
 
 /// The floats a scratch for this model must hold (`2 * scratch width`), into `*out`.
@@ -211,7 +211,7 @@ pub unsafe extern "C" fn dcp_scratch_floats(
         Ok(())
     };
     // SAFETY: `err` is NULL or writable, by the caller's contract.
-    unsafe { finish(err, run()) }
+    unsafe { finish(err, run) }
 }
 
 /// The buffers of one forward pass, checked: the observation, the scratch, and the model with
@@ -263,7 +263,9 @@ unsafe fn pass<'a>(
 /// inside the blob's bounds for every input, NaN and infinities included. `obs_len` and
 /// `action_len` must be the blob's sizes (`DCP_ERR_SIZE_MISMATCH`); `scratch` holds
 /// `scratch_len` floats, at least `dcp_scratch_floats` (`DCP_ERR_SCRATCH_TOO_SMALL`); on a
-/// critic: `DCP_ERR_WRONG_KIND`. `action` is written only on success.
+/// critic: `DCP_ERR_WRONG_KIND`. `action` is written only on success. `obs`, `scratch` and
+/// `action` must not overlap one another, so an action cannot be written over its own
+/// observation (`DCP_ERR_OVERLAP`; copy the observation first).
 ///
 /// # Safety
 /// `model` is NULL or a zeroed or loaded `dcp_model` whose blob is still in place; `obs` is NULL
@@ -290,7 +292,7 @@ pub unsafe extern "C" fn dcp_act(
         Ok(())
     };
     // SAFETY: `err` is NULL or writable, by the caller's contract.
-    unsafe { finish(err, run()) }
+    unsafe { finish(err, run) }
 }
 
 /// A critic's Q(s, a) for an observation and a unit-box action (clamped into the box; a
@@ -328,7 +330,7 @@ pub unsafe extern "C" fn dcp_q(
         Ok(())
     };
     // SAFETY: `err` is NULL or writable, by the caller's contract.
-    unsafe { finish(err, run()) }
+    unsafe { finish(err, run) }
 }
 
 /// A discrete policy's choice, the row index of the largest Q value (ties and NaN: the lowest
@@ -357,7 +359,7 @@ pub unsafe extern "C" fn dcp_choose(
         Ok(())
     };
     // SAFETY: `err` is NULL or writable, by the caller's contract.
-    unsafe { finish(err, run()) }
+    unsafe { finish(err, run) }
 }
 
 /// The action bounds of an actor or discrete policy, `low[i]` and `high[i]` for each of its
@@ -402,7 +404,7 @@ pub unsafe extern "C" fn dcp_action_bounds(
         Ok(())
     };
     // SAFETY: `err` is NULL or writable, by the caller's contract.
-    unsafe { finish(err, run()) }
+    unsafe { finish(err, run) }
 }
 
 /// For the slot rule: stores a model loaded elsewhere (`dcp_slot_choose`), or clears.

@@ -40,6 +40,9 @@ pub struct DcpSlotStatus {
 pub struct DcpBoot {
     /// `DCP_SLOT_A`, `DCP_SLOT_B` or `DCP_SLOT_NONE`.
     pub running: u32,
+    /// Zero: the four bytes that align `a` on 64-bit targets (present on every target, so that
+    /// no byte of the struct is padding the library leaves unwritten).
+    pub reserved: u32,
     /// Slot A's fate.
     pub a: DcpSlotStatus,
     /// Slot B's fate.
@@ -69,6 +72,10 @@ fn status(s: Status) -> DcpSlotStatus {
 /// `DCP_OK` when a slot runs, `DCP_ERR_NO_SLOT` when none does (`*model` then holds no model;
 /// run the safe state), or a pointer error (then `*out` is not written).
 ///
+/// A board with one slot passes NULL and 0 for the other: an absent slot is an empty one
+/// (`DCP_ERR_SLOT_EMPTY` in its status), and the present slot runs if it verifies. NULL with a
+/// non-zero length is `DCP_ERR_NULL_POINTER`.
+///
 /// # Safety
 /// `slot_a` and `slot_b` are NULL or point to `a_len` and `b_len` readable bytes that outlive
 /// every use of `*model` and do not change; `out` is NULL or a writable `dcp_boot`; `model` is
@@ -87,8 +94,8 @@ pub unsafe extern "C" fn dcp_slot_choose(
     err: *mut DcpError,
 ) -> i32 {
     let run = || -> Result<(), Failure> {
-        let a = Raw::new(slot_a, a_len, "slot_a")?;
-        let b = Raw::new(slot_b, b_len, "slot_b")?;
+        let a = Raw::optional(slot_a, a_len, "slot_a")?;
+        let b = Raw::optional(slot_b, b_len, "slot_b")?;
         let boot = one(out.cast_const(), "out")?;
         let storage = one(model.cast_const(), "model")?;
         for r in [&a, &b] {
@@ -108,6 +115,7 @@ pub unsafe extern "C" fn dcp_slot_choose(
                 Some((SlotId::B, _)) => DCP_SLOT_B,
                 None => DCP_SLOT_NONE,
             },
+            reserved: 0,
             a: status(chosen.a),
             b: status(chosen.b),
         };
@@ -127,7 +135,7 @@ pub unsafe extern "C" fn dcp_slot_choose(
         }
     };
     // SAFETY: `err` is NULL or writable, by the caller's contract.
-    unsafe { finish(err, run()) }
+    unsafe { finish(err, run) }
 }
 
 /// Reads one slot record's header (magic, header CRC, length): its sequence number into
@@ -169,5 +177,5 @@ pub unsafe extern "C" fn dcp_slot_read(
         Ok(())
     };
     // SAFETY: `err` is NULL or writable, by the caller's contract.
-    unsafe { finish(err, run()) }
+    unsafe { finish(err, run) }
 }

@@ -55,7 +55,8 @@ pub const DCP_ERR_SLOT_OVERFLOW: i32 = -20;
 pub const DCP_ERR_OTHER: i32 = -99;
 /// A pointer argument is NULL (`what`: the argument's name).
 pub const DCP_ERR_NULL_POINTER: i32 = -100;
-/// A pointer argument is not aligned for its type (`what`: the argument's name).
+/// A pointer argument is not aligned for its type (`what`: the argument's name; a misaligned
+/// `err` itself gets the code alone, since nothing can be written through it).
 pub const DCP_ERR_MISALIGNED: i32 = -101;
 /// A length runs past the end of the address space (`what`: the argument's name).
 pub const DCP_ERR_BAD_LENGTH: i32 = -102;
@@ -66,6 +67,9 @@ pub const DCP_ERR_NOT_LOADED: i32 = -104;
 /// `dcp_slot_choose`: neither slot holds a policy that runs here (each slot's reason is in the
 /// `dcp_boot`); run the safe state.
 pub const DCP_ERR_NO_SLOT: i32 = -105;
+/// `dcp_abi_check`: the header the caller was compiled with is not this library's ABI version
+/// (`expected`: the library's, `found`: the header's).
+pub const DCP_ERR_ABI_MISMATCH: i32 = -106;
 
 /// `DCP_KIND_*`: what a blob holds (`dcp_header.kind`, `DCP_ERR_WRONG_KIND`'s numbers).
 pub const DCP_KIND_ACTOR: u32 = 0;
@@ -94,6 +98,9 @@ pub const DCP_MESSAGE_LEN: usize = 160;
 pub struct DcpError {
     /// The status the function returned (`DCP_OK` on success).
     pub code: i32,
+    /// Zero: the four bytes that align the `size_t` fields on 64-bit targets (present on every
+    /// target, so that no byte of the struct is padding the library leaves unwritten).
+    pub reserved: u32,
     /// `DCP_ERR_NON_FINITE_PARAMETER`: the parameter; `DCP_ERR_INVALID_PARAMETER`: the
     /// dimension.
     pub index: usize,
@@ -120,6 +127,8 @@ pub(crate) enum Failure {
     Core(Error),
     /// The C caller's misuse: a `DCP_ERR_*` code and the argument it concerns.
     Api { code: i32, what: &'static str },
+    /// A header of another ABI version than the library's.
+    AbiMismatch { library: u32, header: u32 },
 }
 
 impl From<Error> for Failure {
@@ -137,6 +146,7 @@ impl Failure {
         match self {
             Failure::Core(e) => code_of(e),
             Failure::Api { code, .. } => *code,
+            Failure::AbiMismatch { .. } => DCP_ERR_ABI_MISMATCH,
         }
     }
 }
@@ -173,7 +183,7 @@ pub fn code_of(e: &Error) -> i32 {
 }
 
 /// Every code and its name, as `dcp_status_name` returns them.
-const NAMES: [(i32, &core::ffi::CStr); 28] = [
+const NAMES: [(i32, &core::ffi::CStr); 29] = [
     (DCP_OK, c"Ok"),
     (DCP_ERR_WRONG_MAGIC, c"WrongMagic"),
     (DCP_ERR_UNSUPPORTED_VERSION, c"UnsupportedVersion"),
@@ -202,6 +212,7 @@ const NAMES: [(i32, &core::ffi::CStr); 28] = [
     (DCP_ERR_OVERLAP, c"Overlap"),
     (DCP_ERR_NOT_LOADED, c"NotLoaded"),
     (DCP_ERR_NO_SLOT, c"NoSlot"),
+    (DCP_ERR_ABI_MISMATCH, c"AbiMismatch"),
 ];
 
 /// The name of a status code, as policy-core names its error variants (`"ChecksumMismatch"`,
@@ -216,16 +227,22 @@ pub extern "C" fn dcp_status_name(code: i32) -> *const c_char {
         .as_ptr()
 }
 
-/// Writes `result` into `*err` (if `err` is neither NULL nor misaligned) and returns its code.
+/// Runs a call and writes its outcome into `*err` (unless `err` is NULL); returns its code. A
+/// misaligned `err` is refused like every other misaligned pointer: `DCP_ERR_MISALIGNED`
+/// before anything runs (nothing is written anywhere).
 ///
 /// # Safety
 /// `err` is NULL or points to memory writable as a `DcpError`.
-pub(crate) unsafe fn finish(err: *mut DcpError, result: Result<(), Failure>) -> i32 {
+pub(crate) unsafe fn finish(err: *mut DcpError, run: impl FnOnce() -> Result<(), Failure>) -> i32 {
+    if !err.is_aligned() {
+        return DCP_ERR_MISALIGNED;
+    }
+    let result = run();
     let code = match &result {
         Ok(()) => DCP_OK,
         Err(f) => f.code(),
     };
-    if !err.is_null() && err.is_aligned() {
+    if !err.is_null() {
         let out = describe(code, result.err());
         // SAFETY: `err` is non-NULL and aligned (checked above) and, by the caller's contract,
         // writable as a DcpError; `write` does not read the old (possibly uninitialised) value.
@@ -238,6 +255,7 @@ pub(crate) unsafe fn finish(err: *mut DcpError, result: Result<(), Failure>) -> 
 pub(crate) fn describe(code: i32, failure: Option<Failure>) -> DcpError {
     let mut out = DcpError {
         code,
+        reserved: 0,
         index: 0,
         expected: 0,
         found: 0,
@@ -258,6 +276,14 @@ pub(crate) fn describe(code: i32, failure: Option<Failure>) -> DcpError {
                 name.and_then(|n| n.to_str().ok()).unwrap_or("error")
             );
             what
+        }
+        Some(Failure::AbiMismatch { library, header }) => {
+            let _ = write!(
+                CText::new(&mut out.message),
+                "ABI mismatch: the library is ABI version {library}, the header {header}"
+            );
+            (out.expected, out.found) = (library as usize, header as usize);
+            "ABI version"
         }
         Some(Failure::Core(e)) => {
             let _ = write!(CText::new(&mut out.message), "{e}");

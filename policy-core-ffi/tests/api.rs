@@ -707,6 +707,242 @@ fn misaligned_and_overlapping_buffers_are_error_codes() {
     }
 }
 
+/// Regression: a misaligned `dcp_error *` was taken for NULL (the call ran and reported
+/// success with nothing written), while every other misaligned pointer is an error. It is now
+/// refused the same way, before the call does anything: a model storage stays unloaded.
+#[test]
+fn a_misaligned_error_pointer_is_refused_like_every_other_pointer() {
+    let actor = golden("actor_4x48.postcard");
+    let mut raw = vec![0u64; size_of::<DcpError>() / 8 + 2];
+    // SAFETY: one byte into a buffer with room for a DcpError after it.
+    let odd = unsafe { raw.as_mut_ptr().cast::<u8>().add(1).cast::<DcpError>() };
+    let mut m = new_model();
+    // SAFETY: every pointer is valid for its length; `odd` is writable.
+    unsafe {
+        assert_eq!(
+            dcp_model_load(actor.as_ptr(), actor.len(), &mut m, odd),
+            DCP_ERR_MISALIGNED
+        );
+        let (mut floats, mut scratch) = (0usize, [0.0f32; 96]);
+        assert_eq!(
+            dcp_scratch_floats(&m, &mut floats, null_mut()),
+            DCP_ERR_NOT_LOADED
+        );
+        let (obs, mut action) = ([0.5f32, -0.25], [7.0f32; 2]);
+        let loaded = load(&actor);
+        assert_eq!(
+            dcp_act(
+                &loaded,
+                obs.as_ptr(),
+                2,
+                scratch.as_mut_ptr(),
+                96,
+                action.as_mut_ptr(),
+                2,
+                odd
+            ),
+            DCP_ERR_MISALIGNED
+        );
+        assert_eq!(action, [7.0; 2], "nothing is written");
+        assert_eq!(
+            dcp_verify(actor.as_ptr(), actor.len(), null_mut(), odd),
+            DCP_ERR_MISALIGNED
+        );
+    }
+    assert!(
+        raw.iter().all(|&w| w == 0),
+        "nothing was written through err"
+    );
+}
+
+/// `obs` and `action` may not be the same buffer (nor overlap): `action` is written while the
+/// forward pass may still read `obs`, so the call refuses it with `DCP_ERR_OVERLAP`.
+#[test]
+fn an_action_written_over_its_observation_is_an_overlap() {
+    let actor = golden("actor_4x48.postcard");
+    let m = load(&actor);
+    let (mut buf, mut scratch, mut e) = ([0.5f32, -0.25], [0.0f32; 96], new_error());
+    // SAFETY: both pointers are `buf`, valid for two floats.
+    let status = unsafe {
+        dcp_act(
+            &m,
+            buf.as_ptr(),
+            2,
+            scratch.as_mut_ptr(),
+            96,
+            buf.as_mut_ptr(),
+            2,
+            &mut e,
+        )
+    };
+    assert_eq!(status, DCP_ERR_OVERLAP);
+    assert_eq!(text(&e.what), "action and obs");
+    assert_eq!(buf, [0.5, -0.25], "the observation is left as it was");
+}
+
+/// No struct of the API has padding: every byte is a named field the library writes (zero for
+/// the `reserved` ones), so a caller that copies or hashes a struct reads no stale stack bytes.
+#[test]
+fn the_api_structs_have_no_padding() {
+    let word = size_of::<usize>();
+    assert_eq!(size_of::<DcpHeader>(), 10 * 4 + DCP_LABEL_LEN + 3 + 4 * 4);
+    assert_eq!(
+        size_of::<DcpError>(),
+        4 + 4 + 6 * word + DCP_WHAT_LEN + DCP_MESSAGE_LEN
+    );
+    assert_eq!(size_of::<DcpSlotStatus>(), 4 + 4 + size_of::<DcpError>());
+    assert_eq!(size_of::<DcpBoot>(), 4 + 4 + 2 * size_of::<DcpSlotStatus>());
+}
+
+/// Regression: a board with one slot had to pass a dummy second region, as
+/// `dcp_slot_choose(a, len, NULL, 0, ...)` failed the boot with `DCP_ERR_NULL_POINTER`. NULL
+/// with length 0 is now an absent slot, reported empty; NULL with a length is still an error.
+#[test]
+fn a_board_with_one_slot_passes_null_for_the_other() {
+    let actor = golden("actor_4x48.postcard");
+    let image = [&slot::header(3, actor.len()).expect("header")[..], &actor].concat();
+    for a_is_present in [true, false] {
+        let (mut boot, mut m, mut e) = (
+            core::mem::MaybeUninit::<DcpBoot>::zeroed(),
+            new_model(),
+            new_error(),
+        );
+        let (a, a_len, b, b_len) = if a_is_present {
+            (image.as_ptr(), image.len(), null(), 0)
+        } else {
+            (null(), 0, image.as_ptr(), image.len())
+        };
+        // SAFETY: the present slot is `image`; the absent one is NULL with length 0.
+        let code = unsafe {
+            dcp_slot_choose(
+                a,
+                a_len,
+                b,
+                b_len,
+                2,
+                2,
+                64,
+                boot.as_mut_ptr(),
+                &mut m,
+                &mut e,
+            )
+        };
+        assert_eq!(code, DCP_OK, "{}", text(&e.message));
+        // SAFETY: written by the successful call.
+        let boot = unsafe { boot.assume_init() };
+        let (present, absent) = if a_is_present {
+            (boot.a, boot.b)
+        } else {
+            (boot.b, boot.a)
+        };
+        assert_eq!(
+            boot.running,
+            if a_is_present { DCP_SLOT_A } else { DCP_SLOT_B }
+        );
+        assert_eq!((present.state, present.sequence), (DCP_SLOT_RUNNING, 3));
+        assert_eq!(
+            (absent.state, absent.error.code),
+            (DCP_SLOT_FAILED, DCP_ERR_SLOT_EMPTY)
+        );
+    }
+    let (mut boot, mut m, mut e) = (
+        core::mem::MaybeUninit::<DcpBoot>::zeroed(),
+        new_model(),
+        new_error(),
+    );
+    // SAFETY: slot B is NULL with a length: refused before anything is read.
+    let code = unsafe {
+        dcp_slot_choose(
+            image.as_ptr(),
+            image.len(),
+            null(),
+            64,
+            2,
+            2,
+            64,
+            boot.as_mut_ptr(),
+            &mut m,
+            &mut e,
+        )
+    };
+    assert_eq!(
+        (code, text(&e.what).as_str()),
+        (DCP_ERR_NULL_POINTER, "slot_b")
+    );
+}
+
+/// Reentrancy, as docs/c-api.md states it: calls share no state, so a call may be preempted
+/// by another (an interrupt, a thread) on the same model or another one, each with its own
+/// scratch and outputs, and both give the bits they give alone. Two threads act on one shared
+/// model and a third on a second model, interleaved at whatever points the scheduler picks.
+#[test]
+fn calls_on_one_model_or_two_at_once_give_the_bits_they_give_alone() {
+    let actor = golden("actor_4x48.postcard");
+    let critic = golden("critic_2x32.postcard");
+    let (shared, other) = (load(&actor), load(&critic));
+    let observations: Vec<[f32; 2]> = (0..2000)
+        .map(|k| [k as f32 * 0.013 - 9.0, 4.0 - k as f32 * 0.007])
+        .collect();
+    let alone_act = |o: &[f32; 2]| {
+        let (mut scratch, mut action) = ([0.0f32; 96], [0.0f32; 2]);
+        // SAFETY: every pointer is a live local or the shared model, with room for its length.
+        let code = unsafe {
+            dcp_act(
+                &shared,
+                o.as_ptr(),
+                2,
+                scratch.as_mut_ptr(),
+                96,
+                action.as_mut_ptr(),
+                2,
+                null_mut(),
+            )
+        };
+        assert_eq!(code, DCP_OK);
+        action.map(f32::to_bits)
+    };
+    let alone_q = |o: &[f32; 2]| {
+        let (mut scratch, mut q) = ([0.0f32; 64], 0.0f32);
+        let unit = [o[0] / 10.0, o[1] / 10.0];
+        // SAFETY: as above, with the second model.
+        let code = unsafe {
+            dcp_q(
+                &other,
+                o.as_ptr(),
+                2,
+                unit.as_ptr(),
+                2,
+                scratch.as_mut_ptr(),
+                64,
+                &mut q,
+                null_mut(),
+            )
+        };
+        assert_eq!(code, DCP_OK);
+        q.to_bits()
+    };
+    let want_act: Vec<[u32; 2]> = observations.iter().map(alone_act).collect();
+    let want_q: Vec<u32> = observations.iter().map(alone_q).collect();
+    std::thread::scope(|s| {
+        let acting = [
+            s.spawn(|| observations.iter().map(alone_act).collect::<Vec<_>>()),
+            s.spawn(|| {
+                observations
+                    .iter()
+                    .rev()
+                    .map(alone_act)
+                    .rev()
+                    .collect::<Vec<_>>()
+            }),
+        ];
+        let scoring = s.spawn(|| observations.iter().map(alone_q).collect::<Vec<_>>());
+        for t in acting {
+            assert_eq!(t.join().expect("thread"), want_act);
+        }
+        assert_eq!(scoring.join().expect("thread"), want_q);
+    });
+}
+
 fn hex(t: &str) -> u32 {
     u32::from_str_radix(t, 16).expect("hex")
 }

@@ -229,3 +229,176 @@ fn a_c_program_refuses_bad_input_and_acts_bit_exactly() {
         assert_eq!(qs[k], q.to_bits(), "observation {k}: {o:?}");
     }
 }
+
+/// The header compiles alone as C89 (pedantic), as C++98, and with `DCP_ALIGNED` defined by the
+/// caller, as a compiler other than GCC, Clang or MSVC must (tests/c/c89.c: its size macros are
+/// constant expressions, and `dcp_model` keeps its alignment, each a compile-time check).
+#[test]
+fn the_header_compiles_as_c89_and_cpp98_with_a_caller_defined_alignment() {
+    let Some(cc) = c_compiler() else {
+        eprintln!("SKIPPED: no C compiler (CC, cc or gcc) on this machine; the C test did not run");
+        return;
+    };
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("c89");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let source = Path::new(MANIFEST_DIR).join("tests/c/c89.c");
+    let include = Path::new(MANIFEST_DIR).join("include");
+    let builds: [&[&str]; 3] = [
+        &["-std=c89", "-pedantic"],
+        &["-x", "c++", "-std=c++98", "-pedantic"],
+        &[
+            "-std=c89",
+            "-pedantic",
+            "-DDCP_ALIGNED(n)=__attribute__((__aligned__(n)))",
+        ],
+    ];
+    for flags in builds {
+        let status = Command::new(&cc)
+            .args(flags)
+            .args(["-Wall", "-Wextra", "-Werror", "-c"])
+            .arg("-I")
+            .arg(&include)
+            .arg(&source)
+            .arg("-o")
+            .arg(dir.join("c89.o"))
+            .status()
+            .expect("the C compiler runs");
+        assert!(
+            status.success(),
+            "the header with {flags:?} does not compile"
+        );
+    }
+}
+
+/// Whether `program --version` runs on this machine.
+fn installed(program: &str) -> bool {
+    Command::new(program)
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// Compiles `tests/c/NAME.c` against the committed header and the host library with `flags`.
+fn compile(cc: &str, lib: &Path, name: &str, flags: &[&str], exe: &Path) {
+    let status = Command::new(cc)
+        .args(flags)
+        .args(["-Wall", "-Wextra", "-Werror", "-g"])
+        .arg("-I")
+        .arg(Path::new(MANIFEST_DIR).join("include"))
+        .arg(Path::new(MANIFEST_DIR).join(format!("tests/c/{name}.c")))
+        .arg(lib)
+        .args(["-lpthread", "-ldl", "-lm", "-lrt", "-lutil"])
+        .arg("-o")
+        .arg(exe)
+        .status()
+        .expect("the C compiler runs");
+    assert!(
+        status.success(),
+        "compiling tests/c/{name}.c with {flags:?} failed"
+    );
+}
+
+/// Runs `command` and requires every check of tests/c/contract.c to pass.
+fn expect_contract(mut command: Command, how: &str) -> String {
+    let out = command.output().expect("the contract program runs");
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success() && !stdout.contains("FAIL"),
+        "{how}: exit status {:?}\n{stdout}\n{}",
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+/// The C contract of docs/c-api.md, as a C program sees it (tests/c/contract.c): built with
+/// AddressSanitizer and UndefinedBehaviorSanitizer, and run again under valgrind's memcheck,
+/// which fails on any byte of `dcp_header`, `dcp_error` or `dcp_boot` the library left
+/// uninitialised (their padding was once filled from the library's stack). Each tool is skipped,
+/// with a message, where it is not installed.
+#[test]
+fn the_c_contract_holds_under_sanitizers_and_valgrind() {
+    let Some(cc) = c_compiler() else {
+        eprintln!("SKIPPED: no C compiler (CC, cc or gcc) on this machine; the C test did not run");
+        return;
+    };
+    let lib = static_library();
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("c-contract");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let actor = std::fs::read(golden("actor_4x48.postcard")).expect("actor");
+    let slot_a = dir.join("slot-a.bin");
+    let record = [&slot::header(1, actor.len()).expect("header")[..], &actor].concat();
+    std::fs::write(&slot_a, record).expect("slot a");
+    let args = [
+        golden("actor_4x48.postcard"),
+        golden("critic_2x32.postcard"),
+        slot_a,
+    ];
+
+    let sanitized = dir.join("contract-sanitized");
+    compile(
+        &cc,
+        &lib,
+        "contract",
+        &[
+            "-std=c99",
+            "-O1",
+            "-fsanitize=address,undefined",
+            "-fno-sanitize-recover=all",
+        ],
+        &sanitized,
+    );
+    let mut run = Command::new(&sanitized);
+    // LeakSanitizer needs ptrace, which a container may forbid; leaks are valgrind's job here.
+    run.args(&args).env("ASAN_OPTIONS", "detect_leaks=0");
+    let stdout = expect_contract(run, "ASan + UBSan");
+    for check in ["padding_reserved", "one_slot", "abi", "sizes"] {
+        assert!(stdout.contains(&format!("OK {check}\n")), "{stdout}");
+    }
+
+    assert!(stdout.contains(&format!(
+        "ABI header={DCP_ABI_VERSION} library={DCP_ABI_VERSION} status=0 Ok"
+    )));
+
+    // The same program built against a header of the next ABI version: the library refuses it.
+    let other = dir.join("other-abi");
+    std::fs::create_dir_all(&other).expect("dir");
+    let header = std::fs::read_to_string(Path::new(MANIFEST_DIR).join("include/policy_core.h"))
+        .expect("header");
+    let from = format!("#define DCP_ABI_VERSION {DCP_ABI_VERSION}\n");
+    assert!(header.contains(&from), "the header defines DCP_ABI_VERSION");
+    let next = DCP_ABI_VERSION + 1;
+    let edited = header.replace(&from, &format!("#define DCP_ABI_VERSION {next}\n"));
+    std::fs::write(other.join("policy_core.h"), edited).expect("write header");
+    let mismatched = dir.join("contract-other-abi");
+    let include = format!("-I{}", other.display());
+    compile(
+        &cc,
+        &lib,
+        "contract",
+        &[include.as_str(), "-std=c99"],
+        &mismatched,
+    );
+    let mut run = Command::new(&mismatched);
+    run.args(&args);
+    let refused = expect_contract(run, "another ABI version");
+    assert!(
+        refused.contains(&format!(
+            "ABI header={next} library={DCP_ABI_VERSION} status={DCP_ERR_ABI_MISMATCH} AbiMismatch"
+        )),
+        "{refused}"
+    );
+
+    if !installed("valgrind") {
+        eprintln!("SKIPPED: valgrind is not installed; the uninitialised-byte check did not run");
+        return;
+    }
+    let plain = dir.join("contract");
+    compile(&cc, &lib, "contract", &["-std=c99", "-O0"], &plain);
+    let mut run = Command::new("valgrind");
+    run.args(["--quiet", "--error-exitcode=3", "--track-origins=yes"])
+        .arg(&plain)
+        .args(&args);
+    let under_valgrind = expect_contract(run, "valgrind");
+    assert_eq!(under_valgrind, stdout, "the same checks, the same sums");
+}

@@ -216,6 +216,153 @@ fn a_varint_longer_than_its_shortest_form_is_malformed() {
     assert!(matches!(load_error(&too_long), Error::Malformed { .. }));
 }
 
+/// The header check as it was first written, kept as the reference the reader must agree
+/// with: postcard decodes the header (version 1's fields for a version-1 blob), then the
+/// decoded values are re-encoded and must give the stored bytes. `None`: the header is accepted
+/// with this encoded length; `Some(what)`: refused as `Malformed { what }` or as the unsupported
+/// version (`what` = "version").
+fn reference_header_check(bytes: &[u8]) -> Result<(Header, usize), &'static str> {
+    #[derive(serde::Serialize, serde::Deserialize)]
+    struct HeaderV1 {
+        magic: [u8; 4],
+        version: u16,
+        kind: ModelKind,
+        shape: (u16, u16, u16, u8),
+        activation: Activation,
+        label: heapless::String<32>,
+        payload_len: u32,
+    }
+    fn what(e: postcard::Error) -> &'static str {
+        match e {
+            postcard::Error::DeserializeUnexpectedEnd => "header ends early (truncated blob)",
+            postcard::Error::DeserializeBadEnum => "unknown kind or activation",
+            postcard::Error::DeserializeBadUtf8 => "label is not UTF-8",
+            _ => "header fields cannot be decoded",
+        }
+    }
+    fn canonical<T: serde::Serialize>(value: &T, stored: &[u8]) -> Result<(), &'static str> {
+        let again = postcard::to_stdvec(value).expect("a decoded header re-encodes");
+        match again == stored {
+            true => Ok(()),
+            false => {
+                Err("header is not in canonical form (a varint longer than its shortest encoding)")
+            }
+        }
+    }
+    let (version, _) = postcard::take_from_bytes::<u16>(&bytes[4..]).map_err(what)?;
+    match version {
+        1 => {
+            let (v1, rest) = postcard::take_from_bytes::<HeaderV1>(bytes).map_err(what)?;
+            let len = bytes.len() - rest.len();
+            canonical(&v1, &bytes[..len])?;
+            if v1.kind == ModelKind::Discrete {
+                return Err("unknown kind or activation");
+            }
+            let (observations, actions, width, depth) = v1.shape;
+            let header = Header {
+                magic: v1.magic,
+                version: 1,
+                kind: v1.kind,
+                encoding: blob::Encoding::F32,
+                shape: Shape {
+                    observations,
+                    actions,
+                    width,
+                    depth,
+                    choices: 0,
+                },
+                activation: v1.activation,
+                label: v1.label,
+                payload_len: v1.payload_len,
+            };
+            Ok((header, len))
+        }
+        2 | 3 => {
+            let (header, rest) = postcard::take_from_bytes::<Header>(bytes).map_err(what)?;
+            let len = bytes.len() - rest.len();
+            canonical(&header, &bytes[..len])?;
+            Ok((header, len))
+        }
+        _ => Err("version"),
+    }
+}
+
+/// `blob::verify` agrees with the reference header check on `bytes`: the same refusal, or an
+/// accepted header whose later checks (limits, length, CRC) may still refuse the blob.
+fn agrees_with_reference(bytes: &[u8]) {
+    let got = blob::verify(bytes);
+    match (reference_header_check(bytes), got) {
+        (Err("version"), Err(Error::UnsupportedVersion { .. })) => {}
+        (Err(want), Err(Error::Malformed { what })) => assert_eq!(what, want, "{bytes:02x?}"),
+        (Err(want), other) => {
+            panic!("reference refuses ({want}), verify gives {other:?}: {bytes:02x?}")
+        }
+        (Ok((header, _)), Ok(v)) => assert_eq!(v.header, header),
+        (Ok(_), Err(Error::Malformed { what })) => assert!(
+            !what.starts_with("header")
+                && !what.contains("kind or activation")
+                && !what.starts_with("label"),
+            "reference accepts the header, verify refuses it: {what}: {bytes:02x?}"
+        ),
+        (Ok(_), Err(Error::UnsupportedVersion { .. })) => {
+            panic!("reference accepts the version: {bytes:02x?}")
+        }
+        (Ok(_), Err(_)) => {}
+    }
+}
+
+/// Regression: the canonical-header rule once re-encoded the whole header with postcard to
+/// compare it with the stored bytes, which cost the int8-only firmware about 1.5 KB of flash;
+/// the reader now compares each varint's length as it reads it. A non-canonical varint in any
+/// field, of any length, is still refused, with the same error as the re-encoding check gives
+/// for every header below (padded, edited byte by byte, truncated), versions 1 to 3.
+#[test]
+fn a_non_canonical_varint_header_is_still_refused() {
+    let golden = |name: &str| {
+        std::fs::read(format!(
+            "{}/tests/golden/v1/{name}",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .expect("golden v1 blob")
+    };
+    let blobs = [
+        good(),
+        blob_of(&nav_critic::<2, 32, 1, 2>(3, Activation::Relu), "critic"),
+        golden("actor_2x32.postcard"),
+    ];
+    let mut checked = 0;
+    for bytes in &blobs {
+        let (_, header_len) = reference_header_check(bytes).expect("a good header");
+        // Every varint padded by 1 to 9 groups: each byte below 0x80 that ends a varint.
+        for at in 4..header_len {
+            for extra in 1..10 {
+                let mut wide = bytes[..at].to_vec();
+                wide.push(bytes[at] | 0x80);
+                wide.extend(std::iter::repeat_n(0x80, extra - 1));
+                wide.push(0);
+                wide.extend_from_slice(&bytes[at + 1..]);
+                reseal(&mut wide);
+                agrees_with_reference(&wide);
+                checked += 1;
+            }
+        }
+        // Every header byte set to every value; every truncation inside the header.
+        for at in 4..header_len {
+            for value in 0..=255u8 {
+                let mut edited = bytes.clone();
+                edited[at] = value;
+                reseal(&mut edited);
+                agrees_with_reference(&edited);
+                checked += 1;
+            }
+        }
+        for len in 5..header_len {
+            agrees_with_reference(&bytes[..len]);
+        }
+    }
+    assert!(checked > 10_000, "{checked} headers");
+}
+
 #[test]
 fn truncated_and_trailing() {
     let b = good();

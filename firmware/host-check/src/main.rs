@@ -25,11 +25,14 @@
 //!                                          check one A/B boot case: the slot that runs, its
 //!                                          actions bit-exact (or the safe state's zeros)
 //! host-check slot-table OUT.md CASE_JSON...
-//! host-check report --out JSON [--meta KEY=VALUE]... VARIANT_JSON...
+//! host-check report --out JSON [--budgets FILE] [--meta KEY=VALUE]... VARIANT_JSON...
+//!                                          the report; with --budgets, exit 1 naming every
+//!                                          budget of FILE a variant passed
 //! ```
 //! Errors are one line on stderr and exit status 1.
 
 mod blobs;
+mod budgets;
 mod check;
 mod log;
 mod measure;
@@ -286,5 +289,17 @@ fn report(
         "variants within 32 KiB of flash: {}",
         aims["variants_within_32KiB_flash"]
     );
-    Ok(())
+    let Some(file) = flags.get("budgets") else {
+        return Ok(());
+    };
+    let budgets = budgets::parse(&read_text(file)?).with_context(|| file.to_string())?;
+    let variants = doc["variants"]
+        .as_array()
+        .map(Vec::as_slice)
+        .unwrap_or_default();
+    let results = budgets::check(&budgets, variants)?;
+    for (budget, outcome) in &results {
+        println!("{}", budgets::describe(budget, outcome));
+    }
+    budgets::verdict(file, &results)
 }

@@ -22,7 +22,8 @@
 //!
 //! The files split it by what each part does, from the bottom up: the crate's `format.rs` (the types: kind,
 //! encoding, shape, header, layer layout, write spec), `limits.rs` (the sizes allowed and the
-//! shape check), `read.rs` (verifying a blob, version 1 included), `params.rs` (the parameter
+//! shape check), `header.rs` (decoding a header, each varint checked for its shortest
+//! length), `read.rs` (verifying a blob, version 1 included), `params.rs` (the parameter
 //! rules and the decoded values), `quantise.rs` (f16 and int8 weights), `write.rs` (writing a
 //! blob), `encode.rs` (re-encoding an f32 blob, host side) and `compiled.rs` (loading and writing
 //! the const-generic [`Policy`](crate::Policy) and [`Critic`](crate::Critic)). Every public item
@@ -31,6 +32,7 @@
 mod compiled;
 #[cfg(feature = "std")]
 mod encode;
+mod header;
 mod limits;
 mod params;
 mod quantise;

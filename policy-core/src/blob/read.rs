@@ -3,16 +3,10 @@
 //! checksum, without knowing the shape in advance; the parameter rules
 //! come after it, in `params.rs`.
 
-use heapless::String;
-use serde::{Deserialize, Serialize};
-
+use super::header;
 use crate::crc32::crc32;
 use crate::error::Error;
-use crate::format::{
-    padded_header_len, Encoding, Header, ModelKind, Shape, CRC_LEN, LABEL_CAPACITY, MAGIC,
-    MAX_PAYLOAD_LEN, VERSION, VERSION_QUANTISED,
-};
-use crate::mlp::activation::Activation;
+use crate::format::{padded_header_len, Header, CRC_LEN, MAGIC, MAX_PAYLOAD_LEN};
 
 /// A header and the payload bytes it describes, after the length and checksum checks.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -39,7 +33,7 @@ pub struct Verified<'a> {
 /// assert_eq!(v.header.label.as_str(), "demo");
 /// ```
 pub fn verify(bytes: &[u8]) -> Result<Verified<'_>, Error> {
-    let Some((magic, after_magic)) = bytes.split_first_chunk::<4>() else {
+    let Some((magic, _)) = bytes.split_first_chunk::<4>() else {
         return Err(Error::Truncated {
             needed: MAGIC.len(),
             found: bytes.len(),
@@ -48,28 +42,7 @@ pub fn verify(bytes: &[u8]) -> Result<Verified<'_>, Error> {
     if *magic != MAGIC {
         return Err(Error::WrongMagic { found: *magic });
     }
-    // The version is read on its own first so that a future format whose header differs is
-    // reported as a version problem, not as garbage.
-    let (version, _) = postcard::take_from_bytes::<u16>(after_magic).map_err(header_error)?;
-    let (header, rest) = match version {
-        1 => {
-            let (v1, rest) = postcard::take_from_bytes::<HeaderV1>(bytes).map_err(header_error)?;
-            check_canonical(&v1, bytes, rest)?;
-            (v1.into_current()?, rest)
-        }
-        VERSION | VERSION_QUANTISED => {
-            let (header, rest) =
-                postcard::take_from_bytes::<Header>(bytes).map_err(header_error)?;
-            check_canonical(&header, bytes, rest)?;
-            (header, rest)
-        }
-        found => {
-            return Err(Error::UnsupportedVersion {
-                supported: VERSION_QUANTISED,
-                found,
-            })
-        }
-    };
+    let (header, encoded_len) = header::decode(bytes)?;
     if header.version != 1 && header.encoding.version() != header.version {
         return Err(Error::Malformed {
             what: "encoding does not match the format version (f32: 2, f16 and int8: 3)",
@@ -84,7 +57,6 @@ pub fn verify(bytes: &[u8]) -> Result<Verified<'_>, Error> {
     }
     header.shape.check(header.kind)?;
     let payload_len = checked_payload_len(&header)?;
-    let encoded_len = bytes.len() - rest.len();
     let header_len = padded_header_len(header.version, encoded_len);
     // Checked: on a 32-bit chip a hostile `payload_len` near `u32::MAX` must not wrap.
     let total = header_len
@@ -128,74 +100,6 @@ pub fn verify(bytes: &[u8]) -> Result<Verified<'_>, Error> {
     Ok(Verified { header, payload })
 }
 
-/// Refuses a header that is not byte for byte postcard's encoding of its own values: postcard
-/// decodes a varint padded with extra `0x80` groups (a version written `82 00`, a 5-byte enum
-/// value), so without this one model would have many headers and the header's size would have
-/// no bound. Re-encoding the decoded header and comparing the bytes holds every field to the
-/// shortest form the writer emits, whatever field a future version adds.
-fn check_canonical<T: Serialize>(decoded: &T, bytes: &[u8], rest: &[u8]) -> Result<(), Error> {
-    let stored = bytes.get(..bytes.len() - rest.len()).unwrap_or_default();
-    // The longest encoding of any header value: magic 4, varints 3 + 5 + 5 + 3 + 3 + 3, depth 1,
-    // choices 3, activation 5, label 1 + 32, payload length 5 = 73 bytes.
-    let mut buf = [0u8; 80];
-    let canonical = postcard::to_slice(decoded, &mut buf).map_err(|_| Error::Malformed {
-        what: "header cannot be re-encoded",
-    })?;
-    if *canonical != *stored {
-        return Err(Error::Malformed {
-            what: "header is not in canonical form (a varint longer than its shortest encoding)",
-        });
-    }
-    Ok(())
-}
-
-/// The version-1 header: no encoding field (always f32) and no `choices` in the shape.
-#[derive(Serialize, Deserialize)]
-struct HeaderV1 {
-    magic: [u8; 4],
-    version: u16,
-    kind: ModelKind,
-    shape: ShapeV1,
-    activation: Activation,
-    label: String<LABEL_CAPACITY>,
-    payload_len: u32,
-}
-
-#[derive(Serialize, Deserialize)]
-struct ShapeV1 {
-    observations: u16,
-    actions: u16,
-    width: u16,
-    depth: u8,
-}
-
-impl HeaderV1 {
-    fn into_current(self) -> Result<Header, Error> {
-        if self.kind == ModelKind::Discrete {
-            // Version 1 knew two kinds; the third enum value was invalid then.
-            return Err(Error::Malformed {
-                what: "unknown kind or activation",
-            });
-        }
-        Ok(Header {
-            magic: self.magic,
-            version: self.version,
-            kind: self.kind,
-            encoding: Encoding::F32,
-            shape: Shape {
-                observations: self.shape.observations,
-                actions: self.shape.actions,
-                width: self.shape.width,
-                depth: self.shape.depth,
-                choices: 0,
-            },
-            activation: self.activation,
-            label: self.label,
-            payload_len: self.payload_len,
-        })
-    }
-}
-
 /// The header's payload length, after checking it is the one its kind, shape and encoding imply.
 fn checked_payload_len(header: &Header) -> Result<usize, Error> {
     let expected = header.shape.payload_len_in(header.kind, header.encoding);
@@ -218,23 +122,6 @@ fn checked_payload_len(header: &Header) -> Result<usize, Error> {
     found.ok_or(Error::Malformed {
         what: "payload length does not fit in memory",
     })
-}
-
-fn header_error(e: postcard::Error) -> Error {
-    match e {
-        postcard::Error::DeserializeUnexpectedEnd => Error::Malformed {
-            what: "header ends early (truncated blob)",
-        },
-        postcard::Error::DeserializeBadEnum => Error::Malformed {
-            what: "unknown kind or activation",
-        },
-        postcard::Error::DeserializeBadUtf8 => Error::Malformed {
-            what: "label is not UTF-8",
-        },
-        _ => Error::Malformed {
-            what: "header fields cannot be decoded",
-        },
-    }
 }
 
 /// The `f32` parameters of a payload, decoded from their 4-byte little-endian postcard encoding.
