@@ -301,7 +301,7 @@ def _speed_row(out: Path, programs: Programs, steps: int, hidden: str, net_arch:
     import resource
 
     from .recorder import make_env
-    from .sb3_agents import build
+    from .sb3_agents import build, quiet_logger
 
     t = task("pendulum")
     folder = out / "speed" / hidden
@@ -333,6 +333,7 @@ def _speed_row(out: Path, programs: Programs, steps: int, hidden: str, net_arch:
     model, _ = build(t, "td3", 0, env, net_arch=net_arch)
     model.learning_starts = SPEED_WARMUP
     model.batch_size = SPEED_BATCH
+    quiet_logger(model, folder / "sb3-log")
     started, cpu_started = time.perf_counter(), time.process_time()
     model.learn(total_timesteps=toolkit_steps)
     sb3_seconds = time.perf_counter() - started

@@ -55,6 +55,14 @@ def build(
     return model, budget
 
 
+def quiet_logger(model: Any, folder: Path) -> None:
+    """SB3's logger writing nowhere but ``folder``: without one, every ``learn`` makes a folder
+    of its own in the system's temporary folder (``/tmp/SB3-<date>``) and leaves it there."""
+    from stable_baselines3.common.logger import configure
+
+    model.set_logger(configure(str(folder), []))
+
+
 def train_and_test(
     task: Task, algo: str, seed: int, folder: Path, test_seeds: Sequence[int], steps: Optional[int] = None
 ) -> dict[str, Any]:
@@ -63,6 +71,7 @@ def train_and_test(
     with open(folder / "train.jsonl", "w") as train_log:
         env = make_env(task, out=train_log)
         model, budget = build(task, algo, seed, env, steps)
+        quiet_logger(model, folder / "sb3-log")
         started = time.perf_counter()
         model.learn(total_timesteps=budget)
         seconds = time.perf_counter() - started
