@@ -310,7 +310,7 @@ pub fn render(grid: &Grid, commit: &str, figures: &str) -> (String, Vec<(String,
             let _ = writeln!(md, "Not yet run.\n");
             continue;
         }
-        let _ = writeln!(md, "| agent | runs | mean test return [95 % bootstrap] | per seed | success [Clopper–Pearson] | at bound | at the limit (steps; episodes) | s per 1k steps |");
+        let _ = writeln!(md, "| agent | runs | mean test return [95 % bootstrap] | per seed | success [Clopper–Pearson] | at bound | at the limit (steps; episodes) | s per 1k steps (wall, as run) |");
         let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
         for agent in AGENTS {
             let c = cell(grid, task, agent);
@@ -364,6 +364,10 @@ pub fn render(grid: &Grid, commit: &str, figures: &str) -> (String, Vec<(String,
                 mean(&per_k),
             );
         }
+        let _ = writeln!(
+            md,
+            "\nThe last column is each run's training wall time as it ran, on a machine shared with other work: not a speed comparison (that is [Speed](#speed))."
+        );
         let _ = writeln!(md);
         for (agent, score, std) in ZOO_SCORES
             .iter()
@@ -557,9 +561,10 @@ fn claim_one(grid: &Grid) -> String {
     let poi = probability_of_improvement_ci(&dcp_tasks, &ddpg_tasks, CONFIDENCE, REPS, SEED);
     let _ = writeln!(
         md,
-        "Across {} ({} tasks; returns normalised so that a uniformly random policy is 0 and SB3 TD3's cell mean is 1): IQM of DCP {:.2} [{:.2}, {:.2}], of DDPG {:.2} [{:.2}, {:.2}] (stratified bootstrap); probability that a DCP run beats a DDPG run {:.2} [{:.2}, {:.2}].\n",
+        "Across {} ({} task{}; returns normalised so that a uniformly random policy is 0 and SB3 TD3's cell mean is 1): IQM of DCP {:.3} [{:.3}, {:.3}], of DDPG {:.3} [{:.3}, {:.3}] (stratified bootstrap); probability that a DCP run beats a DDPG run {:.2} [{:.2}, {:.2}].\n",
         used.join(", "),
         used.len(),
+        if used.len() == 1 { "" } else { "s" },
         iqm_d.estimate,
         iqm_d.lo,
         iqm_d.hi,
