@@ -769,10 +769,9 @@ mod tests {
         }
     }
 
-    #[test]
-    fn the_claims_follow_their_rules() {
+    /// The paper's story: DCP ahead with walls, DDPG hurt by walls, by LR and by noise.
+    fn paper_story() -> Vec<(GridRun, Outcome)> {
         let jitter = |seed: u64| 0.01 * seed as f64;
-        // The paper's story: DCP ahead with walls, DDPG hurt by walls, by LR and by noise.
         let story = grid_with(|cell, seed| {
             let agent = cell.agent.name;
             match (cell.walls, cell.reward, cell.sigma) {
@@ -783,6 +782,13 @@ mod tests {
                 _ => 0.9 + jitter(seed),
             }
         });
+        story
+    }
+
+    #[test]
+    fn the_claims_follow_their_rules() {
+        let jitter = |seed: u64| 0.01 * seed as f64;
+        let story = paper_story();
         let text = verdicts(&story);
         assert_verdicts(
             &text,
@@ -830,17 +836,7 @@ mod tests {
     fn exact_verdicts_stand_beside_the_pre_registered_ones() {
         // The paper's story: the t rule reproduces every claim; five pairs cannot reach
         // p < 0.05 by a sign-flip test, but ten pass/fail pairs all one way can by McNemar's.
-        let jitter = |seed: u64| 0.01 * seed as f64;
-        let story = grid_with(|cell, seed| {
-            let agent = cell.agent.name;
-            match (cell.walls, cell.reward, cell.sigma) {
-                (Walls::Without, _, _) => 1.0,
-                (_, _, Some(_)) if agent == "ddpg" => 0.1,
-                (_, RewardKind::Lr, _) if agent == "ddpg" => 0.2 + jitter(seed),
-                _ if agent == "ddpg" || agent == "dqn" => 0.5 + jitter(seed),
-                _ => 0.9 + jitter(seed),
-            }
-        });
+        let story = paper_story();
         let text = verdicts(&story);
         for claim in ["Claim 1, first half", "Claim 1, second half", "Claim 2"] {
             assert_eq!(verdict_of(&text, claim), "reproduced", "{text}");
