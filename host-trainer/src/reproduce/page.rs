@@ -772,7 +772,7 @@ mod tests {
     /// The paper's story: DCP ahead with walls, DDPG hurt by walls, by LR and by noise.
     fn paper_story() -> Vec<(GridRun, Outcome)> {
         let jitter = |seed: u64| 0.01 * seed as f64;
-        let story = grid_with(|cell, seed| {
+        grid_with(|cell, seed| {
             let agent = cell.agent.name;
             match (cell.walls, cell.reward, cell.sigma) {
                 (Walls::Without, _, _) => 1.0,
@@ -781,8 +781,7 @@ mod tests {
                 _ if agent == "ddpg" || agent == "dqn" => 0.5 + jitter(seed),
                 _ => 0.9 + jitter(seed),
             }
-        });
-        story
+        })
     }
 
     #[test]
