@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Side-by-side: RLtools' TD3 Pendulum benchmark and this project running the same schedule at the
-# same shapes (host-trainer/examples/rltools_schedule.rs), interleaved. RLtools and our one-thread
+# same shapes (studies/src/bin/rltools_schedule.rs), interleaved. RLtools and our one-thread
 # run are pinned to one core; our default run takes the threads a user gets (every core).
 #
 #   scripts/bench-rltools.sh RLTOOLS_BINARY [ROUNDS]
@@ -15,8 +15,8 @@ rounds=${2:-7}
 [ -x "$rltools" ] || { echo "bench-rltools: $rltools is not an executable" >&2; exit 2; }
 case $rounds in ''|*[!0-9]*|0) echo "bench-rltools: ROUNDS must be a positive integer" >&2; exit 2;; esac
 cd "$(dirname "$0")/.."
-cargo build --release -q -p host-trainer --example rltools_schedule
-ours=target/release/examples/rltools_schedule
+cargo build --release -q -p studies --bin rltools-schedule
+ours=${CARGO_TARGET_DIR:-target}/release/rltools-schedule
 pin=()
 command -v taskset >/dev/null && pin=(taskset -c 0)
 

@@ -147,7 +147,7 @@ impl Replay {
 
     /// The stored transitions' raw observation before and after the step, oldest slot first
     /// once the ring has wrapped (slot order before): what an analysis of the buffer's coverage
-    /// reads (`examples/margin_diagnosis.rs`).
+    /// reads (the studies crate's `margin-diagnosis`).
     ///
     /// ```
     /// use host_trainer::buffers::replay::{Replay, Transition};

@@ -81,7 +81,7 @@ pub struct Trainer {
     /// overrides, or a plant of the user's by its hello).
     pub plant: RunPlant,
     /// Also keep a copy of every checkpoint, `checkpoints/episode-NNNNNNN.postcard` in the run
-    /// folder, to study how the run learned (`examples/margin_diagnosis.rs`). Not part of the
+    /// folder, to study how the run learned (the studies crate's `margin-diagnosis`). Not part of the
     /// run: it changes no bit, and is not saved.
     pub keep_checkpoints: bool,
     env: Box<dyn Plant>,

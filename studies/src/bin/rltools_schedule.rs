@@ -1,7 +1,8 @@
-//! RLtools' TD3 Pendulum benchmark schedule, run by this project's DDPG machinery, for the
-//! side-by-side comparison in the README ("Training speed against RLtools").
+//! `rltools-schedule`: RLtools' TD3 Pendulum benchmark schedule, run by this project's DDPG
+//! machinery, for the side-by-side comparison in `docs/performance.md` ("Side by side with
+//! RLtools"; `scripts/bench-rltools.sh` runs it interleaved with RLtools' own benchmark).
 //!
-//! `cargo run --release -p host-trainer --example rltools_schedule [-- --seed S]`
+//! `cargo run --release -p studies --bin rltools-schedule [-- --seed S]`
 //!
 //! RLtools' `src/rl/environments/pendulum/td3/cpu/benchmark.cpp` (commit 9acdf5c) times 10,001
 //! Pendulum steps: random actions for the first 100, then every step two critic updates (TD3's
@@ -108,7 +109,7 @@ fn main() {
     let mut agent = match Agent::new(config, 3, &[-2.0], &[2.0], init) {
         Ok(agent) => agent,
         Err(e) => {
-            eprintln!("rltools_schedule: {e}");
+            eprintln!("rltools-schedule: {e}");
             std::process::exit(1);
         }
     };
@@ -116,7 +117,7 @@ fn main() {
     match Workers::new(threads) {
         Ok(workers) => agent.set_workers(workers),
         Err(e) => {
-            eprintln!("rltools_schedule: {e}");
+            eprintln!("rltools-schedule: {e}");
             std::process::exit(1);
         }
     }
@@ -169,7 +170,7 @@ fn main() {
     let rows = BATCH as u64;
     let macs = critic_updates / 2 * rows * (a + 8 * c) + actor_updates * rows * (3 * a + 2 * c);
     if !agent.is_finite() {
-        eprintln!("rltools_schedule: training diverged");
+        eprintln!("rltools-schedule: training diverged");
         std::process::exit(1);
     }
     println!(

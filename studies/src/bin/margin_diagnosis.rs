@@ -1,11 +1,11 @@
-//! Why does a run park at a margin: does its replay hold no way round (exploration fails), or
+//! `margin-diagnosis`: why does a run park at a margin: does its replay hold no way round (exploration fails), or
 //! does its critic know the way round while the actor does not follow (the actor update fails)?
 //! Measured along a run, from the checkpoints it wrote on the way.
 //!
 //! ```sh
-//! cargo run --release -p host-trainer --example margin_diagnosis -- [--ring 1.0] \
+//! cargo run --release -p studies --bin margin-diagnosis -- [--ring 1.0] \
 //!     [--ring-out ring.csv] CHECKPOINT...
-//! cargo run --release -p host-trainer --example margin_diagnosis -- runs/nav-walls__dcp__0/checkpoints/*
+//! cargo run --release -p studies --bin margin-diagnosis -- runs/nav-walls__dcp__0/checkpoints/*
 //! ```
 //!
 //! `train --keep-checkpoints` keeps a copy of every checkpoint the run writes (every
@@ -44,11 +44,10 @@ use firmware_sim::nav::NavEnv;
 use host_trainer::algorithms::Learner;
 use host_trainer::run::checkpoint::Checkpoint;
 use policy_core::model::{Model, Scratch};
+use studies::walls::{blocked, unit_grid};
 
 /// Grid points per action dimension for the critic's argmax.
 const GRID: usize = 21;
-/// A step counts as blocked when the plant moves less than this fraction of it.
-const BLOCKED: f32 = 0.2;
 /// Grid points per action dimension when walking the critic's argmax.
 const WALK_GRID: usize = 11;
 /// How close to the centre a critic walk must come.
@@ -66,7 +65,7 @@ fn main() -> ExitCode {
     match run() {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("margin_diagnosis: {e:#}");
+            eprintln!("margin-diagnosis: {e:#}");
             ExitCode::FAILURE
         }
     }
@@ -87,7 +86,7 @@ fn run() -> Result<()> {
         }
     }
     if files.is_empty() {
-        bail!("usage: margin_diagnosis [--ring HALF_SIZE] [--ring-out FILE] CHECKPOINT...");
+        bail!("usage: margin-diagnosis [--ring HALF_SIZE] [--ring-out FILE] CHECKPOINT...");
     }
     let mut ring_file = match &ring_out {
         Some(path) => {
@@ -254,15 +253,11 @@ impl Probe<'_> {
             .act_unit(&s, &mut self.scratch, &mut a0)
             .map_err(e)?;
         let q_actor = self.critic.q(&s, &a0, &mut self.scratch).map_err(e)?;
-        let unit = |k: usize| -1.0 + 2.0 * k as f32 / (GRID - 1) as f32;
         let (mut q_best, mut best) = (f32::NEG_INFINITY, [0.0f32; 2]);
-        for i in 0..GRID {
-            for j in 0..GRID {
-                let a = [unit(i), unit(j)];
-                let q = self.critic.q(&s, &a, &mut self.scratch).map_err(e)?;
-                if q > q_best {
-                    (q_best, best) = (q, a);
-                }
+        for a in unit_grid(GRID) {
+            let q = self.critic.q(&s, &a, &mut self.scratch).map_err(e)?;
+            if q > q_best {
+                (q_best, best) = (q, a);
             }
         }
         let best_blocked = self.blocked(s, best);
@@ -283,19 +278,15 @@ impl Probe<'_> {
         self.plant
             .set_position(Vec2::new(f64::from(start[0]), f64::from(start[1])));
         let mut s = start;
-        let unit = |k: usize| -1.0 + 2.0 * k as f32 / (WALK_GRID - 1) as f32;
         for _ in 0..steps {
             if s[0].hypot(s[1]) < WALK_REACH {
                 return Ok(true);
             }
             let (mut q_best, mut best) = (f32::NEG_INFINITY, [0.0f32; 2]);
-            for i in 0..WALK_GRID {
-                for j in 0..WALK_GRID {
-                    let a = [unit(i), unit(j)];
-                    let q = self.critic.q(&s, &a, &mut self.scratch).map_err(e)?;
-                    if q > q_best {
-                        (q_best, best) = (q, a);
-                    }
+            for a in unit_grid(WALK_GRID) {
+                let q = self.critic.q(&s, &a, &mut self.scratch).map_err(e)?;
+                if q > q_best {
+                    (q_best, best) = (q, a);
                 }
             }
             let step = self
@@ -309,13 +300,10 @@ impl Probe<'_> {
         Ok(s[0].hypot(s[1]) < WALK_REACH)
     }
 
-    /// Whether the plant moves less than BLOCKED of the commanded step from `s`.
+    /// Whether the plant moves less than [`studies::walls::BLOCKED`] of the commanded step
+    /// from `s`.
     fn blocked(&mut self, s: [f32; 2], a: [f32; 2]) -> bool {
-        self.plant.reset(0);
-        self.plant
-            .set_position(Vec2::new(f64::from(s[0]), f64::from(s[1])));
-        let step = [a[0] * self.max_step, a[1] * self.max_step];
-        let applied = self.plant.step(&step).info.applied;
-        applied[0].hypot(applied[1]) < BLOCKED * self.max_step * a[0].hypot(a[1])
+        let at = Vec2::new(f64::from(s[0]), f64::from(s[1]));
+        blocked(&mut self.plant, at, a, self.max_step)
     }
 }

@@ -1,8 +1,8 @@
-//! Why is a trained policy stuck at a wall: does its critic agree, or does the actor fail to
-//! follow its critic?
+//! `stuck-critic`: why is a trained policy stuck at a wall: does its critic agree, or does the
+//! actor fail to follow its critic?
 //!
 //! ```sh
-//! cargo run --release -p host-trainer --example stuck_critic -- runs/nav-walls__dcp__0 [nav-walls]
+//! cargo run --release -p studies --bin stuck-critic -- runs/nav-walls__dcp__0 [nav-walls]
 //! ```
 //!
 //! Runs the run folder's `policy.postcard` through firmware-sim's test protocol (100 starts,
@@ -22,26 +22,24 @@
 use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
-use firmware_sim::env::Env;
 use firmware_sim::nav::geometry::Vec2;
 use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::test_protocol::{evaluate, EvalConfig};
 use firmware_sim::nav::NavEnv;
 use policy_core::{Critic, Policy};
+use studies::walls::{blocked, unit_grid};
 
 type Actor = Policy<2, 48, 3, 2>;
 type Value = Critic<2, 48, 3, 2>;
 
 /// Grid points per action dimension for the critic's argmax.
 const GRID: usize = 41;
-/// A step counts as blocked when the plant moves less than this fraction of it.
-const BLOCKED: f32 = 0.2;
 
 fn main() -> ExitCode {
     match run() {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("stuck_critic: {e:#}");
+            eprintln!("stuck-critic: {e:#}");
             ExitCode::FAILURE
         }
     }
@@ -50,7 +48,7 @@ fn main() -> ExitCode {
 fn run() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(dir) = args.first() else {
-        bail!("usage: stuck_critic RUN_DIR [SCENARIO]");
+        bail!("usage: stuck-critic RUN_DIR [SCENARIO]");
     };
     let scenario = Scenario::resolve(args.get(1).map_or("nav-walls", String::as_str))?;
     let read = |name: &str| {
@@ -73,17 +71,11 @@ fn run() -> Result<()> {
         let a0 = actor.act_unit(&s);
         let z: [f32; 2] = critic.normalizer.normalize(&s).into();
         let (q_best, a_best) = argmax(&critic, &z);
-        // StepInfo::applied is the motion the plant carried out, in the action's units.
-        let mut blocked = |a: [f32; 2]| {
-            plant.reset(0);
-            plant.set_position(Vec2::new(episode.end[0], episode.end[1]));
-            let applied = plant.step(&[a[0] * max_step, a[1] * max_step]).info.applied;
-            let moved = applied[0].hypot(applied[1]);
-            moved < BLOCKED * max_step * a[0].hypot(a[1])
-        };
+        let end = Vec2::new(episode.end[0], episode.end[1]);
+        let mut is_blocked = |a: [f32; 2]| blocked(&mut plant, end, a, max_step);
         stuck += 1;
-        critic_blocked += usize::from(blocked(a_best));
-        actor_blocked += usize::from(blocked(a0));
+        critic_blocked += usize::from(is_blocked(a_best));
+        actor_blocked += usize::from(is_blocked(a0));
         let q0 = critic.q_normalized(&z, &a0);
         value += q0;
         gap += q_best - q0;
@@ -116,15 +108,11 @@ fn run() -> Result<()> {
 /// The critic's best action over a GRID × GRID grid of the unit box, for the normalised
 /// observation `z` (normalised once, not once per grid point).
 fn argmax(critic: &Value, z: &[f32; 2]) -> (f32, [f32; 2]) {
-    let unit = |k: usize| -1.0 + 2.0 * k as f32 / (GRID - 1) as f32;
     let mut best = (f32::NEG_INFINITY, [0.0; 2]);
-    for i in 0..GRID {
-        for j in 0..GRID {
-            let a = [unit(i), unit(j)];
-            let q = critic.q_normalized(z, &a);
-            if q > best.0 {
-                best = (q, a);
-            }
+    for a in unit_grid(GRID) {
+        let q = critic.q_normalized(z, &a);
+        if q > best.0 {
+            best = (q, a);
         }
     }
     best

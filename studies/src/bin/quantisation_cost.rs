@@ -1,27 +1,28 @@
-//! What quantisation costs in the closed loop: every given run folder's `policy.postcard`, its
-//! f16 and int8 encodings ([`host_trainer::blob::export::encode`]), each run through firmware-sim's
-//! test protocol (100 boundary starts, seed 0, the run's own recorded plant) exactly as
-//! `host-trainer eval` runs it.
+//! `quantisation-cost`: what quantisation costs in the closed loop. Every given run folder's
+//! `policy.postcard`, its f16 and int8 encodings ([`host_trainer::blob::export::encode`]), each
+//! run through firmware-sim's test protocol (100 boundary starts, seed 0, the run's own recorded
+//! plant) exactly as `host-trainer eval` runs it.
 //!
 //! ```text
-//! cargo run --release -p host-trainer --example quantisation_cost -- RUN_DIR...
+//! cargo run --release -p studies --bin quantisation-cost -- RUN_DIR...
 //! ```
 //!
 //! Prints one markdown row per run and encoding (success, settled error, stuck at margin, and
 //! the difference from the f32 blob), then per (task, algorithm) and encoding the mean
-//! difference with its 95 % Student-t interval over the runs (paired by run), and whether every
-//! int8 run stays within 0.02 of f32 success and 0.05 of its settled error.
+//! difference over the runs (paired by run) with its 95 % t interval clipped to the difference's
+//! range and its sign-flip permutation p ([`studies::paired`]), and whether every int8 run stays
+//! within 0.02 of f32 success and 0.05 of its settled error.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use firmware_sim::nav::scenario::Scenario;
-use firmware_sim::nav::test_protocol::{evaluate, EvalConfig};
+use firmware_sim::nav::test_protocol::evaluate;
 use host_trainer::blob::export::encode;
 use host_trainer::run::folder;
-use host_trainer::stats::student_t::mean_interval;
 use policy_core::Encoding;
+use studies::paired::{paired_text, ANY, RATE};
+use studies::run_folder;
 
 /// Success rate, settled error and stuck rate of one blob.
 type Outcome = [f64; 3];
@@ -30,20 +31,10 @@ type Outcome = [f64; 3];
 type RunResults = (String, Vec<(Encoding, Outcome, usize)>);
 
 fn run_one(dir: &Path) -> Result<RunResults, String> {
-    let name = dir
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .ok_or_else(|| format!("{}: not a run folder", dir.display()))?;
-    let read = |file: &str| {
-        std::fs::read(dir.join(file)).map_err(|e| format!("{}: {e}", dir.join(file).display()))
-    };
-    let f32 = read(folder::POLICY)?;
-    let plant = String::from_utf8(read(folder::SCENARIO)?).map_err(|e| e.to_string())?;
-    let scenario = Scenario::from_toml_str(&plant).map_err(|e| format!("{name}: {e}"))?;
-    let config = EvalConfig {
-        episodes: 100,
-        ..EvalConfig::default()
-    };
+    let name = run_folder::name(dir)?;
+    let f32 = run_folder::read(dir, folder::POLICY)?;
+    let scenario = run_folder::scenario(dir)?;
+    let config = run_folder::test_protocol();
     let mut out = Vec::new();
     for encoding in Encoding::ALL {
         let bytes = encode(&f32, encoding).map_err(|e| format!("{name}: {e}"))?;
@@ -60,7 +51,7 @@ fn run_one(dir: &Path) -> Result<RunResults, String> {
 fn main() -> ExitCode {
     let dirs: Vec<PathBuf> = std::env::args().skip(1).map(PathBuf::from).collect();
     if dirs.is_empty() {
-        eprintln!("usage: quantisation_cost RUN_DIR...");
+        eprintln!("usage: quantisation-cost RUN_DIR...");
         return ExitCode::from(2);
     }
     let mut rows = Vec::new();
@@ -68,7 +59,7 @@ fn main() -> ExitCode {
         match run_one(dir) {
             Ok(row) => rows.push(row),
             Err(e) => {
-                eprintln!("quantisation_cost: {e}");
+                eprintln!("quantisation-cost: {e}");
                 return ExitCode::FAILURE;
             }
         }
@@ -80,7 +71,7 @@ fn main() -> ExitCode {
     let mut within = true;
     for (name, results) in &rows {
         let base = results[0].1;
-        let group = name.rsplit_once("__").map_or(name.as_str(), |(g, _)| g);
+        let group = run_folder::group(name);
         for &(encoding, o, len) in results {
             let d = [o[0] - base[0], o[1] - base[1], o[2] - base[2]];
             println!(
@@ -104,22 +95,16 @@ fn main() -> ExitCode {
     );
     println!("|---|---|---:|---:|---:|---:|");
     for ((group, encoding), diffs) in &groups {
-        let cell = |k: usize| {
+        let cell = |k: usize, range| {
             let values: Vec<f64> = diffs.iter().map(|d| d[k]).collect();
-            match mean_interval(&values) {
-                Some(m) => match m.half_width {
-                    Some(h) => format!("{:+.3} ± {h:.3}", m.mean),
-                    None => format!("{:+.3}", m.mean),
-                },
-                None => "-".into(),
-            }
+            paired_text(&values, 3, range)
         };
         println!(
             "| {group} | {encoding} | {} | {} | {} | {} |",
             diffs.len(),
-            cell(0),
-            cell(1),
-            cell(2)
+            cell(0, RATE),
+            cell(1, ANY),
+            cell(2, RATE)
         );
     }
     println!();

@@ -1,19 +1,20 @@
-//! What DCP's compare step on the device does in the closed loop: every given
-//! run folder's `policy.postcard` run through firmware-sim's test protocol (100 boundary starts,
-//! seed 0, the run's own recorded plant) plainly, and with its `critic.postcard` refining each
-//! action (policy-core's `compare::refine_model`: T proposals with noise σ around the actor's
-//! unit action, the best under the critic if its Q is higher), for T = 4 and 16 at σ = 0.2, the
-//! σc every run trained with. The same computation as `firmware-sim run --blob P --critic C
-//! --refine T,0.2`.
+//! `compare-in-loop`: what DCP's compare step on the device does in the closed loop. Every
+//! given run folder's `policy.postcard` run through firmware-sim's test protocol (100 boundary
+//! starts, seed 0, the run's own recorded plant) plainly, and with its `critic.postcard`
+//! refining each action (policy-core's `compare::refine_model`: T proposals with noise σ around
+//! the actor's unit action, the best under the critic if its Q is higher), for T = 4 and 16 at
+//! σ = 0.2, the σc every run trained with. The same computation as `firmware-sim run --blob P
+//! --critic C --refine T,0.2`.
 //!
 //! ```text
-//! cargo run --release -p host-trainer --example compare_in_loop -- RUN_DIR...
+//! cargo run --release -p studies --bin compare-in-loop -- RUN_DIR...
 //! ```
 //!
 //! Prints one markdown row per run and setting (success, settled error, stuck at margin, the
 //! share of ticks on which a proposal replaced the actor's action), then per (task, algorithm)
-//! and setting the mean with its 95 % Student-t interval over the runs, and the mean paired
-//! difference from the plain actor with its interval.
+//! and setting the mean over the runs with its 95 % t interval clipped to the quantity's range,
+//! and the mean paired difference from the plain actor with its clipped interval and its
+//! sign-flip permutation p ([`studies::paired`]).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -21,11 +22,12 @@ use std::process::ExitCode;
 
 use firmware_sim::boot::{boot, PlantSizes};
 use firmware_sim::controller::Controller;
-use firmware_sim::nav::scenario::Scenario;
-use firmware_sim::nav::test_protocol::{evaluate_controller, EvalConfig};
+use firmware_sim::nav::test_protocol::evaluate_controller;
 use firmware_sim::refine::RefiningPolicy;
 use host_trainer::run::folder;
-use host_trainer::stats::student_t::mean_interval;
+use host_trainer::stats::student_t::{clipped_text, Range, NON_NEGATIVE, UNIT};
+use studies::paired::{paired_text, ANY, RATE};
+use studies::run_folder;
 
 /// The settings compared: None is the plain actor, Some(T) the compare step with T proposals.
 const SETTINGS: [Option<usize>; 3] = [None, Some(4), Some(16)];
@@ -40,21 +42,12 @@ fn setting_name(s: Option<usize>) -> String {
 }
 
 fn run_one(dir: &Path) -> Result<(String, Vec<Outcome>), String> {
-    let name = dir
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .ok_or_else(|| format!("{}: not a run folder", dir.display()))?;
-    let read = |file: &str| {
-        std::fs::read(dir.join(file)).map_err(|e| format!("{}: {e}", dir.join(file).display()))
-    };
-    let (actor, critic) = (read(folder::POLICY)?, read(folder::CRITIC)?);
-    let plant = String::from_utf8(read(folder::SCENARIO)?).map_err(|e| e.to_string())?;
-    let scenario = Scenario::from_toml_str(&plant).map_err(|e| format!("{name}: {e}"))?;
+    let name = run_folder::name(dir)?;
+    let actor = run_folder::read(dir, folder::POLICY)?;
+    let critic = run_folder::read(dir, folder::CRITIC)?;
+    let scenario = run_folder::scenario(dir)?;
     let sizes = PlantSizes::of(&scenario).map_err(|e| format!("{name}: {e}"))?;
-    let config = EvalConfig {
-        episodes: 100,
-        ..EvalConfig::default()
-    };
+    let config = run_folder::test_protocol();
     let mut out = Vec::new();
     for setting in SETTINGS {
         let mut policy = boot(&actor, &sizes).map_err(|e| format!("{name}: {e}"))?;
@@ -89,20 +82,13 @@ fn run_one(dir: &Path) -> Result<(String, Vec<Outcome>), String> {
     Ok((name, out))
 }
 
-fn cell(values: &[f64], digits: usize) -> String {
-    match mean_interval(values) {
-        Some(m) => match m.half_width {
-            Some(h) => format!("{:+.digits$} ± {h:.digits$}", m.mean),
-            None => format!("{:+.digits$}", m.mean),
-        },
-        None => "-".into(),
-    }
-}
+/// The columns of an outcome: digits and the quantity's range.
+const COLUMNS: [(usize, Range); 4] = [(2, UNIT), (3, NON_NEGATIVE), (2, UNIT), (3, UNIT)];
 
 fn main() -> ExitCode {
     let dirs: Vec<PathBuf> = std::env::args().skip(1).map(PathBuf::from).collect();
     if dirs.is_empty() {
-        eprintln!("usage: compare_in_loop RUN_DIR...");
+        eprintln!("usage: compare-in-loop RUN_DIR...");
         return ExitCode::from(2);
     }
     println!("| run | setting | success | settled error | stuck at margin | proposal won |");
@@ -113,11 +99,11 @@ fn main() -> ExitCode {
         let (name, results) = match run_one(dir) {
             Ok(r) => r,
             Err(e) => {
-                eprintln!("compare_in_loop: {e}");
+                eprintln!("compare-in-loop: {e}");
                 return ExitCode::FAILURE;
             }
         };
-        let group = name.rsplit_once("__").map_or(name.as_str(), |(g, _)| g);
+        let group = run_folder::group(&name);
         let base = results[0];
         for (k, (setting, o)) in SETTINGS.iter().zip(&results).enumerate() {
             println!(
@@ -139,24 +125,25 @@ fn main() -> ExitCode {
     println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for ((group, k), (outcomes, diffs)) in &groups {
         let col = |v: &[Outcome], i: usize| v.iter().map(|o| o[i]).collect::<Vec<f64>>();
-        let delta = |i: usize, digits: usize| {
+        let mean = |i: usize| clipped_text(&col(outcomes, i), COLUMNS[i].0, COLUMNS[i].1);
+        let delta = |i: usize, range: Range| {
             if *k == 0 {
                 "-".to_string()
             } else {
-                cell(&col(diffs, i), digits)
+                paired_text(&col(diffs, i), COLUMNS[i].0, range)
             }
         };
         println!(
             "| {group} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             setting_name(SETTINGS[*k]),
             outcomes.len(),
-            cell(&col(outcomes, 0), 2),
-            cell(&col(outcomes, 1), 3),
-            cell(&col(outcomes, 2), 2),
-            cell(&col(outcomes, 3), 3),
-            delta(0, 2),
-            delta(1, 3),
-            delta(2, 2)
+            mean(0),
+            mean(1),
+            mean(2),
+            mean(3),
+            delta(0, RATE),
+            delta(1, ANY),
+            delta(2, RATE)
         );
     }
     ExitCode::SUCCESS

@@ -1,13 +1,13 @@
-//! The margin study's tables and decisions (docs/results/margin-study.md), from its record:
-//! every run's row, each arm's count of failed seeds and mean settled error, and what the
-//! protocol's rules decide from them.
+//! `margin-study`: the margin study's tables and decisions (docs/results/margin-study.md), from
+//! its record: every run's row, each arm's count of failed seeds and mean settled error, and
+//! what the protocol's rules decide from them.
 //!
 //! ```sh
-//! cargo run --release -p host-trainer --example margin_study -- record runs/margin/screen \
+//! cargo run --release -p studies --bin margin-study -- record runs/margin/screen \
 //!     --into experiments/margin/record/screen.jsonl --binary b296d5d
-//! cargo run --release -p host-trainer --example margin_study -- screen \
+//! cargo run --release -p studies --bin margin-study -- screen \
 //!     experiments/margin/record/screen.jsonl
-//! cargo run --release -p host-trainer --example margin_study -- confirm \
+//! cargo run --release -p studies --bin margin-study -- confirm \
 //!     experiments/margin/record/confirm.jsonl --winner NAME
 //! ```
 //!
@@ -29,19 +29,31 @@
 //!   worse than `A0`'s; ties go to the lower mean. Before every run is in, it says which
 //!   candidates can no longer win whatever the missing runs give, and names the winner once
 //!   `A0`'s runs and those of every candidate still able to win are in.
+//!
+//! The tables give each arm's share of failed seeds with its exact (Clopper–Pearson) 95 %
+//! interval, and the means of per-run quantities with their 95 % t intervals clipped to the
+//! quantity's range (a rate to [0, 1], settled error to 0 and up), as `host_trainer::stats`
+//! prescribes. The rules themselves were fixed before the runs and stay as written.
 //! - `confirm FILE` (step 3 and 4): seeds 10–19 on the pinwheel and 10–11 on each layout of
 //!   `--layouts` (default `experiments/margin/confirm-layouts`). The winner is adopted only if the
 //!   95 % interval of its paired difference from `A0` (Student t over the pairs of task and seed)
 //!   lies below 0 on the failed-seed indicator or on settled error; then the goal's checks for
 //!   DCP's defaults after the decision (the winner if adopted, `A0` if not). Beside the rows it
 //!   prints each arm's mean settled error per task, the evidence for which agent to prefer where.
+//!   Beside the rule's t intervals it prints the exact tests of the same pairs: McNemar on the
+//!   failed-seed indicator, the sign-flip permutation test on settled error. They decide
+//!   nothing; the rule does.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{bail, ensure, Context, Result};
-use host_trainer::stats::student_t::{interval_text, mean_interval};
+use host_trainer::stats::binomial::{clopper_pearson, mcnemar_exact};
+use host_trainer::stats::permutation::sign_flip_permutation;
+use host_trainer::stats::student_t::{clipped_text, interval_text, mean_interval};
+use host_trainer::stats::student_t::{NON_NEGATIVE, UNIT};
+use host_trainer::stats::{CONFIDENCE, REPS, SEED};
 use host_trainer::sweep::record::read_eval;
 use serde::{Deserialize, Serialize};
 
@@ -60,14 +72,14 @@ fn main() -> ExitCode {
     match run() {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("margin_study: {e:#}");
+            eprintln!("margin-study: {e:#}");
             ExitCode::FAILURE
         }
     }
 }
 
 fn run() -> Result<()> {
-    let usage = "usage: margin_study record ROOT --into FILE --binary COMMIT\n       margin_study screen|confirm FILE [--layouts DIR] [--winner NAME]";
+    let usage = "usage: margin-study record ROOT --into FILE --binary COMMIT\n       margin-study screen|confirm FILE [--layouts DIR] [--winner NAME]";
     let mut args = std::env::args().skip(1);
     let step = args.next().context(usage)?;
     let path = PathBuf::from(args.next().context(usage)?);
@@ -554,7 +566,7 @@ fn tally(runs: &BTreeMap<Cell, Outcome>, plan: &Plan) -> Tally {
 fn screen_verdict(arms: &Arms, plan: &Plan) -> String {
     let want = plan.cells.len();
     let mut out = String::from(
-        "\n| arm | runs | failed seeds | settled error (mean ± 95 %) |\n|---|---:|---:|---:|\n",
+        "\n| arm | runs | failed seeds (share, 95 % exact) | settled error (mean, 95 % t) |\n|---|---:|---:|---:|\n",
     );
     let tallies: BTreeMap<&str, Tally> = arms
         .iter()
@@ -564,8 +576,8 @@ fn screen_verdict(arms: &Arms, plan: &Plan) -> String {
         out += &format!(
             "| {arm} | {} of {want} | {} | {} |\n",
             t.finished,
-            t.failed,
-            interval_text(&t.errors, 3)
+            failed_text(t.failed, t.finished),
+            clipped_text(&t.errors, 3, NON_NEGATIVE)
         );
     }
     out += "\n";
@@ -627,6 +639,35 @@ fn screen_verdict(arms: &Arms, plan: &Plan) -> String {
     out
 }
 
+/// `k (share [lo, hi])`: `k` failed seeds of `n` finished runs with the exact 95 % interval of
+/// the share; `0` alone for no finished run.
+fn failed_text(k: usize, n: usize) -> String {
+    if n == 0 {
+        return k.to_string();
+    }
+    let (lo, hi) = clopper_pearson(k as u64, n as u64, CONFIDENCE);
+    format!("{k} ({:.2} [{lo:.2}, {hi:.2}])", k as f64 / n as f64)
+}
+
+/// The exact tests of the pairs the rule reads, beside it: McNemar's on the failed-seed
+/// indicator (the pairs where one arm alone failed), the sign-flip permutation test on the
+/// settled errors' differences `error`.
+fn exact_tests(arms: &Arms, plan: &Plan, winner: &str, error: &[f64]) -> String {
+    let (a, r) = (&arms[winner], &arms[REFERENCE]);
+    let (mut only_winner, mut only_reference) = (0u64, 0u64);
+    for c in &plan.cells {
+        if let (Some(w), Some(o)) = (a.get(c), r.get(c)) {
+            only_winner += u64::from(w.failed() && !o.failed());
+            only_reference += u64::from(o.failed() && !w.failed());
+        }
+    }
+    format!(
+        "Exact tests of the same pairs (beside the rule, deciding nothing): failed seed, McNemar p = {:.4} ({only_winner} pairs only {winner} failed, {only_reference} only {REFERENCE}); settled error, sign-flip permutation {}.\n",
+        mcnemar_exact(only_winner, only_reference),
+        sign_flip_permutation(error, REPS as u64, SEED)
+    )
+}
+
 /// The paired differences `arm − reference` over the cells both finished.
 fn paired(arms: &Arms, plan: &Plan, arm: &str, value: fn(&Outcome) -> f64) -> Vec<f64> {
     let (a, r) = (&arms[arm], &arms[REFERENCE]);
@@ -640,7 +681,7 @@ fn paired(arms: &Arms, plan: &Plan, arm: &str, value: fn(&Outcome) -> f64) -> Ve
 fn confirm_verdict(arms: &Arms, plan: &Plan, winner: &str) -> String {
     let want = plan.cells.len();
     let mut out = String::from(
-        "\n| agent | runs | failed seeds | success | settled error | stuck at margin |\n|---|---:|---:|---:|---:|---:|\n",
+        "\n| agent | runs | failed seeds (share, 95 % exact) | success | settled error | stuck at margin |\n|---|---:|---:|---:|---:|---:|\n",
     );
     for (arm, runs) in arms {
         let done = plan.finished(runs);
@@ -648,10 +689,10 @@ fn confirm_verdict(arms: &Arms, plan: &Plan, winner: &str) -> String {
         out += &format!(
             "| {arm} | {} of {want} | {} | {} | {} | {} |\n",
             done.len(),
-            done.iter().filter(|o| o.failed()).count(),
-            interval_text(&of(|o| o.success), 3),
-            interval_text(&of(|o| o.error), 3),
-            interval_text(&of(|o| o.stuck), 3),
+            failed_text(done.iter().filter(|o| o.failed()).count(), done.len()),
+            clipped_text(&of(|o| o.success), 3, UNIT),
+            clipped_text(&of(|o| o.error), 3, NON_NEGATIVE),
+            clipped_text(&of(|o| o.stuck), 3, UNIT),
         );
     }
     // The confirmation runs the winner after A0's first runs: until its first run is in, the
@@ -674,6 +715,7 @@ fn confirm_verdict(arms: &Arms, plan: &Plan, winner: &str) -> String {
         interval_text(&failed, 3),
         interval_text(&error, 3)
     );
+    out += &exact_tests(arms, plan, winner, &error);
     if failed.len() < want || tally(&arms[winner], plan).finished < want {
         out += "Incomplete: adoption is decided over all the pairs.\n";
         return out;
@@ -974,7 +1016,7 @@ mod tests {
 
     /// A scratch folder of its own per test, in the system's temporary folder.
     fn scratch(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("margin_study-{name}-{}", std::process::id()));
+        let dir = std::env::temp_dir().join(format!("margin-study-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).expect("scratch folder");
         dir
