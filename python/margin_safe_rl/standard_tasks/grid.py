@@ -155,7 +155,12 @@ def run_toolkit(
         ]
         # The test protocol's episode count; DCP's paper settings for dcp-paper.
         config = folder / "toolkit.toml"
-        config.write_text(f"eval_episodes = {eval_episodes}\n" + (PAPER_DCP if algo == "dcp-paper" else ""))
+        # A tiny run (`--steps`) starts updating at half its steps, as its SB3 runs do, so the
+        # updates run through the link too.
+        warmup = "" if steps is None else f"[agent]\nwarmup_steps = {max(1, steps // 2)}\n"
+        config.write_text(
+            f"eval_episodes = {eval_episodes}\n" + warmup + (PAPER_DCP if algo == "dcp-paper" else "")
+        )
         argv += ["--config", str(config)]
     status = _run(argv, log)
     seconds = time.perf_counter() - started
