@@ -262,7 +262,7 @@ RUSTC_RELEASE=$("$RUSTC_X" -vV | sed -n 's/^release: //p'); RUSTC_LLVM=$("$RUSTC
 [ "$RUSTC_RELEASE $RUSTC_LLVM" = "$PIN_RELEASE $PIN_LLVM" ] \
   || die "expected rustc $PIN_RELEASE with LLVM $PIN_LLVM (the pin in firmware/budgets.txt, rustc-web $PIN_DEBIAN), found rustc $RUSTC_RELEASE with LLVM $RUSTC_LLVM: install the pinned one, or re-measure and move the pin"
 # Every budget names a variant of this script (a renamed variant would leave its budget unchecked).
-for b in $(grep -v '^[[:space:]]*\(#\|toolchain \|$\)' "$BUDGETS" | awk '{print $1}' | sort -u); do
+for b in $(grep -v '^[[:space:]]*\(#\|toolchain \|$\)' "$BUDGETS" | awk '{print $1}' | cut -d@ -f1 | sort -u); do
   printf '%s\n' "${ALL_VARIANTS[@]}" | cut -d: -f1 | grep -qx "$b" || die "firmware/budgets.txt: expected a variant of this script, found $b"
 done
 [ "$INSTALL_ONLY" = 1 ] && { step done; exit 0; }
