@@ -46,18 +46,20 @@ use crate::support::train_trainer as train;
 
 #[test]
 fn a_plant_served_through_the_link_trains_to_the_same_bytes_as_in_process() {
-    let config = TrainConfig::smoke(Algo::Dcp, 4);
-    let (direct, _) = train(
-        Trainer::new(config.clone()).expect("direct"),
-        &scratch("link-direct"),
+    let (direct_dir, process_dir, given_dir) = (
+        scratch("link-direct"),
+        scratch("link-process"),
+        scratch("link-given"),
     );
+    let config = TrainConfig::smoke(Algo::Dcp, 4);
+    let (direct, _) = train(Trainer::new(config.clone()).expect("direct"), &direct_dir);
     let linked_config = TrainConfig {
         plant_cmd: Some(serve_nav_walls()),
         ..config.clone()
     };
     let linked = Trainer::new(linked_config).expect("a plant process");
     assert!(matches!(&linked.plant, RunPlant::Process { hello, .. } if hello.name == "nav-walls"));
-    let (linked, _) = train(linked, &scratch("link-process"));
+    let (linked, _) = train(linked, &process_dir);
     let mut scenario = Scenario::builtin("nav-walls").expect("builtin");
     scenario.reward = firmware_sim::nav::Reward::Gr;
     let given = NavEnv::new(&scenario).expect("plant");
@@ -67,7 +69,7 @@ fn a_plant_served_through_the_link_trains_to_the_same_bytes_as_in_process() {
     };
     let (given, _) = train(
         Trainer::with_plant(with_plant, Box::new(given)).expect("a plant in process"),
-        &scratch("link-given"),
+        &given_dir,
     );
     let blob = |t: &Trainer| t.policy_blob("same").expect("blob");
     // Every column but the wall-clock speed.
@@ -80,6 +82,9 @@ fn a_plant_served_through_the_link_trains_to_the_same_bytes_as_in_process() {
     assert!(blob(&linked) == blob(&direct), "the blobs differ");
     assert!(blob(&given) == blob(&direct), "the blobs differ");
     assert_eq!(rows(&given), rows(&direct));
+    for dir in [direct_dir, process_dir, given_dir] {
+        let _ = std::fs::remove_dir_all(dir);
+    }
 }
 
 #[test]
@@ -107,6 +112,7 @@ fn a_run_on_a_plant_process_resumes_and_refuses_a_plant_whose_hello_changed() {
         text.contains("its hello has changed since the run started") && text.contains("nav-open"),
         "{text}"
     );
+    let _ = std::fs::remove_dir_all(&out);
 }
 
 #[test]
@@ -138,6 +144,7 @@ fn train_plant_cmd_names_the_run_for_the_plant_and_a_missing_plant_is_one_line()
         &missing,
         &["plant \"no-such-plant\": cannot start: no program no-such-plant on PATH"],
     );
+    let _ = std::fs::remove_dir_all(&out);
 }
 
 #[test]
@@ -179,6 +186,7 @@ fn a_sweep_on_a_plant_process_names_its_runs_for_the_plant_and_summarises_them()
         "{}",
         String::from_utf8_lossy(&again.stderr)
     );
+    let _ = std::fs::remove_dir_all(&out);
 }
 
 /// The pids of `pid`'s children, from /proc.
@@ -262,6 +270,7 @@ fn kill_9_of_the_trainer_leaves_no_plant_behind() {
     trainer.kill().expect("kill -9");
     trainer.wait().expect("reaped");
     assert_gone(plant);
+    let _ = std::fs::remove_dir_all(&base);
 }
 
 #[test]
@@ -297,6 +306,7 @@ fn ctrl_c_of_the_trainer_checkpoints_closes_the_plant_and_resumes() {
         "{}",
         String::from_utf8_lossy(&resumed.stderr)
     );
+    let _ = std::fs::remove_dir_all(&base);
 }
 
 #[test]
@@ -345,4 +355,5 @@ fn a_plant_that_dies_mid_run_stops_it_in_one_line_and_the_run_resumes_once_it_is
         String::from_utf8_lossy(&resumed.stderr)
     );
     assert_eq!(Checkpoint::load(&path).expect("checkpoint").episode, 20);
+    let _ = std::fs::remove_dir_all(&base);
 }

@@ -1235,6 +1235,7 @@ fn a_step_budget_ends_the_run_with_the_episode_that_reaches_it() {
         ..TrainConfig::smoke(Algo::Dcp, 3)
     };
     assert!(zero.validate().is_err());
+    let _ = std::fs::remove_dir_all(&out);
 }
 
 /// An export killed mid-way left `players/` with some players and a player folder without its
