@@ -347,12 +347,15 @@ pub fn render(grid: &Grid, commit: &str, figures: &str) -> (String, Vec<(String,
                     c.missing()
                 )
             };
+            // One run has no spread to resample: its value alone, said so.
+            let interval = if r.len() < 2 {
+                format!("{:.1} (1 run)", ci.estimate)
+            } else {
+                format!("{:.1} [{:.1}, {:.1}]", ci.estimate, ci.lo, ci.hi)
+            };
             let _ = writeln!(
                 md,
-                "| {agent} | {runs} | {:.1} [{:.1}, {:.1}] | {} | {:.0}/{:.0} = {:.2} [{lo:.2}, {hi:.2}] | {:.1} % | {:.1} %; {:.0}/{:.0} | {:.2} |",
-                ci.estimate,
-                ci.lo,
-                ci.hi,
+                "| {agent} | {runs} | {interval} | {} | {:.0}/{:.0} = {:.2} [{lo:.2}, {hi:.2}] | {:.1} % | {:.1} %; {:.0}/{:.0} | {:.2} |",
                 fmt_values(&r),
                 k,
                 n,
