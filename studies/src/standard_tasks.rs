@@ -218,8 +218,14 @@ pub struct Verdict {
 }
 
 fn word(a: &[f64], b: &[f64]) -> &'static str {
-    let p = permutation_two_sample(a, b, REPS as u64, SEED).p;
-    let d = mean(a) - mean(b);
+    word_of(
+        permutation_two_sample(a, b, REPS as u64, SEED).p,
+        mean(a) - mean(b),
+    )
+}
+
+/// The rule's word for a test's p and the difference of the means.
+fn word_of(p: f64, d: f64) -> &'static str {
     match (p < ALPHA, d > 0.0) {
         (true, true) => "ahead",
         (true, false) => "behind",
@@ -259,7 +265,7 @@ pub fn verdict(a: &[f64], b: &[f64]) -> Option<Verdict> {
         3,
     );
     Some(Verdict {
-        word: word(a, b),
+        word: word_of(p.p, mean(a) - mean(b)),
         difference: mean(a) - mean(b),
         interval: (interval.lo, interval.hi),
         p,

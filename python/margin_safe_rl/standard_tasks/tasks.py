@@ -80,6 +80,18 @@ _MOUNTAIN_CAR_TD3 = dict(
 )
 
 
+def _td3_and_ddpg(
+    n: int, kwargs: dict[str, Any], noise: tuple[str, float], block: str,
+    td3_score: tuple[float, float], ddpg_score: tuple[float, float],
+) -> dict[str, ZooEntry]:
+    """The Zoo's TD3 and DDPG entries of a task: the same settings in td3.yml and ddpg.yml
+    (block ``block`` of each), each with its own published score."""
+    return {
+        "td3": ZooEntry(n, dict(kwargs), noise, f"td3.yml {block}", td3_score),
+        "ddpg": ZooEntry(n, dict(kwargs), noise, f"ddpg.yml {block}", ddpg_score),
+    }
+
+
 @dataclass(frozen=True)
 class Task:
     """A benchmark task.
@@ -108,8 +120,7 @@ TASKS: tuple[Task, ...] = (
         budget=20000,
         success_return=-200.0,
         zoo={
-            "td3": ZooEntry(20000, dict(_PENDULUM_TD3), ("normal", 0.1), "td3.yml Pendulum-v1", (-151.855, 90.227)),
-            "ddpg": ZooEntry(20000, dict(_PENDULUM_TD3), ("normal", 0.1), "ddpg.yml Pendulum-v1", (-152.099, 94.282)),
+            **_td3_and_ddpg(20000, _PENDULUM_TD3, ("normal", 0.1), "Pendulum-v1", (-151.855, 90.227), (-152.099, 94.282)),
             "sac": ZooEntry(20000, dict(learning_rate=1e-3), None, "sac.yml Pendulum-v1", (-156.995, 88.714)),
         },
     ),
@@ -121,8 +132,10 @@ TASKS: tuple[Task, ...] = (
         contact="left wall",
         success_return=90.0,
         zoo={
-            "td3": ZooEntry(300000, dict(_MOUNTAIN_CAR_TD3), ("ornstein-uhlenbeck", 0.5), "td3.yml MountainCarContinuous-v0", (93.483, 0.075)),
-            "ddpg": ZooEntry(300000, dict(_MOUNTAIN_CAR_TD3), ("ornstein-uhlenbeck", 0.5), "ddpg.yml MountainCarContinuous-v0", (93.512, 0.048)),
+            **_td3_and_ddpg(
+                300000, _MOUNTAIN_CAR_TD3, ("ornstein-uhlenbeck", 0.5), "MountainCarContinuous-v0",
+                (93.483, 0.075), (93.512, 0.048),
+            ),
             "sac": ZooEntry(
                 50000,
                 dict(
