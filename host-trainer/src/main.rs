@@ -96,7 +96,8 @@ fn main() -> ExitCode {
         Ok(code) => code,
         Err(e) => {
             eprintln!("host-trainer: {e:#}");
-            ExitCode::FAILURE
+            // 1 is the gate's FAIL (as firmware-sim run gives it); an error is 2.
+            ExitCode::from(2)
         }
     }
 }

@@ -8,16 +8,22 @@ use host_trainer::run::config::TrainConfig;
 
 /// Runs the `host-trainer` binary to the end.
 pub fn host_trainer(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-trainer"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
+    command(args).output().expect("the binary runs")
 }
 
 /// A `host-trainer` command, to add a working folder or environment before running it.
+///
+/// A `train` that names no race and continues none is one run (`--race 1`): `train` races one
+/// seed per core by default, and these tests are about a run's behaviour, on any machine; the
+/// race has tests of its own (`race.rs`).
 pub fn command(args: &[&str]) -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_host-trainer"));
     c.args(args);
+    let named = |flag: &str| args.iter().any(|a| *a == flag);
+    if args.first() == Some(&"train") && !named("--race") && !named("--resume") && !named("--help")
+    {
+        c.args(["--race", "1"]);
+    }
     c
 }
 
@@ -44,6 +50,26 @@ pub fn assert_one_line_error(out: &Output, needles: &[&str]) -> String {
         assert!(stderr.contains(n), "stderr should mention {n:?}: {stderr}");
     }
     stderr
+}
+
+/// Asserts a command judged a blob and ended with the gate's verdict: exit 0 and `PASS`, or
+/// exit 1 and `FAIL` (the runs of a few episodes these tests train fail it).
+pub fn assert_judged(out: &Output) {
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let verdict = match out.status.code() {
+        Some(0) => "PASS",
+        Some(1) => "FAIL",
+        _ => panic!(
+            "expected exit 0 or 1 with a verdict, got {:?}; stderr: {}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        ),
+    };
+    assert!(
+        stdout.contains(verdict),
+        "exit {:?} but no {verdict} in: {stdout}",
+        out.status.code()
+    );
 }
 
 /// Asserts a run succeeded, showing its stderr if not.

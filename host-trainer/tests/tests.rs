@@ -10,6 +10,7 @@ mod interrupt;
 /// Plants in another process (`--plant-cmd`) and given in process: the same bytes as a
 /// scenario, recorded and checked on resume.
 mod plant_link;
+mod race;
 /// `host-trainer reproduce`: an experiment's grid in slices, merged into its page.
 mod reproduce;
 /// `scripts/runs-archive.sh`: archives that hold links or are corrupt are refused by name.

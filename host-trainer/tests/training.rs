@@ -90,7 +90,8 @@ fn dcp_variants_train() {
 fn td3_smoke_run_has_twin_critics_delayed_actor_updates_and_exports_q1() {
     let out = scratch("td3-smoke");
     let (trainer, run) = train_to_end(TrainConfig::smoke(Algo::Td3, 2), &out);
-    trainer.export(&run).expect("export");
+    // The last networks (validation may keep an earlier round's): Q1 is the one compared.
+    trainer.export_last(&run).expect("export");
     let stat = |name| trainer.last_stat(name);
     assert!(
         stat("critic_loss").is_some_and(f32::is_finite)
@@ -244,7 +245,11 @@ fn a_twin_critic_checkpoint_refuses_a_config_without_twins() {
 #[test]
 fn margin_candidate_files_set_their_options_only_and_train() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../experiments/margin");
-    let defaults = TrainConfig::default();
+    // The study's files have no [validation]: its protocol keeps the last networks.
+    let defaults = TrainConfig {
+        validation: None,
+        ..TrainConfig::default()
+    };
     type Check = fn(&TrainConfig) -> bool;
     let candidates: [(&str, Check); 4] = [
         ("sigma-schedule", |c| {
@@ -677,7 +682,8 @@ fn a_two_head_actor_acts_as_its_blobs_run() {
     config.dcp.heads = 2;
     config.episodes = 3;
     let (trainer, run) = train_to_end(config, &out);
-    trainer.export(&run).expect("export");
+    // The last networks, which `greedy` below runs (validation may keep an earlier round's).
+    trainer.export_last(&run).expect("export");
     let actor = std::fs::read(run.file(folder::POLICY)).expect("actor blob");
     let critic = std::fs::read(run.file(folder::CRITIC)).expect("critic blob");
     let plant = PlantSizes {
@@ -747,8 +753,10 @@ fn dcp_variant_files_each_set_one_option_and_train() {
             .into_owned();
         let mut config = TrainConfig::from_file(&path).expect("loads");
         config.validate().expect("valid");
+        // The experiments' files have no [validation]: their protocols keep the last networks.
         let defaults = TrainConfig {
             task: config.task.clone(),
+            validation: None,
             ..TrainConfig::default()
         };
         let paper = host_trainer::algorithms::dcp::Config::paper();

@@ -7,7 +7,10 @@ use anyhow::{Context, Result};
 use clap::Args;
 use firmware_sim::outln;
 use host_trainer::blob::export::{self, ImageFormat, SlotTarget};
+use host_trainer::run::config::read_text;
 use host_trainer::run::folder::{self, RunDir};
+use host_trainer::run::lock;
+use host_trainer::run::race::RaceRecord;
 use policy_core::slot::SlotId;
 use policy_core::Encoding;
 
@@ -15,9 +18,14 @@ use super::train::resume;
 
 #[derive(Debug, Args)]
 pub(crate) struct ExportArgs {
-    /// The run folder holding checkpoint.postcard.
+    /// The run folder holding checkpoint.postcard, or a race's folder (its winner is exported
+    /// into it).
     #[arg(long)]
     run: PathBuf,
+    /// Export the last networks instead of the policy validation kept (the best by
+    /// validation; a run without validation keeps its last networks anyway).
+    #[arg(long)]
+    last: bool,
     /// How the policy's weights are stored: f32 (policy.postcard and the critic), f16 or int8
     /// (policy-f16.postcard, policy-int8.postcard; weights only, everything else stays f32).
     #[arg(long, default_value = "f32", value_parser = parse_encoding)]
@@ -67,9 +75,18 @@ pub(crate) fn parse_encoding(s: &str) -> Result<Encoding, String> {
 }
 
 pub(crate) fn export_command(args: ExportArgs) -> Result<()> {
+    // A race's folder holds its winner's blobs; the winner's networks are in its racer folder.
+    let (source, target, _race_lock) = match race_winner(&args.run)? {
+        Some(winner) => {
+            let race = RunDir::open(&args.run)?;
+            let lock = lock::acquire(race.path())?;
+            (winner, Some(race), Some(lock))
+        }
+        None => (args.run.clone(), None, None),
+    };
     // Without a checkpoint there is no trained policy: exporting the recorded config's freshly
     // initialised networks would write an untrained policy under the run's name.
-    let run = RunDir::open(&args.run)?;
+    let run = RunDir::open(&source)?;
     if !run.file(folder::CHECKPOINT).exists() {
         anyhow::bail!(
             "{} has no checkpoint: nothing to export (train it, or continue it with train --resume {})",
@@ -79,9 +96,20 @@ pub(crate) fn export_command(args: ExportArgs) -> Result<()> {
     }
     // (A run on a plant process starts its plant again here: the checkpoint's networks are
     // checked against the plant's hello before anything is exported.)
-    let (trainer, run, _lock) = resume(&args.run, None, Timeouts::default())?;
+    let (trainer, run, _lock) = resume(&source, None, Timeouts::default())?;
+    let out = target.as_ref().unwrap_or(&run);
     let name = folder::policy_file(args.encoding);
-    let f32 = trainer.policy_blob(&trainer.config.blob_label())?;
+    let (f32, critic) = if args.last {
+        trainer.last_blobs()?
+    } else {
+        trainer.kept_blobs()?
+    };
+    let which = match (&trainer.kept, args.last) {
+        (Some(kept), false) => {
+            format!("the policy validation kept, episode {}", kept.round.episode)
+        }
+        _ => format!("the last networks, episode {}", trainer.episode),
+    };
     let policy = match args.encoding {
         Encoding::F32 => f32,
         other => export::encode(&f32, other)?,
@@ -92,35 +120,56 @@ pub(crate) fn export_command(args: ExportArgs) -> Result<()> {
         .map(|format| slot_image(&args, format, &policy))
         .transpose()?;
     if args.encoding != Encoding::F32 {
-        run.write(&name, &policy)?;
+        out.write(&name, &policy)?;
         outln!(
-            "wrote {} ({} bytes, {} weights; episode {})",
-            run.file(&name).display(),
+            "wrote {} ({} bytes, {} weights; {which})",
+            out.file(&name).display(),
             policy.len(),
             args.encoding,
-            trainer.episode
         );
     } else {
-        trainer.export(&run)?;
-        let critic_file = run.file(folder::CRITIC);
-        let critic = if critic_file.is_file() {
-            format!(" and {}", critic_file.display())
-        } else {
-            String::new()
+        out.write(folder::POLICY, &policy)?;
+        let critic = match critic {
+            Some(critic) => {
+                out.write(folder::CRITIC, &critic)?;
+                format!(" and {}", out.file(folder::CRITIC).display())
+            }
+            None => String::new(),
         };
         outln!(
-            "wrote {}{critic} (episode {})",
-            run.file(folder::POLICY).display(),
-            trainer.episode
+            "wrote {}{critic} ({which})",
+            out.file(folder::POLICY).display(),
         );
     }
     if let Some((format, id, target, bytes)) = image {
-        write_slot_image(&run, args.encoding, format, id, target, &bytes)?;
+        write_slot_image(out, args.encoding, format, id, target, &bytes)?;
     }
     Ok(())
 }
 
-/// The policy's flash slot image for `--image`, with where it goes.
+/// The winner's run folder of the race in `dir`, if `dir` is a race's folder; an error if the
+/// race has no winner yet.
+fn race_winner(dir: &std::path::Path) -> Result<Option<PathBuf>> {
+    let path = dir.join(folder::RACE);
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let record: RaceRecord = serde_json::from_str(&read_text(&path)?)
+        .with_context(|| format!("{} is not a race's record", path.display()))?;
+    let Some(winner) = record.winner.and_then(|w| record.racers.get(w)) else {
+        anyhow::bail!(
+            "{} has no winner yet: continue the race with train --resume {}",
+            dir.display(),
+            dir.display()
+        );
+    };
+    Ok(Some(
+        winner
+            .folder_in(dir)
+            .with_context(|| format!("{}", path.display()))?,
+    ))
+}
+
 pub(crate) fn slot_image(
     args: &ExportArgs,
     format: ImageFormat,

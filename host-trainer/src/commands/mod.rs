@@ -5,6 +5,7 @@
 pub(crate) mod eval;
 pub(crate) mod export;
 pub(crate) mod inspect;
+pub(crate) mod race;
 pub(crate) mod reproduce;
 pub(crate) mod signals;
 pub(crate) mod sweep;

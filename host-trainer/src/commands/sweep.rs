@@ -59,7 +59,11 @@ pub(crate) struct SweepArgs {
 pub(crate) fn sweep_command(args: SweepArgs) -> Result<ExitCode> {
     let mut base = match &args.config {
         Some(path) => TrainConfig::from_file(path)?,
-        None => TrainConfig::default(),
+        // A sweep's protocol is its fixed budget and its runs' last networks: no validation.
+        None => TrainConfig {
+            validation: None,
+            ..TrainConfig::default()
+        },
     };
     if let Some(task) = &args.task {
         base.task = task.clone();

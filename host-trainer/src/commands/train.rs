@@ -25,6 +25,7 @@ use host_trainer::run::folder::{self, RunDir};
 use host_trainer::run::lock::{self, FolderLock};
 use host_trainer::run::progress;
 use host_trainer::run::trainer::{self, Outcome, Trainer};
+use host_trainer::run::validation::{ValidationConfig, TEST_SEED};
 
 use super::cores;
 use super::eval::{
@@ -59,7 +60,7 @@ pub(crate) struct TrainArgs {
     reward: Option<RewardKind>,
     /// Training episodes [default: 3000].
     #[arg(long)]
-    episodes: Option<usize>,
+    pub(crate) episodes: Option<usize>,
     /// A budget in environment steps as well (as Stable-Baselines3 counts): the run ends with
     /// the episode in which its steps reach N; --episodes stays an upper bound [default: none].
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
@@ -88,39 +89,76 @@ pub(crate) struct TrainArgs {
     /// Config file (TOML, or JSON if it ends in .json); see config.toml in any run folder.
     #[arg(long)]
     config: Option<PathBuf>,
-    /// Continue the run in this folder from its checkpoint (--episodes may raise the budget).
-    #[arg(long, conflicts_with_all = ["task", "plant_cmd", "algo", "hidden", "reward", "t", "sigma", "noise", "dropout", "reward_scale", "seed", "out", "config", "env_steps"])]
+    /// Validate every N episodes (and at the end of the budget): the actor, exported as its
+    /// blob, through firmware-sim's test protocol on validation starts of its own, never the
+    /// test's; the best policy by validation is the one kept [default: 100].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    validate_every: Option<u64>,
+    /// Validation starts per round [default: 100].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    validation_starts: Option<u64>,
+    /// Train to the budget even once validation meets its criteria (the best is still kept).
+    #[arg(long)]
+    no_stop: bool,
+    /// No validation: train to the budget and keep the last networks (what sweep and
+    /// reproduce do).
+    #[arg(long, conflicts_with_all = ["validate_every", "validation_starts", "no_stop"])]
+    no_validation: bool,
+    /// Race K seeds derived from --seed, one thread each; the first whose validation ends its
+    /// run wins, the others stop (docs/training.md, "Seeds raced") [default: one racer per
+    /// core; 1 without validation].
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u64).range(1..))]
+    race: Option<u64>,
+    /// Continue the run (or race) in this folder from its checkpoints (--episodes may raise
+    /// the budget).
+    #[arg(long, conflicts_with_all = ["task", "plant_cmd", "algo", "hidden", "reward", "t", "sigma", "noise", "dropout", "reward_scale", "seed", "out", "config", "env_steps", "validate_every", "validation_starts", "no_stop", "no_validation", "race"])]
     resume: Option<PathBuf>,
     /// Worker threads of the updates, 1 to 1024; any count trains to the same bytes [default:
-    /// the cores available].
+    /// 1, measured fastest (docs/performance.md, "Threads"); a racer always runs one].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_THREADS)))]
-    threads: Option<u32>,
+    pub(crate) threads: Option<u32>,
     /// Also keep a copy of every checkpoint in RUN/checkpoints/ (to study how the run
     /// learned; each holds the whole replay buffer, tens of MB).
     #[arg(long)]
-    keep_checkpoints: bool,
+    pub(crate) keep_checkpoints: bool,
     /// No progress bar.
     #[arg(long)]
-    quiet: bool,
+    pub(crate) quiet: bool,
     /// Stop as on Ctrl-C (checkpoint, exit 130) when standard input reaches its end. A sweep
     /// starts its runs with this and holds their standard input open, so a sweep that dies by
     /// any signal, SIGKILL included, takes its runs with it instead of leaving them training.
     #[arg(long, hide = true)]
-    stop_when_stdin_closes: bool,
+    pub(crate) stop_when_stdin_closes: bool,
 }
 
 pub(crate) fn train_command(args: TrainArgs) -> Result<ExitCode> {
+    let timeouts = plant_timeouts(args.plant_timeout)?;
+    if let Some(dir) = &args.resume {
+        if dir.join(folder::RACE).is_file() {
+            return super::race::resume_race(dir, &args, timeouts);
+        }
+    } else {
+        let config = fresh_config(&args)?;
+        let racers = match args.race {
+            Some(k) => usize::try_from(k).unwrap_or(usize::MAX),
+            // One racer per core; a run without validation has nothing to race by.
+            None if config.validation.is_some() => cores(),
+            None => 1,
+        };
+        if racers > 1 {
+            return super::race::race_command(&args, config, racers, timeouts);
+        }
+    }
     let quiet = args.quiet;
     let stop_when_stdin_closes = args.stop_when_stdin_closes;
     let keep_checkpoints = args.keep_checkpoints;
     let workers = workers(args.threads)?;
-    let timeouts = plant_timeouts(args.plant_timeout)?;
     if let (true, Some(dir)) = (keep_checkpoints, &args.resume) {
         folder::check_kept_checkpoints(dir)?;
     }
     let (mut trainer, run, _lock) = match &args.resume {
         Some(dir) => resume(dir, args.episodes, timeouts)?,
-        None => fresh(args, timeouts)?,
+        None => fresh(&args, timeouts)?,
     };
     trainer.set_workers(workers);
     trainer.keep_checkpoints = keep_checkpoints;
@@ -142,9 +180,10 @@ pub(crate) fn train_command(args: TrainArgs) -> Result<ExitCode> {
     let outcome = trainer::run(&mut trainer, &run, &mut |row, t| {
         bar.set_position(position(row.episode, row.total_steps));
         bar.set_message(format!(
-            "success(100) {:>3.0}%  {:>6.0} steps/s",
+            "success(100) {:>3.0}%  {:>6.0} steps/s{}",
             100.0 * t.recent_success(100),
-            row.steps_per_s
+            row.steps_per_s,
+            validation_note(t)
         ));
         if INTERRUPTS.load(Ordering::SeqCst) > 0 {
             ControlFlow::Break(())
@@ -166,32 +205,7 @@ pub(crate) fn train_command(args: TrainArgs) -> Result<ExitCode> {
     // Every file first, then the report: a reader of standard output that goes away (which
     // ends the program) cannot cost the run its blobs or its evaluation.
     let blob = trainer.export(&run)?;
-    // An actor of several heads runs with its critic choosing the head, as on the chip.
-    let heads = trainer.config.algo == Algo::Dcp && trainer.config.dcp.heads > 1;
-    let critic = if heads {
-        Some(files::read_blob(&run.file(folder::CRITIC))?)
-    } else {
-        None
-    };
-    let summary = match trainer.plant.scenario().cloned() {
-        Some(scenario) => {
-            let report = evaluate(
-                &blob,
-                critic.as_deref(),
-                &run.file(folder::POLICY),
-                &scenario,
-                trainer.config.eval_episodes,
-                0,
-            )?;
-            run.write(folder::EVAL, report_json(&report)?.as_bytes())?;
-            summary_line(&report)
-        }
-        None => {
-            let report = evaluate_on_plant(&mut trainer, &blob, &run)?;
-            run.write(folder::EVAL, plant_report_json(&report)?.as_bytes())?;
-            plant_summary_line(&report)
-        }
-    };
+    let (summary, passed) = test_on_test_starts(&mut trainer, &blob, &run)?;
     let rate = steps as f64 / seconds.max(1e-9);
     if episodes_before == 0 && steps_before == 0 {
         outln!("trained {} ({} episodes, {steps} env steps in {seconds:.1} s, {rate:.0} steps/s incl. updates)", run.path().display(), trainer.episode);
@@ -200,9 +214,102 @@ pub(crate) fn train_command(args: TrainArgs) -> Result<ExitCode> {
         // this part's, whose speed alone was measured here.
         outln!("trained {} ({} episodes, {} env steps in all; this part: {} episodes, {steps} env steps in {seconds:.1} s, {rate:.0} steps/s incl. updates)", run.path().display(), trainer.episode, trainer.total_steps, trainer.episode - episodes_before);
     }
+    if let Some(line) = validation_summary(&trainer) {
+        outln!("{line}");
+    }
     print_summary_text(&summary);
     outln!("wrote {}", run.path().display());
-    Ok(ExitCode::SUCCESS)
+    Ok(verdict_code(passed))
+}
+
+/// The exit status of a judged run, as `eval` and `firmware-sim run` give it: 0 when the
+/// gate passes, 1 when it fails.
+pub(crate) fn verdict_code(passed: bool) -> ExitCode {
+    if passed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
+}
+
+/// The last validation round, for the progress bar.
+fn validation_note(t: &Trainer) -> String {
+    t.validation.last().map_or_else(String::new, |r| {
+        let error = r
+            .error
+            .map_or_else(String::new, |e| format!(" error {e:.2}"));
+        format!(
+            "  validation@{} success {:.0}%{error}",
+            r.episode,
+            100.0 * r.success
+        )
+    })
+}
+
+/// What validation did, in one line: the rounds, how the run ended and which policy it kept.
+pub(crate) fn validation_summary(trainer: &Trainer) -> Option<String> {
+    let v = trainer.config.validation.as_ref()?;
+    let kept = trainer.kept.as_ref()?;
+    let r = &kept.round;
+    let figure = match (r.error, r.mean_return) {
+        (Some(e), _) => format!(", settled error {e:.3}"),
+        (None, Some(m)) => format!(", mean return {m:.3}"),
+        (None, None) => String::new(),
+    };
+    let ended = if trainer.stopped_at_gate() {
+        format!(
+            "met the criteria {} rounds in a row: stopped at episode {}",
+            v.in_a_row, trainer.episode
+        )
+    } else if trainer.validation.iter().any(|r| r.meets) {
+        "met the criteria, not enough rounds in a row to stop".to_string()
+    } else {
+        "never met the criteria".to_string()
+    };
+    Some(format!(
+        "validation: {} rounds on {} starts of their own (not the test's); {ended}; kept the policy of episode {} (success {:.1}%, stuck {:.1}%{figure})",
+        trainer.validation.len(),
+        v.starts,
+        r.episode,
+        100.0 * r.success,
+        100.0 * r.stuck,
+    ))
+}
+
+/// The end-of-training test of the exported `blob` on the test starts (which no choice of the
+/// run has seen): writes `eval.json` into `run`, returns the summary line and whether the gate
+/// passed.
+pub(crate) fn test_on_test_starts(
+    trainer: &mut Trainer,
+    blob: &[u8],
+    run: &RunDir,
+) -> Result<(String, bool)> {
+    // An actor of several heads runs with its critic choosing the head, as on the chip.
+    let heads = trainer.config.algo == Algo::Dcp && trainer.config.dcp.heads > 1;
+    let critic = if heads {
+        Some(files::read_blob(&run.file(folder::CRITIC))?)
+    } else {
+        None
+    };
+    match trainer.plant.scenario().cloned() {
+        Some(scenario) => {
+            let report = evaluate(
+                blob,
+                critic.as_deref(),
+                &run.file(folder::POLICY),
+                &scenario,
+                trainer.config.eval_episodes,
+                TEST_SEED,
+            )?;
+            run.write(folder::EVAL, report_json(&report)?.as_bytes())?;
+            Ok((summary_line(&report), report.pass.passed))
+        }
+        None => {
+            let report = evaluate_on_plant(trainer, blob, run)?;
+            run.write(folder::EVAL, plant_report_json(&report)?.as_bytes())?;
+            Ok((plant_summary_line(&report), report.pass.passed))
+        }
+    }
 }
 
 /// The end-of-training test of a run on a plant of the user's: the exported blob, booted as the
@@ -212,6 +319,7 @@ fn evaluate_on_plant(trainer: &mut Trainer, blob: &[u8], run: &RunDir) -> Result
     let name = trainer.plant.name();
     let cfg = PlantTestConfig {
         episodes: trainer.config.eval_episodes,
+        seed: TEST_SEED,
         ..PlantTestConfig::default()
     };
     let sizes = {
@@ -244,11 +352,12 @@ pub(crate) fn plant_timeouts(seconds: f64) -> Result<Timeouts> {
     })
 }
 
-/// `--threads`: the worker threads of the updates, all cores by default. A count above the
-/// cores is allowed (it trains to the same bytes, only slower) and said once.
+/// `--threads`: the worker threads of the updates, one by default (a second one made a DCP run
+/// slower where it was measured: docs/performance.md, "Threads"). A count above the cores is
+/// allowed (it trains to the same bytes, only slower) and said once.
 pub(crate) fn workers(threads: Option<u32>) -> Result<Workers> {
     let cores = cores();
-    let threads = threads.map_or(cores, |n| n as usize);
+    let threads = threads.map_or(1, |n| n as usize);
     if threads > cores {
         eprintln!("host-trainer: note: --threads {threads} is more than the {cores} cores available; the run trains to the same bytes, probably slower");
     }
@@ -257,27 +366,37 @@ pub(crate) fn workers(threads: Option<u32>) -> Result<Workers> {
 
 /// A new run: defaults, then the config file, then flags; nothing is written until the
 /// configuration is valid and the trainer is built.
-pub(crate) fn fresh(args: TrainArgs, timeouts: Timeouts) -> Result<(Trainer, RunDir, FolderLock)> {
+pub(crate) fn fresh(args: &TrainArgs, timeouts: Timeouts) -> Result<(Trainer, RunDir, FolderLock)> {
+    let trainer = Trainer::new_with(fresh_config(args)?, timeouts)?;
+    let run = RunDir::create(&out_folder(args)?, &trainer.config.run_name())?;
+    let lock = lock::acquire(run.path())?;
+    Ok((trainer, run, lock))
+}
+
+/// A new run's settings: the defaults, then the config file, then flags, checked.
+pub(crate) fn fresh_config(args: &TrainArgs) -> Result<TrainConfig> {
     let mut config = match &args.config {
         Some(path) => TrainConfig::from_file(path)?,
         None => TrainConfig::default(),
     };
-    apply_flags(&mut config, &args);
-    check_flags_used(config.algo, &args)?;
+    apply_flags(&mut config, args);
+    check_validate_every(&config, args)?;
+    check_flags_used(config.algo, args)?;
     config.check_read(&[config.algo])?;
-    let trainer = Trainer::new_with(config, timeouts)?;
-    let out = match args.out {
-        Some(out) => out,
+    Ok(config)
+}
+
+/// `--out`, or `./runs` made if missing.
+pub(crate) fn out_folder(args: &TrainArgs) -> Result<PathBuf> {
+    match &args.out {
+        Some(out) => Ok(out.clone()),
         None => {
             let out = PathBuf::from("runs");
             std::fs::create_dir_all(&out)
                 .with_context(|| format!("cannot create output folder {}", out.display()))?;
-            out
+            Ok(out)
         }
-    };
-    let run = RunDir::create(&out, &trainer.config.run_name())?;
-    let lock = lock::acquire(run.path())?;
-    Ok((trainer, run, lock))
+    }
 }
 
 pub(crate) fn apply_flags(config: &mut TrainConfig, args: &TrainArgs) {
@@ -320,6 +439,36 @@ pub(crate) fn apply_flags(config: &mut TrainConfig, args: &TrainArgs) {
     if let Some(v) = args.seed {
         config.seed = v;
     }
+    if args.no_validation {
+        config.validation = None;
+    } else if args.validate_every.is_some() || args.validation_starts.is_some() || args.no_stop {
+        let v = config
+            .validation
+            .get_or_insert_with(ValidationConfig::default);
+        if let Some(n) = args.validate_every {
+            v.every = usize::try_from(n).unwrap_or(usize::MAX);
+        }
+        if let Some(n) = args.validation_starts {
+            v.starts = usize::try_from(n).unwrap_or(usize::MAX);
+        }
+        if args.no_stop {
+            v.stop = false;
+        }
+    }
+}
+
+/// `--validate-every` above the episode budget would validate once, at the end: a user who
+/// asks for rounds is told instead.
+fn check_validate_every(config: &TrainConfig, args: &TrainArgs) -> Result<()> {
+    if let (Some(n), Some(v)) = (args.validate_every, &config.validation) {
+        anyhow::ensure!(
+            v.every <= config.episodes,
+            "--validate-every {n} is above the episode budget ({}): at most {} (or --no-validation)",
+            config.episodes,
+            config.episodes
+        );
+    }
+    Ok(())
 }
 
 /// A flag the run's algorithm does not read would be recorded in `config.toml` and change

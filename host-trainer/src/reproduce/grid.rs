@@ -151,6 +151,8 @@ impl Cell {
             task: self.task().into(),
             algo: self.agent.algo,
             reward: self.reward,
+            // The experiments' protocols: a fixed budget, the last networks.
+            validation: None,
             ..TrainConfig::default()
         };
         if self.agent.paper_dcp {
@@ -411,7 +413,13 @@ mod tests {
         assert_eq!(c.agent.sigma, 1.0);
         assert_eq!(c.episodes, TrainConfig::default().episodes);
         let adopted = Cell::headline(AGENTS[0]).config(false);
-        assert_eq!(adopted, TrainConfig::default());
+        assert_eq!(
+            adopted,
+            TrainConfig {
+                validation: None,
+                ..TrainConfig::default()
+            }
+        );
         let quick = Cell::headline(AGENTS[0]).config(true);
         assert_eq!(quick.episodes, TrainConfig::smoke(Algo::Dcp, 0).episodes);
         assert_eq!(quick.agent.hidden, TrainConfig::default().agent.hidden);

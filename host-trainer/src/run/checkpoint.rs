@@ -7,7 +7,7 @@
 //! that was interrupted: a run of N episodes and a run stopped at k and resumed to N produce
 //! the same blob bytes (tested in `tests/training.rs`).
 //!
-//! Layout: the 8 bytes `DCPCKPT5` (magic and version), the postcard encoding of
+//! Layout: the 8 bytes `DCPCKPT6` (magic and version), the postcard encoding of
 //! [`Checkpoint`], then the CRC-32 (policy-core's, little-endian) of everything before it, so a
 //! flipped bit anywhere is a clear error rather than a silently different run. The config and
 //! the plant are stored as TOML text: the file stays readable by `export` even if a config field
@@ -23,10 +23,11 @@ use crate::algorithms::Learner;
 use crate::rng_state::RngState;
 use crate::run::crash_test;
 use crate::run::metrics::EpisodeRow;
+use crate::run::validation::{Kept, Round};
 use crate::Error;
 
 /// Magic and format version at the start of every checkpoint file.
-pub const MAGIC: &[u8; 8] = b"DCPCKPT5";
+pub const MAGIC: &[u8; 8] = b"DCPCKPT6";
 /// Bytes of the trailing checksum.
 const CRC_LEN: usize = 4;
 
@@ -49,7 +50,28 @@ pub struct Checkpoint {
     pub metrics: Vec<EpisodeRow>,
     /// The stream of episode starts.
     pub env_rng: RngState,
+    /// The validation rounds so far.
+    pub validation: Vec<Round>,
+    /// The best policy by validation, as its blobs.
+    pub kept: Option<Kept>,
 }
+
+/// A checkpoint of the format before validation (`DCPCKPT5`): the same fields without the
+/// validation state. Read so that a run started by an older build continues (without
+/// validation: its config has no `[validation]` section).
+#[derive(Deserialize)]
+struct Version5 {
+    config_toml: String,
+    scenario_toml: String,
+    learner: Learner,
+    episode: usize,
+    total_steps: u64,
+    metrics: Vec<EpisodeRow>,
+    env_rng: RngState,
+}
+
+/// The magic of [`Version5`].
+const MAGIC_5: &[u8; 8] = b"DCPCKPT5";
 
 impl Checkpoint {
     /// The file's bytes: magic, postcard, CRC-32.
@@ -65,6 +87,20 @@ impl Checkpoint {
     /// assert!(err.contains("older build"), "{err}");
     /// ```
     pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, String> {
+        if let Some(rest) = bytes.strip_prefix(MAGIC_5.as_slice()) {
+            let v: Version5 = unseal(rest, bytes)?;
+            return Ok(Checkpoint {
+                config_toml: v.config_toml,
+                scenario_toml: v.scenario_toml,
+                learner: v.learner,
+                episode: v.episode,
+                total_steps: v.total_steps,
+                metrics: v.metrics,
+                env_rng: v.env_rng,
+                validation: Vec::new(),
+                kept: None,
+            });
+        }
         let Some(rest) = bytes.strip_prefix(MAGIC.as_slice()) else {
             return Err(wrong_magic(bytes));
         };
@@ -137,12 +173,12 @@ fn wrong_magic(bytes: &[u8]) -> String {
     let found = &bytes[..bytes.len().min(MAGIC.len())];
     if found.starts_with(b"DCPCKPT") {
         format!(
-            "written by an older build (format {:?}); this build reads DCPCKPT5 (one state per algorithm, with a checksum, the plant, and the replay's episode ends and twin critics): export it with the build that wrote it",
+            "written by an older build (format {:?}); this build reads DCPCKPT5 and DCPCKPT6 (one state per algorithm, with a checksum, the plant, the replay's episode ends and twin critics, and from 6 the validation rounds and the kept policy): export it with the build that wrote it",
             String::from_utf8_lossy(found)
         )
     } else {
         format!(
-            "not a checkpoint: expected the magic \"DCPCKPT5\", found {:?}",
+            "not a checkpoint: expected the magic \"DCPCKPT6\", found {:?}",
             String::from_utf8_lossy(found)
         )
     }

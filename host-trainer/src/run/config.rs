@@ -13,6 +13,7 @@ use crate::algorithms::agent_config::AgentConfig;
 use crate::algorithms::{dcp, ddpg, dqn, ppo, Algo, Learner, Sections};
 use crate::nn::hidden::Hidden;
 use crate::run::folder;
+use crate::run::validation::ValidationConfig;
 use crate::Error;
 
 /// Everything that defines a run (saved as the run's `config.toml`).
@@ -43,6 +44,12 @@ pub struct TrainConfig {
     pub checkpoint_every: usize,
     /// Test starts for the final firmware-sim evaluation [paper: 100].
     pub eval_episodes: usize,
+    /// Validation while training, the best policy kept and the stop when the gate holds
+    /// ([`ValidationConfig`]). A config without this section has none: it trains to its budget
+    /// and keeps the last networks, as runs did before validation existed (and as `sweep` and
+    /// `reproduce` do); `train`'s defaults have it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub validation: Option<ValidationConfig>,
     /// Settings every algorithm shares (networks, learning rates, γ, normalisation; each
     /// algorithm's file says which it reads).
     pub agent: AgentConfig,
@@ -61,7 +68,7 @@ pub struct TrainConfig {
 impl TrainConfig {
     /// The smallest run that still exercises every code path (warm-up, updates, checkpoint,
     /// export, evaluation): 3 episodes of a 2×32 network, batch 16, T = 4, PPO rollouts of 32
-    /// steps in minibatches of 8 over 2 epochs. Smoke tests and the end-to-end test use it; it
+    /// steps in minibatches of 8 over 2 epochs, validation every 2 episodes on 5 starts. Smoke tests and the end-to-end test use it; it
     /// is far too small to learn anything.
     pub fn smoke(algo: Algo, seed: u64) -> Self {
         let mut c = TrainConfig {
@@ -82,6 +89,11 @@ impl TrainConfig {
         c.ppo.rollout = 32;
         c.ppo.minibatch = 8;
         c.ppo.epochs = 2;
+        c.validation = Some(ValidationConfig {
+            every: 2,
+            starts: 5,
+            ..ValidationConfig::default()
+        });
         // Only what `algo` reads: a config file holding another algorithm's settings is refused.
         // Built from constants, which read back (every test that trains starts here).
         c.for_algo(algo)
@@ -101,6 +113,7 @@ impl Default for TrainConfig {
             env_steps: None,
             checkpoint_every: 100,
             eval_episodes: 100,
+            validation: Some(ValidationConfig::default()),
             agent: AgentConfig::default(),
             dcp: dcp::Config::default(),
             ddpg: ddpg::Config::default(),
@@ -236,6 +249,9 @@ impl TrainConfig {
         }
         positive("checkpoint_every", self.checkpoint_every)?;
         positive("eval_episodes", self.eval_episodes)?;
+        if let Some(v) = &self.validation {
+            v.check()?;
+        }
         Learner::validate(&self.sections())
     }
 

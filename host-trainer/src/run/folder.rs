@@ -78,8 +78,18 @@ pub fn image_file(
 /// The firmware-sim evaluation of the exported policy.
 pub const EVAL: &str = "eval.json";
 
+/// The run's validation rounds, one row each (a run with a `[validation]` section).
+pub const VALIDATION: &str = "validation.csv";
+
+/// The record of a race (`train --race K`): every racer's validation history and why the
+/// winner won.
+pub const RACE: &str = "race.json";
+
+/// The folder of a race's racers, one run folder each.
+pub const RACERS: &str = "racers";
+
 /// Files that mark a folder as holding a run (a new run must not overwrite them).
-const RUN_FILES: [&str; 4] = [CONFIG, CHECKPOINT, POLICY, METRICS];
+const RUN_FILES: [&str; 5] = [CONFIG, CHECKPOINT, POLICY, METRICS, RACE];
 
 /// The folder name of a run: `{task}__{algo}__{seed}`.
 ///

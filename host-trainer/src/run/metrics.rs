@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::run::plot::{self, Panel, Series};
+use crate::run::validation::Round;
 
 /// One row of `metrics.csv`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -82,8 +83,10 @@ pub fn metrics_csv(names: &[&str], rows: &[EpisodeRow]) -> String {
     out
 }
 
-/// The learning curve: return (raw and 100-episode average) and the 100-episode success rate.
-pub fn learning_curve(title: &str, rows: &[EpisodeRow]) -> String {
+/// The learning curve: return (raw and 100-episode average) and the 100-episode success rate;
+/// with validation rounds, their success rate beside it and their mean settled error (or mean
+/// return, on a plant of the user's) in a panel of its own.
+pub fn learning_curve(title: &str, rows: &[EpisodeRow], rounds: &[Round]) -> String {
     let x: Vec<f64> = rows.iter().map(|r| r.episode as f64).collect();
     let ret: Vec<f64> = rows.iter().map(|r| f64::from(r.ret)).collect();
     let success: Vec<f64> = rows
@@ -109,7 +112,7 @@ pub fn learning_curve(title: &str, rows: &[EpisodeRow]) -> String {
             },
         ],
     };
-    let rate = Panel {
+    let mut rate = Panel {
         y_label: "success rate".into(),
         y_range: Some((0.0, 1.0)),
         series: vec![Series {
@@ -119,5 +122,36 @@ pub fn learning_curve(title: &str, rows: &[EpisodeRow]) -> String {
             points: zip(plot::moving_average(&success, 100)),
         }],
     };
-    plot::svg(title, "episode", &[returns, rate])
+    if rounds.is_empty() {
+        return plot::svg(title, "episode", &[returns, rate]);
+    }
+    let at = |f: &dyn Fn(&Round) -> Option<f64>| -> Vec<(f64, f64)> {
+        rounds
+            .iter()
+            .filter_map(|r| Some((r.episode as f64, f(r)?)))
+            .collect()
+    };
+    rate.series.push(Series {
+        name: "validation".into(),
+        color: "#ff7f0e",
+        opacity: 1.0,
+        points: at(&|r| Some(r.success)),
+    });
+    let (label, figure): (&str, &dyn Fn(&Round) -> Option<f64>) =
+        if rounds.iter().any(|r| r.error.is_some()) {
+            ("validation settled error", &|r| r.error)
+        } else {
+            ("validation mean return", &|r| r.mean_return)
+        };
+    let validation = Panel {
+        y_label: label.into(),
+        y_range: None,
+        series: vec![Series {
+            name: "validation round".into(),
+            color: "#ff7f0e",
+            opacity: 1.0,
+            points: at(figure),
+        }],
+    };
+    plot::svg(title, "episode", &[returns, rate, validation])
 }

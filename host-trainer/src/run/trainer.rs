@@ -39,6 +39,7 @@ use crate::run::crash_test;
 use crate::run::folder::{self, RunDir};
 use crate::run::metrics::{learning_curve, metrics_csv, EpisodeRow};
 use crate::run::plant::{self, RunPlant};
+use crate::run::validation::{self, Ground, Kept, Round};
 use crate::Error;
 
 /// The plant of a task: a built-in scenario name or a scenario file.
@@ -77,6 +78,10 @@ pub struct Trainer {
     pub total_steps: u64,
     /// One row per completed episode.
     pub metrics: Vec<EpisodeRow>,
+    /// The validation rounds so far, oldest first (none without a `[validation]` section).
+    pub validation: Vec<Round>,
+    /// The best policy by validation ([`Round::better_than`]): what `policy.postcard` holds.
+    pub kept: Option<Kept>,
     /// The plant, as resolved when the run started (a scenario before the reward and γ
     /// overrides, or a plant of the user's by its hello).
     pub plant: RunPlant,
@@ -167,6 +172,8 @@ impl Trainer {
             episode: 0,
             total_steps: 0,
             metrics: Vec::new(),
+            validation: Vec::new(),
+            kept: None,
         })
     }
 
@@ -245,6 +252,8 @@ impl Trainer {
             episode: checkpoint.episode,
             total_steps: checkpoint.total_steps,
             metrics: checkpoint.metrics,
+            validation: checkpoint.validation,
+            kept: checkpoint.kept,
             config,
         })
     }
@@ -269,6 +278,8 @@ impl Trainer {
             total_steps: self.total_steps,
             metrics: self.metrics.clone(),
             env_rng: RngState::of(&self.env_rng),
+            validation: self.validation.clone(),
+            kept: self.kept.clone(),
         }
     }
 
@@ -277,11 +288,92 @@ impl Trainer {
         self.learner.get()
     }
 
+    /// Whether the run is over: its budget is used up ([`Trainer::budget_used`]) or its
+    /// validation has met the criteria for enough rounds in a row, with stopping on.
+    pub fn done(&self) -> bool {
+        self.budget_used() || self.stopped_at_gate()
+    }
+
     /// Whether the budget is used up: the episodes, or the environment steps where the run
     /// has a step budget (checked between episodes, so the last episode runs to its end).
-    pub fn done(&self) -> bool {
+    pub fn budget_used(&self) -> bool {
         self.episode >= self.config.episodes
             || self.config.env_steps.is_some_and(|n| self.total_steps >= n)
+    }
+
+    /// Whether validation has ended the run: the last rounds met the criteria, as many in a
+    /// row as the configuration asks, with stopping on.
+    pub fn stopped_at_gate(&self) -> bool {
+        self.config
+            .validation
+            .as_ref()
+            .is_some_and(|v| v.stops_after(&self.validation))
+    }
+
+    /// Whether a validation round is due after the episode just completed: every
+    /// `validation.every` episodes and at the end of the budget, once per episode.
+    pub fn validation_due(&self) -> bool {
+        let Some(v) = &self.config.validation else {
+            return false;
+        };
+        let fresh = self
+            .validation
+            .last()
+            .is_none_or(|r| r.episode < self.episode);
+        fresh && self.episode > 0 && (self.episode % v.every == 0 || self.budget_used())
+    }
+
+    /// Runs a validation round on the current networks, exported as the blobs they would be:
+    /// records it and keeps the blobs if the round is the best so far. Validation draws from no
+    /// training stream, so the run learns the same bits with it as without.
+    pub fn validate(&mut self) -> Result<&Round, Error> {
+        let Some(config) = self.config.validation.clone() else {
+            return Err(Error::InvalidConfig {
+                what: "validation".into(),
+                expected: "a [validation] section to validate by".into(),
+                found: "none".into(),
+            });
+        };
+        let label = self.config.blob_label();
+        let policy = self.policy_blob(&label)?;
+        let critic = self.algorithm().critic_blob(&label).transpose()?;
+        // An actor of several heads runs with its critic choosing the head, as on the chip.
+        let heads = self.config.algo == crate::algorithms::Algo::Dcp && self.config.dcp.heads > 1;
+        let chooser = critic.as_deref().filter(|_| heads);
+        let seed = validation::validation_seed(self.config.seed);
+        let at = (self.episode, self.total_steps);
+        let round = match &self.plant {
+            RunPlant::Scenario(scenario) => validation::round(
+                &config,
+                Ground::Scenario(scenario),
+                (&policy, chooser),
+                seed,
+                at,
+            )?,
+            other => {
+                let name = other.name();
+                validation::round(
+                    &config,
+                    Ground::Plant(self.env.as_mut(), &name),
+                    (&policy, chooser),
+                    seed,
+                    at,
+                )?
+            }
+        };
+        if self
+            .kept
+            .as_ref()
+            .is_none_or(|k| round.better_than(&k.round))
+        {
+            self.kept = Some(Kept {
+                round: round.clone(),
+                policy,
+                critic,
+            });
+        }
+        self.validation.push(round);
+        Ok(&self.validation[self.validation.len() - 1])
     }
 
     /// Success rate over the last `window` episodes.
@@ -383,16 +475,22 @@ impl Trainer {
         self.save_metrics(run)
     }
 
-    /// Writes `metrics.csv` and the learning-curve SVG.
+    /// Writes `metrics.csv`, `validation.csv` (with validation) and the learning-curve SVG.
     pub fn save_metrics(&self, run: &RunDir) -> Result<(), Error> {
         let names = self.algorithm().stat_names();
         run.write(
             folder::METRICS,
             metrics_csv(names, &self.metrics).as_bytes(),
         )?;
+        if self.config.validation.is_some() {
+            run.write(
+                folder::VALIDATION,
+                validation::csv(&self.validation).as_bytes(),
+            )?;
+        }
         run.write(
             folder::CURVE,
-            learning_curve(&self.config.run_name(), &self.metrics).as_bytes(),
+            learning_curve(&self.config.run_name(), &self.metrics, &self.validation).as_bytes(),
         )
     }
 
@@ -407,18 +505,48 @@ impl Trainer {
         self.algorithm().policy_blob(label)
     }
 
-    /// Exports `policy.postcard` and, for algorithms with a Q(s, a) critic, `critic.postcard`;
-    /// returns the policy blob.
-    pub fn export(&self, run: &RunDir) -> Result<Vec<u8>, Error> {
+    /// The blobs the run hands over: the kept policy (the best by validation) where the run
+    /// validates, else the current networks'; the critic where the algorithm has one.
+    pub fn kept_blobs(&self) -> Result<(Vec<u8>, Option<Vec<u8>>), Error> {
+        match &self.kept {
+            Some(kept) => Ok((kept.policy.clone(), kept.critic.clone())),
+            None => self.last_blobs(),
+        }
+    }
+
+    /// The current networks' blobs (the last networks, whatever validation kept).
+    pub fn last_blobs(&self) -> Result<(Vec<u8>, Option<Vec<u8>>), Error> {
         let label = self.config.blob_label();
         let policy = self.policy_blob(&label)?;
-        run.write(folder::POLICY, &policy)?;
-        if let Some(critic) = self.algorithm().critic_blob(&label) {
-            run.write(folder::CRITIC, &critic?)?;
-        }
-        Ok(policy)
+        let critic = self.algorithm().critic_blob(&label).transpose()?;
+        Ok((policy, critic))
+    }
+
+    /// Exports the kept policy ([`Trainer::kept_blobs`]) as `policy.postcard` and, for
+    /// algorithms with a Q(s, a) critic, `critic.postcard`; returns the policy blob.
+    pub fn export(&self, run: &RunDir) -> Result<Vec<u8>, Error> {
+        write_blobs(run, self.kept_blobs()?)
+    }
+
+    /// Exports the last networks instead (`export --last`); returns the policy blob.
+    pub fn export_last(&self, run: &RunDir) -> Result<Vec<u8>, Error> {
+        write_blobs(run, self.last_blobs()?)
     }
 }
+
+/// Writes a policy blob and its critic into the run folder; returns the policy blob.
+fn write_blobs(
+    run: &RunDir,
+    (policy, critic): (Vec<u8>, Option<Vec<u8>>),
+) -> Result<Vec<u8>, Error> {
+    run.write(folder::POLICY, &policy)?;
+    if let Some(critic) = critic {
+        run.write(folder::CRITIC, &critic)?;
+    }
+    Ok(policy)
+}
+
+impl Trainer {}
 
 fn diverged(done: usize, what: &str) -> Error {
     Error::Diverged {
@@ -514,7 +642,7 @@ fn distance(obs: &[f32]) -> f32 {
 /// How a call to [`run`] ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Outcome {
-    /// The episode budget is used up.
+    /// The budget is used up, or validation ended the run ([`Trainer::stopped_at_gate`]).
     Finished,
     /// `on_episode` asked to stop (Ctrl-C); a checkpoint of the last episode was written.
     Stopped {
@@ -523,8 +651,11 @@ pub enum Outcome {
     },
 }
 
-/// Trains until the budget is used, checkpointing every `checkpoint_every` episodes, or until
-/// `on_episode` returns `ControlFlow::Break`, which writes a checkpoint and stops.
+/// Trains until the budget is used or validation ends the run ([`Trainer::done`]),
+/// checkpointing every `checkpoint_every` episodes and after every validation round, or until
+/// `on_episode` returns `ControlFlow::Break`, which writes a checkpoint and stops. A validation
+/// round that is due runs before `on_episode` sees the episode, so the callback finds it in
+/// [`Trainer::validation`].
 ///
 /// A fresh run writes its config, its plant and an episode-0 checkpoint first, so a diverged or
 /// killed run always has a last good state to continue from. On divergence, the metrics of the
@@ -553,6 +684,12 @@ pub fn run(
             }
             Err(e) => return Err(e),
         };
+        // A round is saved with the checkpoint it belongs to: a run resumed from any
+        // checkpoint has validated exactly the rounds before it.
+        let validated = trainer.validation_due();
+        if validated {
+            trainer.validate()?;
+        }
         crash_test::episode_done(trainer.episode);
         let flow = on_episode(&row, trainer);
         if flow.is_break() {
@@ -561,7 +698,7 @@ pub fn run(
                 episode: trainer.episode,
             });
         }
-        if trainer.episode % trainer.config.checkpoint_every == 0 || trainer.done() {
+        if validated || trainer.episode % trainer.config.checkpoint_every == 0 || trainer.done() {
             trainer.save(run)?;
         }
     }
