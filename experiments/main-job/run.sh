@@ -36,7 +36,8 @@ while read -r name flags; do
     # shellcheck disable=SC2206 # the plan's flags are words
     args=(train $flags --out "$dir" --quiet)
   fi
-  part=$(($(wc -l < "$dir/parts.txt" 2>/dev/null || echo 0) + 1))
+  part=1
+  [ -f "$dir/parts.txt" ] && part=$(($(wc -l < "$dir/parts.txt") + 1))
   echo "$(date -u +%FT%TZ) $name part $part: ${args[*]}"
   /usr/bin/time -f "%e %U %S" -o "$dir/time-$part.txt" "$bin" "${args[@]}" \
     > "$dir/stdout-$part.txt" 2> "$dir/stderr-$part.txt"

@@ -79,7 +79,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Some(Command::Train(args)) => train_command(args),
-        Some(Command::Eval(args)) => eval_command(args).map(|()| ExitCode::SUCCESS),
+        Some(Command::Eval(args)) => eval_command(args),
         Some(Command::Export(args)) => export_command(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Inspect(args)) => inspect_command(&args).map(|()| ExitCode::SUCCESS),
         Some(Command::Sweep(args)) => sweep_command(args),

@@ -294,7 +294,7 @@ fn a_huge_seed_and_a_long_task_name_still_export() {
 fn training_into_a_finished_run_is_refused_and_keeps_it() {
     let base = scratch("overwrite");
     let train = || train_smoke(&base, 1, &[]);
-    assert!(train().status.success());
+    assert_ok(&train());
     let run = base.join("nav-walls__dcp__3");
     let before: Vec<Vec<u8>> = ["checkpoint.postcard", "policy.postcard", "eval.json"]
         .iter()
@@ -364,8 +364,8 @@ fn a_run_resumes_and_exports_from_its_own_folder_alone() {
     .current_dir(&work)
     .output()
     .expect("runs");
+    assert_ok(&out);
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
     assert!(
         stderr.contains("has changed") && stderr.contains("recorded plant"),
         "{stderr}"
@@ -385,7 +385,7 @@ fn a_run_resumes_and_exports_from_its_own_folder_alone() {
 #[test]
 fn export_of_a_corrupt_checkpoint_is_one_line() {
     let base = scratch("corrupt-export");
-    assert!(train_smoke(&base, 1, &[]).status.success());
+    assert_ok(&train_smoke(&base, 1, &[]));
     let run = base.join("nav-walls__dcp__3");
     let path = run.join("checkpoint.postcard");
     let mut bytes = std::fs::read(&path).expect("checkpoint");
@@ -487,7 +487,7 @@ fn inspect_of_a_bad_file_is_one_line() {
         std::fs::write(&path, bytes).expect("write");
         let out = host_trainer(&["inspect", s(&path)]);
         assert_one_line_error(&out, &[name, "is not a valid blob", needle]);
-        assert_eq!(out.status.code(), Some(1));
+        assert_eq!(out.status.code(), Some(2));
     }
     let missing = host_trainer(&["inspect", s(&base.join("missing.postcard"))]);
     assert_one_line_error(&missing, &["cannot read blob", "missing.postcard"]);

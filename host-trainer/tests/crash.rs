@@ -17,7 +17,7 @@ use host_trainer::run::checkpoint::Checkpoint;
 use host_trainer::run::folder;
 use rand_core::{Rng as _, SeedableRng};
 
-use crate::support::{command, s, scratch, smoke_config_file, temporaries};
+use crate::support::{assert_ok, command, s, scratch, smoke_config_file, temporaries};
 
 /// The environment variable that arms a kill point in the `host-trainer` binary.
 const CRASH_AT: &str = "HOST_TRAINER_CRASH_AT";
@@ -73,7 +73,7 @@ fn killed_runs_resume_to_the_same_blob_and_leave_no_temporary_files() {
     let (whole, parts) = (base.join("whole"), base.join("parts"));
     std::fs::create_dir_all(&whole).expect("dir");
     std::fs::create_dir_all(&parts).expect("dir");
-    assert!(train(&whole, &config, None).success());
+    assert!(matches!(train(&whole, &config, None).code(), Some(0 | 1)));
     let name = "nav-walls__dcp__3";
 
     let mut kills = 0;
@@ -101,13 +101,14 @@ fn killed_runs_resume_to_the_same_blob_and_leave_no_temporary_files() {
                 }
             }
         } else {
-            assert!(status.success(), "{point}: {status}");
+            // 0 or 1: the run finished and its blob was judged.
+            assert!(matches!(status.code(), Some(0 | 1)), "{point}: {status}");
         }
     }
     // Not vacuous: the first four points always land (later ones may lie behind the run).
     assert!(kills >= 4, "only {kills} kills landed");
     let run = parts.join(name);
-    assert!(resume(&run, None).success());
+    assert!(matches!(resume(&run, None).code(), Some(0 | 1)));
 
     for file in [folder::POLICY, folder::CRITIC] {
         let a = std::fs::read(whole.join(name).join(file)).expect("uninterrupted blob");
@@ -139,7 +140,7 @@ fn a_panicking_worker_thread_leaves_the_last_checkpoint_whole() {
         }
         c.output().expect("runs")
     };
-    assert!(train(&whole, "1", None).status.success());
+    assert_ok(&train(&whole, "1", None));
     // About six tasks per update on 2 threads: task 300 falls after the checkpoint of episode 2.
     let out = train(&parts, "2", Some("worker-panic:300"));
     assert_eq!(out.status.code(), Some(101), "a panic's exit: {out:?}");
@@ -157,12 +158,7 @@ fn a_panicking_worker_thread_leaves_the_last_checkpoint_whole() {
     assert!(!run.join(folder::POLICY).exists(), "the run did not finish");
 
     let mut c = command(&["train", "--resume", s(&run), "--quiet"]);
-    assert!(c
-        .args(threads("3"))
-        .output()
-        .expect("runs")
-        .status
-        .success());
+    assert_ok(&c.args(threads("3")).output().expect("runs"));
     for file in [folder::POLICY, folder::CRITIC] {
         let a = std::fs::read(whole.join(name).join(file)).expect("uninterrupted blob");
         let b = std::fs::read(run.join(file)).expect("resumed blob");

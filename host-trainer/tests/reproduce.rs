@@ -169,17 +169,17 @@ fn bad_input_is_one_line_and_writes_nothing() {
         (
             vec!["exp1", "--out", o, "--seeds", "3"],
             "at least 5 seeds",
-            1,
+            2,
         ),
         (
             vec!["exp1", "--quick", "--out", s(&missing)],
             "does not exist",
-            1,
+            2,
         ),
         (
             vec!["exp1", "--quick", "--out", o, "--merge"],
             "holds no grid",
-            1,
+            2,
         ),
     ] {
         let mut full = vec!["reproduce"];

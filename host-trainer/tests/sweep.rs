@@ -287,7 +287,7 @@ fn a_failed_run_is_recorded_and_the_others_finish() {
         .lines()
         .find(|l| l.starts_with("| nav-walls | dcp | 1 | failed |"))
         .unwrap_or_else(|| panic!("no failed row:\n{md}"));
-    assert!(row.contains("exit 1: host-trainer: checkpoint"), "{row}");
+    assert!(row.contains("exit 2: host-trainer: checkpoint"), "{row}");
     // The mean row covers the finished seed only: n = 1, no interval.
     assert!(
         md.contains("| nav-walls | dcp | 1 | ") && md.contains("(1 seed)"),
@@ -371,17 +371,17 @@ fn bad_arguments_are_one_line_and_create_nothing() {
         (
             vec!["--config", c, "--seeds", "0", "--out", s(&missing)],
             "does not exist",
-            1,
+            2,
         ),
         (
             vec!["--config", s(&bad_config), "--seeds", "0", "--out", o],
             "learning_rat",
-            1,
+            2,
         ),
         (
             vec!["--config", "/no/such.toml", "--seeds", "0", "--out", o],
             "/no/such.toml",
-            1,
+            2,
         ),
         (
             vec!["--config", c, "--seeds", "0", "--algo", "sarsa", "--out", o],
@@ -393,7 +393,7 @@ fn bad_arguments_are_one_line_and_create_nothing() {
                 "--config", c, "--seeds", "0", "--task", "nav-maze", "--out", o,
             ],
             "nav-maze",
-            1,
+            2,
         ),
     ] {
         let mut full = vec!["sweep"];

@@ -1311,3 +1311,102 @@ fn ppos_actor_is_described_with_the_activation_its_blob_carries() {
     }
     std::fs::remove_dir_all(&out).expect("cleanup");
 }
+
+/// Validation draws from no training stream: a run that validates learns the same networks,
+/// episode for episode, as one that does not; the policy it keeps is exactly the blob of its
+/// best round's networks; and the stop ends the run after `in_a_row` rounds meet the criteria.
+#[test]
+fn validation_changes_no_training_bit_and_keeps_the_best_rounds_blob() {
+    let out = scratch("validation-kept");
+    let mut config = TrainConfig::smoke(Algo::Dcp, 4);
+    config.episodes = 8;
+    let validation = config.validation.clone().expect("smoke validates");
+    assert_eq!((validation.every, validation.starts), (2, 5));
+    let (with, _) = train_to_end(config.clone(), &out.join("with"));
+    assert_eq!(
+        with.validation
+            .iter()
+            .map(|r| r.episode)
+            .collect::<Vec<_>>(),
+        [2, 4, 6, 8]
+    );
+    // The same run without validation, stopped at every round: the same networks.
+    let mut plain = Trainer::new(TrainConfig {
+        validation: None,
+        ..config.clone()
+    })
+    .expect("trainer");
+    let label = config.blob_label();
+    let kept = with.kept.as_ref().expect("a kept policy");
+    let mut at_kept = None;
+    while !plain.done() {
+        plain.run_episode().expect("episode");
+        if plain.episode == kept.round.episode {
+            at_kept = Some(plain.policy_blob(&label).expect("blob"));
+        }
+    }
+    assert_eq!(
+        plain.policy_blob(&label).expect("blob"),
+        with.policy_blob(&label).expect("blob"),
+        "validation changed what the run learned"
+    );
+    assert_eq!(
+        Some(&kept.policy),
+        at_kept.as_ref(),
+        "the kept blob is its round's"
+    );
+    // The kept round is the best by the rule among every round.
+    assert!(with.validation.iter().all(|r| !r.better_than(&kept.round)));
+    // Criteria every round meets, on a gate every policy passes: the run stops at the second
+    // round, as two in a row end it.
+    let dir = out.join("lenient");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let scenario = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../firmware-sim/scenarios/nav-open.toml"
+    ))
+    .expect("nav-open")
+    .replace("min_success_rate = 0.9", "min_success_rate = 0.0")
+    .replace("max_stuck_rate = 0.05", "max_stuck_rate = 1.0");
+    let task = dir.join("lenient.toml");
+    std::fs::write(&task, scenario).expect("scenario");
+    let mut lenient = config;
+    lenient.task = task.to_string_lossy().into_owned();
+    if let Some(v) = lenient.validation.as_mut() {
+        (v.min_success, v.max_stuck, v.max_error) = (0.0, 1.0, 100.0);
+    }
+    let (stopped, _) = train_to_end(lenient, &out.join("stopped"));
+    assert!(stopped.stopped_at_gate());
+    assert_eq!(stopped.episode, 4, "two rounds in a row end the run");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// A checkpoint of the format before validation (`DCPCKPT5`) still reads, with no rounds and
+/// no kept policy; this build writes `DCPCKPT6`.
+#[test]
+fn a_checkpoint_from_before_validation_still_reads() {
+    let out = scratch("checkpoint-v5");
+    let (trainer, _) = train_to_end(TrainConfig::smoke(Algo::Dcp, 5), &out);
+    let now = trainer.checkpoint();
+    assert!(now.to_bytes().expect("bytes").starts_with(b"DCPCKPT6"));
+    let old = host_trainer::run::checkpoint::seal(
+        b"DCPCKPT5",
+        &(
+            &now.config_toml,
+            &now.scenario_toml,
+            &now.learner,
+            now.episode,
+            now.total_steps,
+            &now.metrics,
+            &now.env_rng,
+        ),
+    )
+    .expect("sealed");
+    let read = Checkpoint::from_bytes(&old).expect("a DCPCKPT5 file reads");
+    assert_eq!(
+        (read.episode, read.total_steps),
+        (now.episode, now.total_steps)
+    );
+    assert!(read.validation.is_empty() && read.kept.is_none());
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -8,6 +8,7 @@
 
 #![deny(missing_docs)]
 
+pub mod main_job;
 pub mod paired;
 pub mod run_folder;
 pub mod standard_tasks;

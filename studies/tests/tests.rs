@@ -1,6 +1,7 @@
 //! The studies' binaries run as a user runs them, from the repository root.
 
 /// The margin study's decisions from its committed record.
+mod main_job;
 mod margin_study;
 /// Every study's command line: a usage error is one line on stderr and a failing exit code.
 mod usage;

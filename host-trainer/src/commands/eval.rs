@@ -2,6 +2,7 @@
 //! firmware-sim's test protocol.
 
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use clap::Args;
@@ -46,7 +47,9 @@ pub(crate) struct EvalArgs {
     json: Option<PathBuf>,
 }
 
-pub(crate) fn eval_command(args: EvalArgs) -> Result<()> {
+/// Runs the test and prints its summary; exits as `firmware-sim run` does: 0 when the gate
+/// passes, 1 when it fails (errors are 2, from `main`).
+pub(crate) fn eval_command(args: EvalArgs) -> Result<ExitCode> {
     // Everything that can be checked is checked before the evaluation runs.
     if let Some(path) = &args.json {
         files::check_output(path).with_context(|| format!("cannot write {}", path.display()))?;
@@ -72,16 +75,16 @@ pub(crate) fn eval_command(args: EvalArgs) -> Result<()> {
         args.episodes,
         args.seed,
     )?;
-    print_summary(&report);
     if let Some(path) = &args.json {
         files::write_atomic(path, report_json(&report)?.as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
-    Ok(())
+    print_summary(&report);
+    Ok(super::train::verdict_code(report.pass.passed))
 }
 
 /// `eval --plant-cmd`: the blob through the test protocol for any plant, on a plant process.
-fn eval_on_plant(args: &EvalArgs, command: &str, blob: &[u8]) -> Result<()> {
+fn eval_on_plant(args: &EvalArgs, command: &str, blob: &[u8]) -> Result<ExitCode> {
     let timeouts = super::train::plant_timeouts(args.plant_timeout)?;
     let mut plant = ChildPlant::spawn(command, timeouts)?;
     let sizes = PlantSizes::of_env(&plant);
@@ -94,12 +97,12 @@ fn eval_on_plant(args: &EvalArgs, command: &str, blob: &[u8]) -> Result<()> {
     };
     let name = plant.hello().name.clone();
     let report = evaluate_plant(&mut policy, &mut plant, &name, &cfg)?;
-    print_summary_text(&plant_summary_line(&report));
     if let Some(path) = &args.json {
         files::write_atomic(path, plant_report_json(&report)?.as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
-    Ok(())
+    print_summary_text(&plant_summary_line(&report));
+    Ok(super::train::verdict_code(report.pass.passed))
 }
 
 /// firmware-sim's test protocol on the blob; a blob that does not boot is an error here.
@@ -165,13 +168,15 @@ pub(crate) fn plant_summary_line(report: &PlantReport) -> String {
     )
 }
 
-/// The one line `train` and `eval` print for a scenario's test.
+/// The one line `train` and `eval` print for a scenario's test, ending with the gate's verdict
+/// as `firmware-sim run` words it.
 pub(crate) fn summary_line(report: &Report) -> String {
+    let verdict = report.pass.verdict();
     let steps = report
         .mean_steps_to_goal
         .map_or_else(|| "-".to_string(), |s| format!("{s:.1}"));
     format!(
-        "{} on {}, {} test starts: success {:.1}%  mean settled error {:.3}  strict reach {:.1}%  pass within 0.25 {:.1}%  steps to goal {steps}  stuck at margin {:.1}%  left arena {:.1}%",
+        "{} on {}, {} test starts: success {:.1}%  mean settled error {:.3}  strict reach {:.1}%  pass within 0.25 {:.1}%  steps to goal {steps}  stuck at margin {:.1}%  left arena {:.1}%  {verdict}",
         report.controller,
         report.scenario,
         report.episodes.len(),

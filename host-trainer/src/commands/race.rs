@@ -43,7 +43,7 @@ use super::train::{out_folder, resume, verdict_code, TrainArgs};
 /// each racer's is built in its own thread.)
 enum Entrant {
     Fresh {
-        config: TrainConfig,
+        config: Box<TrainConfig>,
         racers: PathBuf,
     },
     Resume {
@@ -56,7 +56,7 @@ impl Entrant {
     fn start(&self, timeouts: Timeouts) -> Result<(Trainer, RunDir, FolderLock)> {
         match self {
             Entrant::Fresh { config, racers } => {
-                let trainer = Trainer::new_with(config.clone(), timeouts)?;
+                let trainer = Trainer::new_with(TrainConfig::clone(config), timeouts)?;
                 let run = RunDir::create(racers, &trainer.config.run_name())?;
                 let lock = lock::acquire(run.path())?;
                 Ok((trainer, run, lock))
@@ -125,7 +125,7 @@ pub(crate) fn race_command(
             kept: None,
         });
         entrants.push(Entrant::Fresh {
-            config,
+            config: Box::new(config),
             racers: racers_out.clone(),
         });
     }
@@ -170,7 +170,7 @@ pub(crate) fn resume_race(dir: &Path, args: &TrainArgs, timeouts: Timeouts) -> R
             config.episodes = n;
         }
         entrants.push(Entrant::Fresh {
-            config,
+            config: Box::new(config),
             racers: race_dir.file(folder::RACERS),
         });
     }
@@ -220,8 +220,18 @@ fn run_race(
             .map(|(i, entrant)| {
                 let (board, interrupted, tick, bar) = (&board, &interrupted, &tick, &bar);
                 s.spawn(move || {
-                    let result =
-                        race_thread(i, entrant, board, (interrupted, tick, bar), keep, timeouts);
+                    let result = race_thread(
+                        i,
+                        entrant,
+                        board,
+                        Reporting {
+                            interrupted,
+                            tick,
+                            bar,
+                        },
+                        keep,
+                        timeouts,
+                    );
                     // However the thread ends, the others stop waiting for it.
                     board.finish(i);
                     result
@@ -314,17 +324,25 @@ fn run_race(
     Ok(verdict_code(passed))
 }
 
+/// What a racer's thread reports to: whether to stop, each episode (the progress bar's tick),
+/// and the bar itself (its length grows as racers learn their budgets).
+struct Reporting<'a> {
+    interrupted: &'a (dyn Fn() -> bool + Sync),
+    tick: &'a (dyn Fn(usize, &EpisodeRow) + Sync),
+    bar: &'a indicatif::ProgressBar,
+}
+
 /// One racer's thread: its trainer built (or restored) here, its recorded rounds reported, its
 /// run raced, its kept policy exported into its own folder.
 fn race_thread(
     i: usize,
     entrant: &Entrant,
     board: &Board,
-    (interrupted, tick, bar): (
-        &(dyn Fn() -> bool + Sync),
-        &(dyn Fn(usize, &EpisodeRow) + Sync),
-        &indicatif::ProgressBar,
-    ),
+    Reporting {
+        interrupted,
+        tick,
+        bar,
+    }: Reporting<'_>,
     keep_checkpoints: bool,
     timeouts: Timeouts,
 ) -> Result<Finished> {

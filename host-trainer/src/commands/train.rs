@@ -113,8 +113,8 @@ pub(crate) struct TrainArgs {
     /// the budget).
     #[arg(long, conflicts_with_all = ["task", "plant_cmd", "algo", "hidden", "reward", "t", "sigma", "noise", "dropout", "reward_scale", "seed", "out", "config", "env_steps", "validate_every", "validation_starts", "no_stop", "no_validation", "race"])]
     resume: Option<PathBuf>,
-    /// Worker threads of the updates, 1 to 1024; any count trains to the same bytes [default:
-    /// 1, measured fastest (docs/performance.md, "Threads"); a racer always runs one].
+    /// Worker threads of the updates of a single run (--race 1), 1 to 1024; any count trains to
+    /// the same bytes [default: the cores available; a racer always runs one].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_THREADS)))]
     pub(crate) threads: Option<u32>,
     /// Also keep a copy of every checkpoint in RUN/checkpoints/ (to study how the run
@@ -352,12 +352,12 @@ pub(crate) fn plant_timeouts(seconds: f64) -> Result<Timeouts> {
     })
 }
 
-/// `--threads`: the worker threads of the updates, one by default (a second one made a DCP run
-/// slower where it was measured: docs/performance.md, "Threads"). A count above the cores is
-/// allowed (it trains to the same bytes, only slower) and said once.
+/// `--threads`: the worker threads of the updates, all cores by default (measured fastest for
+/// one run: docs/performance.md, "Threads"). A count above the cores is allowed (it trains to
+/// the same bytes, only slower) and said once.
 pub(crate) fn workers(threads: Option<u32>) -> Result<Workers> {
     let cores = cores();
-    let threads = threads.map_or(1, |n| n as usize);
+    let threads = threads.map_or(cores, |n| n as usize);
     if threads > cores {
         eprintln!("host-trainer: note: --threads {threads} is more than the {cores} cores available; the run trains to the same bytes, probably slower");
     }

@@ -125,7 +125,7 @@ pub fn learning_curve(title: &str, rows: &[EpisodeRow], rounds: &[Round]) -> Str
     if rounds.is_empty() {
         return plot::svg(title, "episode", &[returns, rate]);
     }
-    let at = |f: &dyn Fn(&Round) -> Option<f64>| -> Vec<(f64, f64)> {
+    let at = |f: fn(&Round) -> Option<f64>| -> Vec<(f64, f64)> {
         rounds
             .iter()
             .filter_map(|r| Some((r.episode as f64, f(r)?)))
@@ -135,14 +135,15 @@ pub fn learning_curve(title: &str, rows: &[EpisodeRow], rounds: &[Round]) -> Str
         name: "validation".into(),
         color: "#ff7f0e",
         opacity: 1.0,
-        points: at(&|r| Some(r.success)),
+        points: at(|r| Some(r.success)),
     });
-    let (label, figure): (&str, &dyn Fn(&Round) -> Option<f64>) =
-        if rounds.iter().any(|r| r.error.is_some()) {
-            ("validation settled error", &|r| r.error)
-        } else {
-            ("validation mean return", &|r| r.mean_return)
-        };
+    // A scenario's rounds have a settled error; a plant of the user's, a mean return.
+    let scenario = rounds.iter().any(|r| r.error.is_some());
+    let (label, figure): (&str, fn(&Round) -> Option<f64>) = if scenario {
+        ("validation settled error", |r| r.error)
+    } else {
+        ("validation mean return", |r| r.mean_return)
+    };
     let validation = Panel {
         y_label: label.into(),
         y_range: None,

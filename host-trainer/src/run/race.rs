@@ -16,9 +16,9 @@
 //! continues from the racers' checkpoints with `train --resume` (their histories say which
 //! rounds are decided). `sweep` keeps processes: its runs are independent and may fail alone.
 //!
-//! **Why racers run one thread each.** A second worker thread makes a DCP run slower on the
-//! 2-vCPU machines measured (docs/performance.md, "Threads"), while two runs side by side
-//! finish in about the time of one: a core is worth more as a racer than as a helper.
+//! **Why racers run one thread each.** Two runs side by side do nearly twice the work of one on
+//! the 2-vCPU machines measured, where a second worker thread speeds one run up by 1.13×
+//! (docs/performance.md, "Threads"): a core is worth more as a racer than as a helper.
 
 use std::ops::ControlFlow;
 use std::path::{Component, Path, PathBuf};

@@ -232,9 +232,10 @@ fn spawn(runner: &Runner<'_>, run: &PlannedRun, index: usize) -> Result<Running,
     })
 }
 
-/// `train --config CONFIG --out OUT --threads T --quiet --stop-when-stdin-closes`, or `train
-/// --resume DIR --threads T --quiet --stop-when-stdin-closes`; `team` likewise, without
-/// `--threads` (a team trains on one thread).
+/// `train --config CONFIG --out OUT --race 1 --threads T --quiet --stop-when-stdin-closes`, or
+/// `train --resume DIR --threads T --quiet --stop-when-stdin-closes`; `team` likewise, without
+/// `--race` and `--threads` (a team trains on one thread). A sweep's run is one seed: the
+/// sweep is the one that runs seeds side by side.
 fn child_args(runner: &Runner<'_>, run: &PlannedRun, config: &Path) -> Vec<String> {
     let path = |p: &Path| p.to_string_lossy().into_owned();
     let command = match run.job {
@@ -247,6 +248,9 @@ fn child_args(runner: &Runner<'_>, run: &PlannedRun, config: &Path) -> Vec<Strin
     } else {
         let out = run.dir.parent().unwrap_or(Path::new("."));
         args.extend(["--config".into(), path(config), "--out".into(), path(out)]);
+        if let Job::Train(_) = run.job {
+            args.extend(["--race".into(), "1".into()]);
+        }
     }
     if let Job::Train(_) = run.job {
         args.extend(["--threads".into(), runner.threads.to_string()]);
@@ -268,14 +272,18 @@ fn finish(
     record.exit_code = status.code();
     record.signal = status.signal();
     record.last_line = last_line(&done.log, done.log_from);
-    record.status = if status.success() {
+    // `train` exits 1 when its blob fails the gate: a finished run, judged (errors are 2).
+    record.status = if matches!(status.code(), Some(0 | 1)) {
         match finished(run) {
             Ok(eval) => {
                 record.eval = eval;
                 Status::Finished
             }
             Err(e) => {
-                record.last_line = Some(format!("exited 0 but {e}"));
+                record.last_line = Some(format!(
+                    "exited {} but {e}",
+                    status.code().unwrap_or_default()
+                ));
                 Status::Failed
             }
         }

@@ -164,7 +164,8 @@ def run_toolkit(
         argv += ["--config", str(config)]
     status = _run(argv, log)
     seconds = time.perf_counter() - started
-    if status != 0:
+    # 0 or 1 is the gate's verdict on a finished run's blob (1: FAIL); 2 and up, an error.
+    if status not in (0, 1):
         return {"failed": f"host-trainer train exited {status} (see log.txt)"}
     run = next(p.parent for p in train_dir.glob("*/policy.postcard"))
     trainer_eval = json.loads((run / "eval.json").read_text())

@@ -1,0 +1,539 @@
+//! The main job's study (docs/results/main-job.md): its queue's folders read back, and the
+//! page's results section written from them by the rules its protocol fixed.
+//!
+//! Each line of `experiments/main-job/plan.txt` ran `host-trainer train` into `RUNS/NAME/`,
+//! timed by `experiments/main-job/run.sh`: `parts.txt` (one `PART EXIT ELAPSED USER SYSTEM` line
+//! per part), `done` once `train` finished (exit 0 or 1: the gate's verdict), and the run's (or
+//! race's) folder with its `eval.json` (and `race.json`).
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+use host_trainer::stats::binomial::{clopper_pearson, mcnemar_exact};
+use serde::Deserialize;
+
+/// A base seed *delivers* when its test success is at least this ...
+pub const MIN_SUCCESS: f64 = 0.9;
+/// ... and its mean settled error below this (the protocol's aim 1).
+pub const MAX_ERROR: f64 = 0.5;
+/// Aim 1: at least this many of the 20 pinwheel base seeds deliver.
+pub const AIM_DELIVERED: usize = 19;
+/// The pinwheel's base seeds.
+pub const BASE_SEEDS: usize = 20;
+
+/// What a line of the plan is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Kind {
+    /// `train` as it ran before validation and races, for the wall-time ratio.
+    Today,
+    /// `train` with its defaults on the pinwheel.
+    Pinwheel,
+    /// On the generated rings layout.
+    Rings,
+    /// On the generated maze layout.
+    Maze,
+}
+
+impl Kind {
+    fn of(name: &str) -> Result<(Kind, u64)> {
+        let (kind, seed) = name
+            .rsplit_once('-')
+            .with_context(|| format!("plan line {name:?} is not KIND-SEED"))?;
+        let kind = match kind {
+            "today" => Kind::Today,
+            "pinwheel" => Kind::Pinwheel,
+            "rings" => Kind::Rings,
+            "maze" => Kind::Maze,
+            other => bail!("plan line {name:?}: unknown kind {other:?}"),
+        };
+        Ok((
+            kind,
+            seed.parse()
+                .with_context(|| format!("plan line {name:?}: seed"))?,
+        ))
+    }
+}
+
+/// One part of a line: `train`'s exit status and its times, in seconds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Part {
+    /// Exit status.
+    pub code: i32,
+    /// Elapsed (wall) time.
+    pub wall: f64,
+    /// User plus system CPU time.
+    pub cpu: f64,
+}
+
+/// The test report of the policy a line handed over.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Test {
+    /// Success rate on the 100 test starts.
+    pub success: f64,
+    /// Mean settled error.
+    pub error: f64,
+    /// Stuck-at-margin rate.
+    pub stuck: f64,
+    /// The gate's verdict.
+    pub passed: bool,
+}
+
+impl Test {
+    /// Whether the base seed delivers (aim 1's rule).
+    pub fn delivers(&self) -> bool {
+        self.success >= MIN_SUCCESS && self.error < MAX_ERROR
+    }
+}
+
+/// How a race ended, from its `race.json`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Race {
+    /// The winner's index and seed.
+    pub winner: (usize, u64),
+    /// Every racer's episodes.
+    pub episodes: Vec<usize>,
+    /// Whether a racer's validation ended the race (else every budget was used).
+    pub stopped_early: bool,
+}
+
+/// One line of the plan, as far as it has run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Line {
+    /// Its name in the plan.
+    pub name: String,
+    /// What it is.
+    pub kind: Kind,
+    /// Its (base) seed.
+    pub seed: u64,
+    /// Its parts so far.
+    pub parts: Vec<Part>,
+    /// `train` finished (with the gate's verdict).
+    pub done: bool,
+    /// The test report, once done.
+    pub test: Option<Test>,
+    /// The race, for a line that raced.
+    pub race: Option<Race>,
+}
+
+impl Line {
+    /// Wall time over its parts.
+    pub fn wall(&self) -> f64 {
+        self.parts.iter().fold(0.0, |t, p| t + p.wall)
+    }
+
+    /// CPU time over its parts.
+    pub fn cpu(&self) -> f64 {
+        self.parts.iter().fold(0.0, |t, p| t + p.cpu)
+    }
+
+    /// The wall, CPU and parts cells of its row (`–` before it has run).
+    fn time_cells(&self) -> String {
+        if self.parts.is_empty() {
+            return "– | – | 0".to_string();
+        }
+        format!(
+            "{:.0} | {:.0} | {}",
+            self.wall(),
+            self.cpu(),
+            self.parts.len()
+        )
+    }
+}
+
+#[derive(Deserialize)]
+struct Eval {
+    success_rate: f64,
+    mean_error: f64,
+    stuck_rate: f64,
+    pass: Pass,
+}
+
+#[derive(Deserialize)]
+struct Pass {
+    passed: bool,
+}
+
+#[derive(Deserialize)]
+struct RaceJson {
+    winner: Option<usize>,
+    why: String,
+    racers: Vec<RacerJson>,
+}
+
+#[derive(Deserialize)]
+struct RacerJson {
+    seed: u64,
+    episodes: usize,
+}
+
+/// Reads every line of `plan` (in its order) from `runs`; a line that has not started has no
+/// parts.
+pub fn load(plan: &Path, runs: &Path) -> Result<Vec<Line>> {
+    let text = std::fs::read_to_string(plan).with_context(|| format!("{}", plan.display()))?;
+    let mut lines = Vec::new();
+    for row in text.lines() {
+        let row = row.trim();
+        if row.is_empty() || row.starts_with('#') {
+            continue;
+        }
+        let name = row.split_whitespace().next().unwrap_or_default();
+        let (kind, seed) = Kind::of(name)?;
+        lines.push(load_line(&runs.join(name), name, kind, seed)?);
+    }
+    Ok(lines)
+}
+
+fn load_line(dir: &Path, name: &str, kind: Kind, seed: u64) -> Result<Line> {
+    let mut line = Line {
+        name: name.to_string(),
+        kind,
+        seed,
+        parts: Vec::new(),
+        done: dir.join("done").is_file(),
+        test: None,
+        race: None,
+    };
+    if let Ok(parts) = std::fs::read_to_string(dir.join("parts.txt")) {
+        for p in parts.lines().filter(|l| !l.trim().is_empty()) {
+            let f: Vec<&str> = p.split_whitespace().collect();
+            let num = |i: usize| -> Result<f64> {
+                f.get(i)
+                    .with_context(|| format!("{name}: parts.txt line {p:?}"))?
+                    .parse::<f64>()
+                    .with_context(|| format!("{name}: parts.txt line {p:?}"))
+            };
+            line.parts.push(Part {
+                code: num(1)? as i32,
+                wall: num(2)?,
+                cpu: num(3)? + num(4)?,
+            });
+        }
+    }
+    if !line.done {
+        return Ok(line);
+    }
+    let run = std::fs::read_dir(dir)
+        .with_context(|| format!("{}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .find(|p| p.is_dir())
+        .with_context(|| format!("{name}: done but no run folder"))?;
+    let eval: Eval = serde_json::from_str(&std::fs::read_to_string(run.join("eval.json"))?)
+        .with_context(|| format!("{name}: eval.json"))?;
+    line.test = Some(Test {
+        success: eval.success_rate,
+        error: eval.mean_error,
+        stuck: eval.stuck_rate,
+        passed: eval.pass.passed,
+    });
+    if let Ok(text) = std::fs::read_to_string(run.join("race.json")) {
+        let race: RaceJson =
+            serde_json::from_str(&text).with_context(|| format!("{name}: race.json"))?;
+        let w = race
+            .winner
+            .with_context(|| format!("{name}: a finished race without a winner"))?;
+        let seed = race.racers.get(w).map(|r| r.seed).unwrap_or_default();
+        line.race = Some(Race {
+            winner: (w, seed),
+            episodes: race.racers.iter().map(|r| r.episodes).collect(),
+            stopped_early: race.why.contains("was the first whose validation"),
+        });
+    }
+    Ok(line)
+}
+
+/// One row of the margin study's record, as its `A0` (DCP's defaults) rows give them.
+#[derive(Deserialize)]
+struct RecordRow {
+    arm: String,
+    task: String,
+    seed: u64,
+    success: f64,
+    settled_error: f64,
+    stuck: f64,
+}
+
+/// The margin study's `A0` test figures on the pinwheel, by seed (today's single run: the same
+/// training bytes).
+pub fn today_rows(records: &[&Path]) -> Result<BTreeMap<u64, Test>> {
+    let mut rows = BTreeMap::new();
+    for path in records {
+        let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
+        for l in text.lines().filter(|l| !l.trim().is_empty()) {
+            let r: RecordRow =
+                serde_json::from_str(l).with_context(|| format!("{}: {l}", path.display()))?;
+            if r.arm == "A0" && r.task == "nav-walls" {
+                rows.insert(
+                    r.seed,
+                    Test {
+                        success: r.success,
+                        error: r.settled_error,
+                        stuck: r.stuck,
+                        passed: r.success >= 0.8 && r.stuck <= 0.2,
+                    },
+                );
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// The median of `xs` (the mean of the middle two for an even count); `None` when empty.
+///
+/// ```
+/// assert_eq!(studies::main_job::median(&[3.0, 1.0, 2.0]), Some(2.0));
+/// assert_eq!(studies::main_job::median(&[4.0, 1.0, 2.0, 3.0]), Some(2.5));
+/// assert_eq!(studies::main_job::median(&[]), None);
+/// ```
+pub fn median(xs: &[f64]) -> Option<f64> {
+    let mut v = xs.to_vec();
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    match n {
+        0 => None,
+        _ if n % 2 == 1 => Some(v[n / 2]),
+        _ => Some((v[n / 2 - 1] + v[n / 2]) / 2.0),
+    }
+}
+
+/// Aim 1's sensitivity: the fewest base seeds whose verdict must change to flip the aim's.
+///
+/// ```
+/// use studies::main_job::flips;
+/// assert_eq!(flips(20), 2); // 20 deliver: two must fail to fall below 19
+/// assert_eq!(flips(19), 1);
+/// assert_eq!(flips(16), 3); // three more must deliver
+/// ```
+pub fn flips(delivered: usize) -> usize {
+    if delivered >= AIM_DELIVERED {
+        delivered + 1 - AIM_DELIVERED
+    } else {
+        AIM_DELIVERED - delivered
+    }
+}
+
+fn yes(b: bool) -> &'static str {
+    if b {
+        "yes"
+    } else {
+        "no"
+    }
+}
+
+/// The results section: every line's row, then the aims judged by the protocol's rules (only
+/// once all their lines are in).
+pub fn render(lines: &[Line], today: &BTreeMap<u64, Test>, commit: &str, cpu: &str) -> String {
+    let mut out = String::new();
+    let of = |k: Kind| lines.iter().filter(move |l| l.kind == k);
+    let done = |k: Kind| of(k).filter(|l| l.done).count();
+    let _ = writeln!(
+        out,
+        "Measured with the binary of commit {commit}, on {cpu}. Lines in: pinwheel {} of {}, today {} of {}, rings {} of {}, maze {} of {}.\n",
+        done(Kind::Pinwheel),
+        of(Kind::Pinwheel).count(),
+        done(Kind::Today),
+        of(Kind::Today).count(),
+        done(Kind::Rings),
+        of(Kind::Rings).count(),
+        done(Kind::Maze),
+        of(Kind::Maze).count(),
+    );
+    let _ = writeln!(out, "### The pinwheel, base seeds 0–19\n");
+    let _ = writeln!(out, "| base seed | winner (racer, seed) | race ended at episode | ended by | test success | settled error | stuck | delivers | gate | wall s | CPU s | parts | today (A0): success, error, delivers |");
+    let _ = writeln!(
+        out,
+        "|---:|---|---:|---|---:|---:|---:|---|---|---:|---:|---:|---|"
+    );
+    for l in of(Kind::Pinwheel) {
+        let t0 = today.get(&l.seed).map_or_else(
+            || "–".to_string(),
+            |t| format!("{:.2}, {:.3}, {}", t.success, t.error, yes(t.delivers())),
+        );
+        let _ = writeln!(out, "{} | {t0} |", row(l));
+    }
+    let _ = writeln!(out, "\n### Today's single run, for the wall-time ratio\n");
+    let _ = writeln!(out, "| seed | test success | settled error | stuck | the margin study's A0 row | wall s | CPU s | parts |");
+    let _ = writeln!(out, "|---:|---:|---:|---:|---|---:|---:|---:|");
+    for l in of(Kind::Today) {
+        let (figures, same) = match (&l.test, today.get(&l.seed)) {
+            (Some(t), row) => (
+                format!("{:.2} | {:.3} | {:.2}", t.success, t.error, t.stuck),
+                match row {
+                    Some(r) => {
+                        let same = (t.success - r.success).abs() < 0.005
+                            && (t.error - r.error).abs() < 0.0005
+                            && (t.stuck - r.stuck).abs() < 0.005;
+                        if same { "the same" } else { "differs" }.to_string()
+                    }
+                    None => "–".to_string(),
+                },
+            ),
+            (None, _) => ("running or not started | | ".to_string(), "–".to_string()),
+        };
+        let _ = writeln!(
+            out,
+            "| {} | {figures} | {same} | {} |",
+            l.seed,
+            l.time_cells()
+        );
+    }
+    aims(&mut out, lines, today);
+    for (kind, title) in [
+        (Kind::Rings, "rings-1-seed12"),
+        (Kind::Maze, "maze-1-seed12"),
+    ] {
+        let _ = writeln!(out, "\n### {title} (reported, not judged)\n");
+        let _ = writeln!(out, "| base seed | winner (racer, seed) | race ended at episode | ended by | test success | settled error | stuck | delivers | gate | wall s | CPU s | parts |");
+        let _ = writeln!(
+            out,
+            "|---:|---|---:|---|---:|---:|---:|---|---|---:|---:|---:|"
+        );
+        let mut any = false;
+        for l in of(kind).filter(|l| !l.parts.is_empty()) {
+            any = true;
+            let _ = writeln!(out, "{} |", row(l));
+        }
+        if !any {
+            let _ = writeln!(out, "| no line has started | | | | | | | | | | | |");
+        }
+    }
+    out
+}
+
+/// A race line's table cells, without the closing bar.
+fn row(l: &Line) -> String {
+    let (winner, ended, by) = match &l.race {
+        Some(r) => (
+            format!("{}, {}", r.winner.0, r.winner.1),
+            r.episodes.iter().max().copied().unwrap_or(0).to_string(),
+            if r.stopped_early {
+                "validation"
+            } else {
+                "budget"
+            }
+            .to_string(),
+        ),
+        None => ("–".into(), "–".into(), "–".into()),
+    };
+    let test = match &l.test {
+        Some(t) => format!(
+            "{:.2} | {:.3} | {:.2} | {} | {}",
+            t.success,
+            t.error,
+            t.stuck,
+            yes(t.delivers()),
+            if t.passed { "PASS" } else { "FAIL" }
+        ),
+        None if l.parts.is_empty() => "not started | | | | ".to_string(),
+        None => "running | | | | ".to_string(),
+    };
+    format!(
+        "| {} | {winner} | {ended} | {by} | {test} | {}",
+        l.seed,
+        l.time_cells()
+    )
+}
+
+fn aims(out: &mut String, lines: &[Line], today: &BTreeMap<u64, Test>) {
+    let pinwheel: Vec<&Line> = lines.iter().filter(|l| l.kind == Kind::Pinwheel).collect();
+    let finished: Vec<&Line> = pinwheel.iter().copied().filter(|l| l.done).collect();
+    let delivered = finished
+        .iter()
+        .filter(|l| l.test.is_some_and(|t| t.delivers()))
+        .count();
+    let _ = writeln!(out, "\n### The aims\n");
+    let n = finished.len();
+    if n == 0 {
+        let _ = writeln!(out, "Not judged yet: no pinwheel base seed is in.");
+        return;
+    }
+    let (lo, hi) = clopper_pearson(delivered as u64, n.max(1) as u64, 0.95);
+    let today_in: Vec<&Test> = finished.iter().filter_map(|l| today.get(&l.seed)).collect();
+    let today_delivered = today_in.iter().filter(|t| t.delivers()).count();
+    // McNemar's discordant pairs: b = delivers now, not today; c = the other way.
+    let (mut b, mut c) = (0u64, 0u64);
+    for l in &finished {
+        if let (Some(t), Some(t0)) = (l.test, today.get(&l.seed)) {
+            match (t.delivers(), t0.delivers()) {
+                (true, false) => b += 1,
+                (false, true) => c += 1,
+                _ => {}
+            }
+        }
+    }
+    let _ = writeln!(
+        out,
+        "**1. Delivered policies.** {delivered} of the {n} pinwheel base seeds in deliver (95 % exact interval of the rate {lo:.2}–{hi:.2}); today's single run delivers on {today_delivered} of the same {} seeds (the margin study's A0 rows). Pairs by base seed: {b} deliver now and not today, {c} the other way; exact McNemar p = {:.3}.",
+        today_in.len(),
+        mcnemar_exact(b, c),
+    );
+    if n == BASE_SEEDS {
+        let met = delivered >= AIM_DELIVERED;
+        let _ = writeln!(
+            out,
+            "Verdict: the aim (at least {AIM_DELIVERED} of {BASE_SEEDS}) is **{}**; {} base seed{} changing {} would flip it.",
+            if met { "met" } else { "not met" },
+            flips(delivered),
+            if flips(delivered) == 1 { "" } else { "s" },
+            if met { "to not delivering" } else { "to delivering" }
+        );
+    } else {
+        let _ = writeln!(
+            out,
+            "Not judged yet: {} of {BASE_SEEDS} base seeds are in. With {delivered} of {n} delivering, the aim {}.",
+            n,
+            if n - delivered > BASE_SEEDS - AIM_DELIVERED {
+                "can no longer be met".to_string()
+            } else {
+                format!(
+                    "is still open ({} more failing seed{} would end it)",
+                    BASE_SEEDS - AIM_DELIVERED + 1 - (n - delivered),
+                    if BASE_SEEDS - AIM_DELIVERED + 1 - (n - delivered) == 1 { "" } else { "s" }
+                )
+            }
+        );
+    }
+    let walls: Vec<f64> = finished.iter().map(|l| l.wall()).collect();
+    let cpus: Vec<f64> = finished.iter().map(|l| l.cpu()).collect();
+    let today_lines: Vec<&Line> = lines
+        .iter()
+        .filter(|l| l.kind == Kind::Today && l.done)
+        .collect();
+    let today_walls: Vec<f64> = today_lines.iter().map(|l| l.wall()).collect();
+    let range = |xs: &[f64]| {
+        let lo = xs.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        format!("{lo:.0}–{hi:.0}")
+    };
+    match (median(&walls), median(&today_walls)) {
+        (Some(m), Some(m0)) => {
+            let _ = writeln!(
+                out,
+                "\n**2. Wall time.** Median {m:.0} s (range {}, CPU median {:.0} s) over the {n} pinwheel lines in, against {m0:.0} s for today's single run ({} line{} in: {}): a ratio of {:.2}.",
+                range(&walls),
+                median(&cpus).unwrap_or(f64::NAN),
+                today_walls.len(),
+                if today_walls.len() == 1 { "" } else { "s" },
+                today_walls.iter().map(|w| format!("{w:.0} s")).collect::<Vec<_>>().join(", "),
+                m / m0
+            );
+            if n == BASE_SEEDS && today_walls.len() == 2 {
+                let met = m <= 0.5 * m0;
+                let _ = writeln!(
+                    out,
+                    "Verdict: the aim (at most half) is **{}**.",
+                    if met { "met" } else { "not met" }
+                );
+            } else {
+                let _ = writeln!(out, "Not judged yet: not every line is in.");
+            }
+        }
+        _ => {
+            let _ = writeln!(
+                out,
+                "\n**2. Wall time.** Not judged yet: no pinwheel line and today's run both in."
+            );
+        }
+    }
+}

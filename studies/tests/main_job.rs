@@ -1,0 +1,92 @@
+//! The main job's page from a queue's folders: rows as the runs left them, and the aims judged
+//! only once every line is in.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use studies::main_job::{load, render, Test};
+
+/// A finished line: its parts, `done`, and a run folder with an `eval.json` (and a `race.json`
+/// for a race won by racer `winner` at episode 1,600, or run to its budget).
+fn line(runs: &Path, name: &str, (success, error, stuck): (f64, f64, f64), race: Option<bool>) {
+    let dir = runs.join(name);
+    let run = dir.join("nav-walls__dcp__0");
+    std::fs::create_dir_all(&run).expect("run folder");
+    std::fs::write(dir.join("parts.txt"), "1 130 100.5 90 1\n2 0 50.5 45 1\n").expect("parts");
+    std::fs::write(dir.join("done"), "0\n").expect("done");
+    let eval = format!(
+        r#"{{"success_rate": {success}, "mean_error": {error}, "stuck_rate": {stuck}, "pass": {{"passed": {}, "failures": []}}}}"#,
+        success >= 0.8 && stuck <= 0.2
+    );
+    std::fs::write(run.join("eval.json"), eval).expect("eval");
+    if let Some(early) = race {
+        let why = if early {
+            "racer 1 (seed 9) was the first whose validation met the criteria"
+        } else {
+            "no racer's validation met the criteria"
+        };
+        let json = format!(
+            r#"{{"winner": 1, "why": "{why}", "racers": [{{"seed": 0, "episodes": 1600}}, {{"seed": 9, "episodes": 1600}}]}}"#
+        );
+        std::fs::write(run.join("race.json"), json).expect("race");
+    }
+}
+
+#[test]
+fn the_page_shows_every_line_and_judges_only_a_complete_queue() {
+    let dir = std::env::temp_dir().join(format!("main-job-page-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let runs = dir.join("runs");
+    let plan = dir.join("plan.txt");
+    let mut text = String::from("# a comment\ntoday-0 --seed 0 --race 1\n");
+    for s in 0..20 {
+        text.push_str(&format!("pinwheel-{s} --seed {s}\n"));
+    }
+    std::fs::create_dir_all(&runs).expect("runs");
+    std::fs::write(&plan, &text).expect("plan");
+    line(&runs, "today-0", (1.0, 1.196, 0.46), None);
+    line(&runs, "pinwheel-0", (1.0, 0.303, 0.0), Some(true));
+    line(&runs, "pinwheel-1", (1.0, 0.7, 0.3), Some(false));
+    let today: BTreeMap<u64, Test> = [(0, (1.0, 1.196, 0.46)), (1, (1.0, 0.673, 0.42))]
+        .into_iter()
+        .map(|(s, (success, error, stuck))| {
+            (
+                s,
+                Test {
+                    success,
+                    error,
+                    stuck,
+                    passed: false,
+                },
+            )
+        })
+        .collect();
+    let lines = load(&plan, &runs).expect("loads");
+    assert_eq!(lines.len(), 21);
+    assert!((lines[1].wall() - 151.0).abs() < 1e-9 && (lines[1].cpu() - 137.0).abs() < 1e-9);
+    let page = render(&lines, &today, "abc1234", "a test machine");
+    assert!(page.contains("| 0 | 1, 9 | 1600 | validation | 1.00 | 0.303 | 0.00 | yes | PASS | 151 | 137 | 2 | 1.00, 1.196, no |"), "{page}");
+    assert!(
+        page.contains("| 1 | 1, 9 | 1600 | budget | 1.00 | 0.700 | 0.30 | no | FAIL |"),
+        "{page}"
+    );
+    assert!(page.contains("| 2 | – | – | – | not started |"), "{page}");
+    assert!(
+        page.contains("| 0 | 1.00 | 1.196 | 0.46 | the same | 151 | 137 | 2 |"),
+        "{page}"
+    );
+    assert!(
+        page.contains("1 of the 2 pinwheel base seeds in deliver"),
+        "{page}"
+    );
+    assert!(
+        page.contains("Not judged yet: 2 of 20 base seeds are in"),
+        "{page}"
+    );
+    assert!(page.contains("a ratio of 1.00"), "{page}");
+    assert!(
+        !page.contains("Verdict"),
+        "nothing is judged before every line is in: {page}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
