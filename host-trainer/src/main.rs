@@ -21,6 +21,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+use commands::act::{act_command, ActArgs};
 use commands::eval::{eval_command, EvalArgs};
 use commands::export::{export_command, ExportArgs};
 use commands::inspect::{inspect_command, InspectArgs};
@@ -51,6 +52,9 @@ enum Command {
     Export(ExportArgs),
     /// Print what a blob holds: kind, shape, label, sizes, CRC, normaliser, bounds or table.
     Inspect(InspectArgs),
+    /// Print a blob's outputs for given inputs, as the chip computes them, with their bits: the
+    /// reference a port of the forward pass is checked against.
+    Act(ActArgs),
     /// Train one run per (algo, seed) as parallel processes; skips finished runs, continues
     /// unfinished ones, and writes OUT/sweep.md and OUT/sweep.json.
     Sweep(SweepArgs),
@@ -82,12 +86,13 @@ fn main() -> ExitCode {
         Some(Command::Eval(args)) => eval_command(args),
         Some(Command::Export(args)) => export_command(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Inspect(args)) => inspect_command(&args).map(|()| ExitCode::SUCCESS),
+        Some(Command::Act(args)) => act_command(&args).map(|()| ExitCode::SUCCESS),
         Some(Command::Sweep(args)) => sweep_command(args),
         Some(Command::Team(args)) => team_command(args),
         Some(Command::Reproduce(args)) => reproduce_command(args),
         None => {
             eprintln!(
-                "host-trainer: missing a subcommand: train, eval, export, inspect, sweep, team or reproduce (see --help)"
+                "host-trainer: missing a subcommand: train, eval, export, inspect, act, sweep, team or reproduce (see --help)"
             );
             return ExitCode::from(2);
         }

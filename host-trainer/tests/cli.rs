@@ -1535,3 +1535,64 @@ fn the_cortex_m_pages_slot_steps_write_every_image_they_use() {
     assert_eq!((exports, uses), (5, 6), "the steps the page holds");
     std::fs::remove_dir_all(&work).expect("cleanup");
 }
+
+/// `act` prints what policy-core computes, bit for bit, for an actor and a critic, from flags
+/// and from a file; a wrong count or a non-number is one line naming the input, before any
+/// output.
+#[test]
+fn act_prints_the_chips_outputs_bit_for_bit() {
+    use policy_core::model::Model;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let actor = root.join("models/nav-walls__dcp-paper__0.postcard");
+    let critic = root.join("models/nav-walls__dcp-paper__0__actor-critic/critic.postcard");
+    let inputs: [[f32; 2]; 5] = [
+        [4.0, -2.5],
+        [0.0, 0.0],
+        [f32::NAN, f32::INFINITY],
+        [-1e30, 5.75],
+        [-0.0, 1e-40],
+    ];
+    let bytes = std::fs::read(&actor).expect("actor");
+    let model = Model::from_blob(&bytes).expect("boots");
+    let base = scratch("act");
+    let file = base.join("inputs.txt");
+    let mut text = String::from("# observations, one per line\n\n");
+    for i in &inputs {
+        text.push_str(&format!("{} {}  # a comment\n", i[0], i[1]));
+    }
+    std::fs::write(&file, text).expect("inputs");
+    let out = host_trainer(&["act", "--blob", s(&actor), "--obs-file", s(&file)]);
+    assert_ok(&out);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let lines: Vec<&str> = stdout.lines().collect();
+    assert_eq!(lines.len(), inputs.len(), "{stdout}");
+    for (i, line) in inputs.iter().zip(&lines) {
+        let mut action = [0.0f32; 2];
+        let mut work = vec![0.0f32; model.scratch_floats()];
+        model.act_in(i, &mut work, &mut action).expect("acts");
+        let bits = format!("[{:08x} {:08x}]", action[0].to_bits(), action[1].to_bits());
+        assert!(
+            line.ends_with(&bits),
+            "{i:?}: {line} should end with {bits}"
+        );
+    }
+    let bytes = std::fs::read(&critic).expect("critic");
+    let q = Model::from_blob(&bytes).expect("boots");
+    let mut work = vec![0.0f32; q.scratch_floats()];
+    let value = q.q_in(&[4.0, -2.5], &[0.5, -0.5], &mut work).expect("q");
+    let out = host_trainer(&["act", "--blob", s(&critic), "--obs", "4,-2.5,0.5,-0.5"]);
+    assert_ok(&out);
+    assert!(
+        String::from_utf8_lossy(&out.stdout).ends_with(&format!("[{:08x}]\n", value.to_bits())),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    let bad = host_trainer(&["act", "--blob", s(&actor), "--obs", "1,2", "--obs", "1,2,3"]);
+    assert_one_line_error(&bad, &["--obs 2", "3 values", "takes 2"]);
+    assert!(bad.stdout.is_empty(), "no half output");
+    let bad = host_trainer(&["act", "--blob", s(&actor), "--obs", "1,two"]);
+    assert_one_line_error(&bad, &["--obs 1", "\"two\" is not a number"]);
+    let none = host_trainer(&["act", "--blob", s(&actor)]);
+    assert_one_line_error(&none, &["no input"]);
+    let _ = std::fs::remove_dir_all(&base);
+}

@@ -2,6 +2,7 @@
 //! `src/`, under `lib.rs`; these files belong to `main.rs` alone). Each file holds its
 //! command's flags and the function that runs it; the work itself is the library's.
 
+pub(crate) mod act;
 pub(crate) mod eval;
 pub(crate) mod export;
 pub(crate) mod inspect;
