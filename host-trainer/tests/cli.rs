@@ -560,6 +560,23 @@ fn ppo_and_dqn_train_end_to_end_through_the_cli() {
         assert_ok(&inspect);
         let text = String::from_utf8_lossy(&inspect.stdout);
         assert!(text.starts_with(&format!("kind        {kind}\n")), "{text}");
+        if algo == Algo::Dqn {
+            // `act` names a discrete policy's choice, the one policy-core's argmax makes.
+            let bytes = std::fs::read(run.join("policy.postcard")).expect("blob");
+            let model = policy_core::model::Model::from_blob(&bytes).expect("boots");
+            let mut work = vec![0.0f32; model.scratch_floats()];
+            let choice = model.choose_in(&[1.0, 2.0], &mut work).expect("choose");
+            let act = host_trainer(&[
+                "act",
+                "--blob",
+                s(&run.join("policy.postcard")),
+                "--obs",
+                "1,2",
+            ]);
+            assert_ok(&act);
+            let line = String::from_utf8_lossy(&act.stdout);
+            assert!(line.ends_with(&format!(" choice {choice}\n")), "{line}");
+        }
         let export = host_trainer(&["export", "--run", s(&run)]);
         assert_ok(&export);
         let said = String::from_utf8_lossy(&export.stdout);

@@ -4,7 +4,7 @@
 //!
 //! An actor or a discrete policy prints its action for an observation (`Model::act`: normalised,
 //! clipped, the forward pass, `tanh`, scaled into the bounds; a discrete policy's action-table
-//! row); a critic prints Q(s, a) for an observation followed by a unit-box action
+//! row, then the row's index, `choice N`); a critic prints Q(s, a) for an observation followed by a unit-box action
 //! (`Model::q`). Inputs are the ones a chip may see, NaN and infinities included.
 
 use std::io::Read;
@@ -102,6 +102,11 @@ pub(crate) fn act_command(args: &ActArgs) -> Result<()> {
             }
         };
         text.push_str(&line(values, &outputs));
+        if h.kind == ModelKind::Discrete {
+            // The row's index: the choice a port's argmax must make (ties: the lowest).
+            let choice = model.choose_in(values, &mut scratch)?;
+            text.push_str(&format!(" choice {choice}"));
+        }
         text.push('\n');
     }
     out!("{text}");

@@ -39,6 +39,10 @@ struct Args {
     /// The machine, as the page names it.
     #[arg(long)]
     cpu: String,
+    /// A note printed under the results' first line (what ran beside the queue, a line stopped
+    /// and continued); may be given several times.
+    #[arg(long)]
+    note: Vec<String>,
 }
 
 const HEADING: &str = "\n## Results\n";
@@ -62,7 +66,13 @@ fn run(args: Args) -> Result<()> {
     let lines = load(&args.plan, &args.runs)?;
     let records: Vec<&std::path::Path> = args.record.iter().map(PathBuf::as_path).collect();
     let today = today_rows(&records)?;
-    let results = render(&lines, &today, &args.commit, &args.cpu);
+    let mut results = render(&lines, &today, &args.commit, &args.cpu);
+    if !args.note.is_empty() {
+        // After the first paragraph (the commit, the machine and the lines in).
+        let at = results.find("\n\n").map_or(results.len(), |i| i + 2);
+        let notes: String = args.note.iter().map(|n| format!("{n}\n\n")).collect();
+        results.insert_str(at, &notes);
+    }
     let text = format!("{}{HEADING}\n{results}", &page[..cut]);
     // Written beside the page and renamed into place: a reader never sees half a page.
     let tmp = args.page.with_extension("partial");
