@@ -144,6 +144,53 @@ fn a_race_killed_mid_way_resumes_to_the_winner_of_an_unbroken_race() {
 }
 
 #[test]
+fn a_racer_whose_folder_was_never_written_starts_again_to_the_same_winner() {
+    let dir = scratch("race-lost");
+    let config = race_config(&dir, 30, 2);
+    let (whole, cut) = (dir.join("whole"), dir.join("cut"));
+    for out in [&whole, &cut] {
+        std::fs::create_dir_all(out).expect("out");
+    }
+    assert_judged(&race(&whole, &config, &[]));
+    // A race killed right after it recorded itself, before its second racer's folder held
+    // anything: here, a race stopped mid-way whose second racer's folder is then emptied.
+    let killed = crate::support::command(&[
+        "train",
+        "--config",
+        s(&config),
+        "--out",
+        s(&cut),
+        "--race",
+        "2",
+        "--quiet",
+    ])
+    .env("HOST_TRAINER_CRASH_AT", "episode:4")
+    .output()
+    .expect("runs");
+    assert!(!killed.status.success());
+    let race_dir = cut.join("lenient__dcp__3");
+    let record: serde_json::Value =
+        serde_json::from_slice(&read(race_dir.join("race.json"))).expect("json");
+    let second = race_dir.join(record["racers"][1]["folder"].as_str().expect("folder"));
+    std::fs::remove_dir_all(&second).expect("remove");
+    std::fs::create_dir(&second).expect("an empty folder");
+    assert_judged(&host_trainer(&[
+        "train",
+        "--resume",
+        s(&race_dir),
+        "--quiet",
+    ]));
+    for file in ["policy.postcard", "race.json"] {
+        assert_eq!(
+            read(race_dir.join(file)),
+            read(whole.join("lenient__dcp__3").join(file)),
+            "{file}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn bad_race_requests_are_one_line_errors_and_write_nothing() {
     let dir = scratch("race-bad");
     let config = race_config(&dir, 10, 2);

@@ -164,7 +164,13 @@ pub(crate) fn resume_race(dir: &Path, args: &TrainArgs, timeouts: Timeouts) -> R
         }
         // Killed before this racer's folder held anything: it starts again from the race's
         // settings (nothing of it had trained).
-        let mut config = TrainConfig::parse(&record.config_toml, &path)?;
+        let mut config: TrainConfig = toml::from_str(&record.config_toml).with_context(|| {
+            format!(
+                "{}: its config_toml is not a run's settings",
+                path.display()
+            )
+        })?;
+        config.validate()?;
         config.seed = r.seed;
         if let Some(n) = args.episodes {
             config.episodes = n;
