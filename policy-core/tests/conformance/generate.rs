@@ -143,6 +143,105 @@ fn valid(v: &mut Vectors) {
     assert_eq!(label.len(), 32);
     accept(v, "label-32-bytes-utf8", relabel(&tiny, &label));
     extremes(v);
+    subnormals(v);
+    close_choices(v);
+    f16_layer_padding(v);
+}
+
+/// A critic whose hidden units and Q are subnormal for ordinary inputs, with subnormal weights
+/// and observations: a reader that flushes subnormals to zero (a C build with `-ffast-math`, an
+/// FPU in flush-to-zero mode) gives Q = 0 where the format computes a subnormal. Q is the
+/// output layer's sum with no squashing, so the subnormal reaches the output bits.
+///
+/// Two observations (mean 0, inv_std 1, clip 1e30: z = x), one action (weight 0); ReLU hidden
+/// units h0 = relu(1e-39·z0) (a subnormal weight) and h1 = relu(z1) (a subnormal input passes
+/// through); Q = h0 + h1.
+fn subnormals(v: &mut Vectors) {
+    let tiny = 1.0e-39_f32; // subnormal (below 1.18e-38)
+    let mut critic = vec![0.0, 0.0, 1.0, 1.0, 1.0e30]; // normaliser
+    // Input W (2 units × 3 inputs: z0, z1, action), column-major by input, then b.
+    critic.extend([tiny, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0]);
+    critic.extend([1.0, 1.0, 0.0]); // output W (1×2), b
+    let spec = Spec {
+        kind: ModelKind::Critic,
+        encoding: Encoding::F32,
+        shape: shape(2, 1, 2, 1, 0),
+        activation: Activation::Relu,
+        label: "subnormal",
+    };
+    let probes: Vec<Vec<f32>> = [
+        [1.0, 0.0],
+        [0.0, 1.0],
+        [1.0e-45, 0.0],
+        [0.0, 1.0e-45],
+        [1.0e-40, 1.0e-40],
+        [3.0, -1.0e-45],
+        [-1.0, 2.0e-39],
+    ]
+    .map(Vec::from)
+    .into();
+    let bytes = write_vec(&spec, &critic).expect("valid");
+    // Not vacuous: a subnormal Q comes out, which flushing to zero would lose.
+    let model = Model::from_blob(&bytes).expect("loads");
+    let q = model
+        .q(&[1.0, 0.0], &[0.0], &mut Scratch64::new())
+        .expect("q");
+    assert!(q != 0.0 && !q.is_normal(), "a subnormal Q: {q:e}");
+    accept_with(v, "subnormal-critic", bytes, &probes);
+}
+
+/// A discrete policy whose rows' Q values differ by one unit in the last place, or tie: the
+/// choice (ties to the lowest index) shows whether a reader's arithmetic is bit-exact and its
+/// argmax the format's.
+///
+/// One observation (z = x), one unit h = relu(z); Q_i = w_i·h + b_i with w = (1, 1, 1, 1) and
+/// biases one ulp apart around 0.5, the largest twice.
+fn close_choices(v: &mut Vectors) {
+    let half = 0.5_f32;
+    let up = f32::from_bits(half.to_bits() + 1);
+    let down = f32::from_bits(half.to_bits() - 1);
+    let mut discrete = vec![0.0, 1.0, 1.0e30]; // normaliser (one observation)
+    discrete.extend([-1.0, 1.0]); // bounds (one action)
+    discrete.extend([-0.75, -0.25, 0.25, 0.75]); // action table: 4 rows of 1
+    discrete.extend([1.0, 0.0]); // input W (1×1), b
+    discrete.extend([1.0, 1.0, 1.0, 1.0]); // output W (4×1)
+    discrete.extend([down, up, half, up]); // output b: rows 1 and 3 tie, one ulp above row 2
+    let spec = Spec {
+        kind: ModelKind::Discrete,
+        encoding: Encoding::F32,
+        shape: shape(1, 1, 1, 1, 4),
+        activation: Activation::Relu,
+        label: "close",
+    };
+    let probes: Vec<Vec<f32>> = [[0.0], [1.0], [1.0e-45], [-3.0], [1.0e7], [f32::NAN]]
+        .map(Vec::from)
+        .into();
+    accept_with(
+        v,
+        "close-choices",
+        write_vec(&spec, &discrete).expect("valid"),
+        &probes,
+    );
+}
+
+/// An f16 actor whose layers hold an odd number of halves, so each is followed by two bytes of
+/// padding that a reader must skip (and find zero): every valid f16 vector above has even
+/// layers.
+fn f16_layer_padding(v: &mut Vectors) {
+    let shape = shape(1, 1, 3, 2, 0);
+    let params = runtime_params(ModelKind::Actor, shape, &mut SplitMix64(0xF16));
+    let spec = Spec {
+        kind: ModelKind::Actor,
+        encoding: Encoding::F16,
+        shape,
+        activation: Activation::Tanh,
+        label: "f16-padding",
+    };
+    let bytes = write_vec(&spec, &params).expect("valid");
+    let l = layer_at(&bytes, 0);
+    assert!(l.padding < l.bias, "an odd layer is padded");
+    let probes: Vec<Vec<f32>> = [[0.3], [-1.7], [4.0]].map(Vec::from).into();
+    accept_with(v, "f16-layer-padding", bytes, &probes);
 }
 
 /// Models whose finite weights overflow in the forward pass, so that the non-finite rules of
@@ -162,6 +261,15 @@ fn extremes(v: &mut Vectors) {
         [-1.0e30, -1.0e30],
         [f32::INFINITY, 1.0],
         [-1.0, 0.5],
+        // More inputs for each rule: +inf in both units again, NaN from inf - inf, and NaN
+        // observations (which the normaliser reads as 0).
+        [2.0, 3.0],
+        [1.0e29, 1.0e29],
+        [1.0e30, -5.0e29],
+        [-1.0e30, 1.0e30],
+        [f32::NAN, 1.0],
+        [f32::NAN, f32::NAN],
+        [f32::NEG_INFINITY, f32::INFINITY],
     ]
     .map(Vec::from)
     .into();
