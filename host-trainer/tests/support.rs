@@ -52,13 +52,13 @@ pub fn assert_one_line_error(out: &Output, needles: &[&str]) -> String {
     stderr
 }
 
-/// Asserts a command judged a blob and ended with the gate's verdict: exit 0 and `PASS`, or
-/// exit 1 and `FAIL` (the runs of a few episodes these tests train fail it).
+/// Asserts a command judged a blob and ended with the gate's verdict: exit 0 and `gate PASS`,
+/// or exit 1 and `gate FAIL` (the runs of a few episodes these tests train fail it).
 pub fn assert_judged(out: &Output) {
     let stdout = String::from_utf8_lossy(&out.stdout);
     let verdict = match out.status.code() {
-        Some(0) => "PASS",
-        Some(1) => "FAIL",
+        Some(0) => "gate PASS",
+        Some(1) => "gate FAIL (",
         _ => panic!(
             "expected exit 0 or 1 with a verdict, got {:?}; stderr: {}",
             out.status,
@@ -80,7 +80,7 @@ pub fn assert_ok(out: &Output) {
     let judged_fail = out.status.code() == Some(1)
         && stdout
             .lines()
-            .any(|l| l.contains(" test starts: ") && l.contains("  FAIL ("));
+            .any(|l| l.contains(" test starts: ") && l.contains("  gate FAIL ("));
     assert!(
         out.status.success() || judged_fail,
         "exit {:?}; stderr: {}",
