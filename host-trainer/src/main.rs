@@ -12,8 +12,11 @@
 //! host-trainer team [--algo dcp] [--t 16] [--players 16] [--points 20000] [--seed 0] [--out DIR]
 //! host-trainer reproduce exp1|exp2 --out DIR [--seeds 5] [--jobs N] [--slice I/N | --merge] [--quick]
 //! ```
-//! Errors are one line on stderr and a non-zero exit. Each command is a file of
-//! [`commands`].
+//! Exit status, one convention with `firmware-sim run`: 0 when the command did its work and,
+//! where it judged a blob (`train`, `eval`), the gate passed; 1 when the judged blob fails the
+//! gate (the summary ends with `gate FAIL (why)`); 2 on any error, one line on stderr; 130 after
+//! Ctrl-C. `sweep` and `reproduce` judge no blob themselves: they exit 1 when some of their runs
+//! failed or are missing. Each command is a file of [`commands`].
 
 mod commands;
 

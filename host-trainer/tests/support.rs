@@ -27,6 +27,23 @@ pub fn command(args: &[&str]) -> Command {
     c
 }
 
+/// firmware-sim's binary, which `cargo test --workspace` builds beside this test's.
+pub fn firmware_sim() -> PathBuf {
+    let exe = std::env::current_exe().expect("test binary path");
+    // target/<profile>/deps/integration-HASH -> target/<profile>/firmware-sim
+    let path = exe
+        .parent()
+        .and_then(|deps| deps.parent())
+        .map(|profile| profile.join("firmware-sim"))
+        .expect("target folder");
+    assert!(
+        path.is_file(),
+        "{} is missing: build it with `cargo build -p firmware-sim` (cargo test --workspace does)",
+        path.display()
+    );
+    path
+}
+
 /// A fresh, empty folder for one test.
 pub fn scratch(tag: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("host-trainer-it-{tag}-{}", std::process::id()));
@@ -35,8 +52,21 @@ pub fn scratch(tag: &str) -> PathBuf {
     dir
 }
 
-/// Asserts a failed run printed exactly one line on stderr, mentioning every `needle`.
+/// Asserts an error: exit 2 (1 is the gate's FAIL, never an error) and exactly one line on
+/// stderr, mentioning every `needle`.
 pub fn assert_one_line_error(out: &Output, needles: &[&str]) -> String {
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "an error exits 2; stderr: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_one_line(out, needles)
+}
+
+/// Asserts a command that did not succeed printed exactly one line on stderr, mentioning every
+/// `needle`, whatever its non-zero exit (`reproduce --merge` with runs missing exits 1).
+pub fn assert_one_line(out: &Output, needles: &[&str]) -> String {
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     assert!(!out.status.success(), "must fail; stderr: {stderr}");
     assert_eq!(
