@@ -46,9 +46,11 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Train a policy; writes OUT/{task}__{algo}__{seed}/ and evaluates the exported blob.
+    /// Train a policy; writes OUT/{task}__{algo}__{seed}/ and evaluates the exported blob
+    /// (exit 0 when it passes the gate, 1 when it fails, 2 on an error).
     Train(TrainArgs),
-    /// Evaluate a policy blob in firmware-sim on test starts.
+    /// Evaluate a policy blob in firmware-sim on test starts (exit 0 when it passes the gate, 1
+    /// when it fails, 2 on an error, as `firmware-sim run`).
     Eval(EvalArgs),
     /// Export policy.postcard (and, for DCP and DDPG, critic.postcard) from a run's checkpoint;
     /// with --encoding f16|int8, policy-f16.postcard or policy-int8.postcard.
