@@ -12,8 +12,11 @@
 //! host-trainer team [--algo dcp] [--t 16] [--players 16] [--points 20000] [--seed 0] [--out DIR]
 //! host-trainer reproduce exp1|exp2 --out DIR [--seeds 5] [--jobs N] [--slice I/N | --merge] [--quick]
 //! ```
-//! Errors are one line on stderr and a non-zero exit. Each command is a file of
-//! [`commands`].
+//! Exit status, one convention with `firmware-sim run`: 0 when the command did its work and,
+//! where it judged a blob (`train`, `eval`), the gate passed; 1 when the judged blob fails the
+//! gate (the summary ends with `gate FAIL (why)`); 2 on any error, one line on stderr; 130 after
+//! Ctrl-C. `sweep` and `reproduce` judge no blob themselves: they exit 1 when some of their runs
+//! failed or are missing. Each command is a file of [`commands`].
 
 mod commands;
 
@@ -43,9 +46,11 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Train a policy; writes OUT/{task}__{algo}__{seed}/ and evaluates the exported blob.
+    /// Train a policy; writes OUT/{task}__{algo}__{seed}/ and evaluates the exported blob
+    /// (exit 0 when it passes the gate, 1 when it fails, 2 on an error).
     Train(TrainArgs),
-    /// Evaluate a policy blob in firmware-sim on test starts.
+    /// Evaluate a policy blob in firmware-sim on test starts (exit 0 when it passes the gate, 1
+    /// when it fails, 2 on an error, as `firmware-sim run`).
     Eval(EvalArgs),
     /// Export policy.postcard (and, for DCP and DDPG, critic.postcard) from a run's checkpoint;
     /// with --encoding f16|int8, policy-f16.postcard or policy-int8.postcard.

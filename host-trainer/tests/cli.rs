@@ -1,5 +1,5 @@
-//! The `host-trainer` binary on bad input: one clear line on stderr, a non-zero exit, no panic,
-//! and no partial files.
+//! The `host-trainer` binary on bad input: one clear line on stderr, exit 2 (1 is the gate's
+//! FAIL, never an error), no panic, and no partial files.
 
 use std::path::{Path, PathBuf};
 

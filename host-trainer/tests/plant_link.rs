@@ -3,8 +3,6 @@
 //! plant recorded and checked on resume, a plant that fails stopping the run with its reason
 //! and leaving the checkpoint as it was.
 
-use std::path::PathBuf;
-
 use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::NavEnv;
 use host_trainer::algorithms::Algo;
@@ -14,24 +12,7 @@ use host_trainer::run::folder;
 use host_trainer::run::plant::RunPlant;
 use host_trainer::run::trainer::Trainer;
 
-use crate::support::{assert_one_line_error, host_trainer, s, scratch};
-
-/// firmware-sim's binary, which `cargo test --workspace` builds beside this test's.
-fn firmware_sim() -> PathBuf {
-    let exe = std::env::current_exe().expect("test binary path");
-    // target/<profile>/deps/integration-HASH -> target/<profile>/firmware-sim
-    let path = exe
-        .parent()
-        .and_then(|deps| deps.parent())
-        .map(|profile| profile.join("firmware-sim"))
-        .expect("target folder");
-    assert!(
-        path.is_file(),
-        "{} is missing: build it with `cargo build -p firmware-sim` (cargo test --workspace does)",
-        path.display()
-    );
-    path
-}
+use crate::support::{assert_one_line_error, firmware_sim, host_trainer, s, scratch};
 
 /// nav-walls with the trainer's reward (gr) rather than the scenario file's (lr): the same
 /// plant the trainer builds in process.

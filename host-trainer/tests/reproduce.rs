@@ -6,7 +6,9 @@ use std::path::Path;
 use host_trainer::reproduce::grid::{Experiment, Grid, Slice};
 use host_trainer::reproduce::{folder, Part};
 
-use crate::support::{assert_ok, assert_one_line_error, command, entries, s, scratch};
+use crate::support::{
+    assert_ok, assert_one_line, assert_one_line_error, command, entries, s, scratch,
+};
 
 fn reproduce(out: &Path, extra: &[&str]) -> std::process::Output {
     let mut c = command(&[
@@ -54,7 +56,7 @@ fn two_slices_merge_into_the_page_and_a_rerun_skips_what_finished() {
     // Half the grid: the merge writes the page, lists the other half, and exits 1.
     let early = reproduce(&out, &["--merge"]);
     assert_eq!(early.status.code(), Some(1));
-    assert_one_line_error(
+    assert_one_line(
         &early,
         &[&format!("{} of {total} runs are missing", total - half)],
     );
@@ -245,7 +247,8 @@ fn experiment_two_trains_its_teams_in_slices_and_measures_them() {
     };
     assert_ok(&run(&["--slice", "1/2"]));
     let early = run(&["--merge"]);
-    assert_one_line_error(&early, &["3 of 5 runs are missing"]);
+    assert_eq!(early.status.code(), Some(1));
+    assert_one_line(&early, &["3 of 5 runs are missing"]);
     assert_ok(&run(&["--slice", "0/2"]));
     assert_ok(&run(&["--merge"]));
     let page = std::fs::read_to_string(out.join("exp2.md")).expect("page");

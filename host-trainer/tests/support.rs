@@ -27,6 +27,23 @@ pub fn command(args: &[&str]) -> Command {
     c
 }
 
+/// firmware-sim's binary, which `cargo test --workspace` builds beside this test's.
+pub fn firmware_sim() -> PathBuf {
+    let exe = std::env::current_exe().expect("test binary path");
+    // target/<profile>/deps/integration-HASH -> target/<profile>/firmware-sim
+    let path = exe
+        .parent()
+        .and_then(|deps| deps.parent())
+        .map(|profile| profile.join("firmware-sim"))
+        .expect("target folder");
+    assert!(
+        path.is_file(),
+        "{} is missing: build it with `cargo build -p firmware-sim` (cargo test --workspace does)",
+        path.display()
+    );
+    path
+}
+
 /// A fresh, empty folder for one test.
 pub fn scratch(tag: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("host-trainer-it-{tag}-{}", std::process::id()));
@@ -35,8 +52,21 @@ pub fn scratch(tag: &str) -> PathBuf {
     dir
 }
 
-/// Asserts a failed run printed exactly one line on stderr, mentioning every `needle`.
+/// Asserts an error: exit 2 (1 is the gate's FAIL, never an error) and exactly one line on
+/// stderr, mentioning every `needle`.
 pub fn assert_one_line_error(out: &Output, needles: &[&str]) -> String {
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "an error exits 2; stderr: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_one_line(out, needles)
+}
+
+/// Asserts a command that did not succeed printed exactly one line on stderr, mentioning every
+/// `needle`, whatever its non-zero exit (`reproduce --merge` with runs missing exits 1).
+pub fn assert_one_line(out: &Output, needles: &[&str]) -> String {
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     assert!(!out.status.success(), "must fail; stderr: {stderr}");
     assert_eq!(
@@ -52,13 +82,13 @@ pub fn assert_one_line_error(out: &Output, needles: &[&str]) -> String {
     stderr
 }
 
-/// Asserts a command judged a blob and ended with the gate's verdict: exit 0 and `PASS`, or
-/// exit 1 and `FAIL` (the runs of a few episodes these tests train fail it).
+/// Asserts a command judged a blob and ended with the gate's verdict: exit 0 and `gate PASS`,
+/// or exit 1 and `gate FAIL` (the runs of a few episodes these tests train fail it).
 pub fn assert_judged(out: &Output) {
     let stdout = String::from_utf8_lossy(&out.stdout);
     let verdict = match out.status.code() {
-        Some(0) => "PASS",
-        Some(1) => "FAIL",
+        Some(0) => "gate PASS",
+        Some(1) => "gate FAIL (",
         _ => panic!(
             "expected exit 0 or 1 with a verdict, got {:?}; stderr: {}",
             out.status,
@@ -80,7 +110,7 @@ pub fn assert_ok(out: &Output) {
     let judged_fail = out.status.code() == Some(1)
         && stdout
             .lines()
-            .any(|l| l.contains(" test starts: ") && l.contains("  FAIL ("));
+            .any(|l| l.contains(" test starts: ") && l.contains("  gate FAIL ("));
     assert!(
         out.status.success() || judged_fail,
         "exit {:?}; stderr: {}",

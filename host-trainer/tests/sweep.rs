@@ -100,6 +100,13 @@ fn two_seeds_in_parallel_finish_summarise_and_match_train_alone() {
         statuses(&out),
         status_pairs(&[(0, "finished"), (1, "finished")])
     );
+    // Three episodes teach nothing: each `train` child judged its blob, found it failing the gate
+    // and exited 1, which is a finished run (its eval.json written), not a failed one.
+    let text = std::fs::read_to_string(out.join(report::SUMMARY_JSON)).expect("sweep.json");
+    let doc: serde_json::Value = serde_json::from_str(&text).expect("json");
+    for run in doc["runs"].as_array().expect("runs") {
+        assert_eq!(run["exit_code"], 1, "{run}");
+    }
     // Two runs at once share the cores: each child got half of them (at least one thread).
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let log = out.join("sweep-logs").join("nav-walls__dcp__0.log");

@@ -1,6 +1,6 @@
 //! host-trainer's integration tests: one binary, one module per concern.
 
-/// The `host-trainer` binary on bad input: one clear line, a non-zero exit, nothing lost.
+/// The `host-trainer` binary on bad input: one clear line, exit 2, nothing lost.
 mod cli;
 /// Kill -9 at seeded points, inside checkpoint writes included, and a panicking worker thread:
 /// resume gives the same blob.
@@ -10,6 +10,7 @@ mod interrupt;
 /// Plants in another process (`--plant-cmd`) and given in process: the same bytes as a
 /// scenario, recorded and checked on resume.
 mod plant_link;
+/// `train --race K`: the winner and its bytes do not depend on timing or on a kill mid-race.
 mod race;
 /// `host-trainer reproduce`: an experiment's grid in slices, merged into its page.
 mod reproduce;
@@ -21,3 +22,6 @@ mod support;
 mod sweep;
 /// Training runs with tiny budgets: smoke, determinism, resume, divergence, checkpoints.
 mod training;
+/// The gate's verdict from `eval`: 0 and PASS, 1 and FAIL with the reason, as `firmware-sim run`
+/// gives it; an error is 2.
+mod verdict;

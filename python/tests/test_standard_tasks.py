@@ -138,3 +138,9 @@ def test_bad_arguments_get_one_line_and_exit_2(tmp_path: Path, python_env, args,
     )
     assert out.returncode == 2, out
     assert message in out.stderr and len(out.stderr.strip().splitlines()) == 1, out.stderr
+
+
+@pytest.mark.parametrize("status, finished", [(0, True), (1, True), (2, False), (130, False), (-9, False)])
+def test_a_run_whose_blob_fails_the_gate_has_finished(status: int, finished: bool) -> None:
+    # host-trainer and firmware-sim exit 1 on the gate's FAIL: a judged run, not an error.
+    assert grid.judged(status) is finished

@@ -153,11 +153,12 @@ pub(crate) fn plant_report_json(report: &PlantReport) -> Result<String> {
     Ok(serde_json::to_string_pretty(report)? + "\n")
 }
 
-/// The one line `train` and `eval` print for a test on a plant of the user's.
+/// The one line `train` and `eval` print for a test on a plant of the user's, ending with the
+/// gate's verdict as [`summary_line`] does.
 pub(crate) fn plant_summary_line(report: &PlantReport) -> String {
     let verdict = report.pass.verdict();
     format!(
-        "{} on {}, {} test starts: success {:.1}%  mean return {:.3}  stuck at margin {:.1}%  contact {:.1}%  {verdict}",
+        "{} on {}, {} test starts: success {:.1}%  mean return {:.3}  stuck at margin {:.1}%  contact {:.1}%  gate {verdict}",
         report.controller,
         report.plant,
         report.episodes.len(),
@@ -169,14 +170,15 @@ pub(crate) fn plant_summary_line(report: &PlantReport) -> String {
 }
 
 /// The one line `train` and `eval` print for a scenario's test, ending with the gate's verdict
-/// as `firmware-sim run` words it.
+/// as `firmware-sim run` words it (`PASS`, or `FAIL (why; why)`), after the word `gate`: the
+/// verdict is on the scenario's `[pass]` table, not on the figure printed before it.
 pub(crate) fn summary_line(report: &Report) -> String {
     let verdict = report.pass.verdict();
     let steps = report
         .mean_steps_to_goal
         .map_or_else(|| "-".to_string(), |s| format!("{s:.1}"));
     format!(
-        "{} on {}, {} test starts: success {:.1}%  mean settled error {:.3}  strict reach {:.1}%  pass within 0.25 {:.1}%  steps to goal {steps}  stuck at margin {:.1}%  left arena {:.1}%  {verdict}",
+        "{} on {}, {} test starts: success {:.1}%  mean settled error {:.3}  strict reach {:.1}%  pass within 0.25 {:.1}%  steps to goal {steps}  stuck at margin {:.1}%  left arena {:.1}%  gate {verdict}",
         report.controller,
         report.scenario,
         report.episodes.len(),

@@ -122,6 +122,13 @@ def test_figures(episodes: list[dict[str, Any]], success_return: float) -> dict[
     }
 
 
+def judged(status: int) -> bool:
+    """Whether a program that judges a blob (``host-trainer train``, ``firmware-sim run``) did
+    its work: 0 when the blob passes its gate, 1 when it fails it. 2 is an error and 130 an
+    interrupt: the run did not finish."""
+    return status in (0, 1)
+
+
 def _run(argv: Sequence[str], log: Path, env: Optional[dict] = None) -> int:
     with open(log, "a") as f:
         f.write(f"$ {shlex.join(argv)}\n")
@@ -164,8 +171,7 @@ def run_toolkit(
         argv += ["--config", str(config)]
     status = _run(argv, log)
     seconds = time.perf_counter() - started
-    # 0 or 1 is the gate's verdict on a finished run's blob (1: FAIL); 2 and up, an error.
-    if status not in (0, 1):
+    if not judged(status):
         return {"failed": f"host-trainer train exited {status} (see log.txt)"}
     run = next(p.parent for p in train_dir.glob("*/policy.postcard"))
     trainer_eval = json.loads((run / "eval.json").read_text())
@@ -179,7 +185,7 @@ def run_toolkit(
     if t.success_return == t.success_return:  # a return threshold (nav-walls flags success)
         argv += ["--success-return", str(t.success_return)]
     status = _run(argv, log)
-    if status not in (0, 1):
+    if not judged(status):
         return {"failed": f"firmware-sim run exited {status} (see log.txt)"}
     blob_report = json.loads((folder / "blob-report.json").read_text())
     metrics = (run / "metrics.csv").read_text().splitlines()
@@ -326,7 +332,8 @@ def _speed_row(out: Path, programs: Programs, steps: int, hidden: str, net_arch:
     # The trainer's and its Python plant's processor time: on a machine shared with other work
     # processor time is the steadier figure; wall time is recorded beside it.
     toolkit_cpu = (after.ru_utime + after.ru_stime) - (children.ru_utime + children.ru_stime)
-    if status != 0:
+    # Its one test episode is judged too: a speed run whose blob fails the gate has finished.
+    if not judged(status):
         raise GridError(f"the toolkit's speed run exited {status} (see {folder / 'log.txt'})")
     trained = re.search(r"([0-9]+) env steps in ([0-9.]+) s", (folder / "log.txt").read_text())
     if trained is None:
