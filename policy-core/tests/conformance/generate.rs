@@ -158,8 +158,9 @@ fn valid(v: &mut Vectors) {
 /// through); Q = h0 + h1.
 fn subnormals(v: &mut Vectors) {
     let tiny = 1.0e-39_f32; // subnormal (below 1.18e-38)
-    let mut critic = vec![0.0, 0.0, 1.0, 1.0, 1.0e30]; // normaliser
-    // Input W (2 units × 3 inputs: z0, z1, action), column-major by input, then b.
+                            // The normaliser, then the input W (2 units × 3 inputs: z0, z1, action), column-major by
+                            // input, and its b.
+    let mut critic = vec![0.0, 0.0, 1.0, 1.0, 1.0e30];
     critic.extend([tiny, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0]);
     critic.extend([1.0, 1.0, 0.0]); // output W (1×2), b
     let spec = Spec {
