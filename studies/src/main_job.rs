@@ -369,7 +369,10 @@ pub fn render(lines: &[Line], today: &BTreeMap<u64, Test>, commit: &str, cpu: &s
                     None => "–".to_string(),
                 },
             ),
-            (None, _) => ("running or not started | | ".to_string(), "–".to_string()),
+            (None, _) => (
+                "in progress or not started | | ".to_string(),
+                "–".to_string(),
+            ),
         };
         let _ = writeln!(
             out,
@@ -426,7 +429,7 @@ fn row(l: &Line) -> String {
             if t.passed { "PASS" } else { "FAIL" }
         ),
         None if l.parts.is_empty() => "not started | | | | ".to_string(),
-        None => "running | | | | ".to_string(),
+        None => "in progress | | | | ".to_string(),
     };
     format!(
         "| {} | {winner} | {ended} | {by} | {test} | {}",
