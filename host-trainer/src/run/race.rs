@@ -5,7 +5,7 @@
 //!
 //! **Why the winner does not depend on timing.** Racers wait for each other at every validation
 //! round: the decision on round r is made once every racer still running has validated round r,
-//! from their figures alone ([`decide`]). Racing threads run at different speeds on a busy
+//! from their figures alone ([`decide_round`]). Racing threads run at different speeds on a busy
 //! machine; they never see each other's state between rounds. The same base seed and K give
 //! the same winner and the same bytes on any machine, at any speed.
 //!
