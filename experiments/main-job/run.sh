@@ -8,8 +8,11 @@
 #   experiments/main-job/run.sh runs/main-job
 #   HOST_TRAINER=/path/to/host-trainer experiments/main-job/run.sh runs/main-job
 #
-# One queue at a time (a lock on OUT). Render the page with
-#   cargo run --release -p studies --bin main-job -- --runs runs/main-job --page docs/results/main-job.md
+# A line already in experiments/main-job/record.tsv (finished on this or another machine) is
+# skipped too. One queue at a time (a lock on OUT). Keep the finished lines and render the page
+# with
+#   cargo run --release -p studies --bin main-job -- --runs runs/main-job --save-record \
+#       --page docs/results/main-job.md --commit COMMIT --cpu MACHINE
 set -uo pipefail
 
 die() { echo "run.sh: $*" >&2; exit 2; }
@@ -28,6 +31,7 @@ while read -r name flags; do
   [ -z "$name" ] || [ "${name:0:1}" = "#" ] && continue
   dir="$out/$name"
   [ -f "$dir/done" ] && continue
+  cut -f1 experiments/main-job/record.tsv | grep -qx -- "$name" && continue
   mkdir -p "$dir"
   run=$(find "$dir" -mindepth 1 -maxdepth 1 -type d | head -n 1)
   if [ -n "$run" ]; then

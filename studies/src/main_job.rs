@@ -5,6 +5,12 @@
 //! timed by `experiments/main-job/run.sh`: `parts.txt` (one `PART EXIT ELAPSED USER SYSTEM` line
 //! per part), `done` once `train` finished (exit 0 or 1: the gate's verdict), and the run's (or
 //! race's) folder with its `eval.json` (and `race.json`).
+//!
+//! A run's folder stays on the machine that ran it; what the page needs of a finished line is
+//! kept in the committed record (`experiments/main-job/record.tsv`, one tab-separated row per
+//! line, with the commit of the binary and the machine), so the page can be rebuilt and the
+//! queue continued on another machine. A line in the record is read from it; any other line
+//! from its folder.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -37,6 +43,16 @@ pub enum Kind {
 }
 
 impl Kind {
+    /// The plan's word for it.
+    fn name(self) -> &'static str {
+        match self {
+            Kind::Today => "today",
+            Kind::Pinwheel => "pinwheel",
+            Kind::Rings => "rings",
+            Kind::Maze => "maze",
+        }
+    }
+
     fn of(name: &str) -> Result<(Kind, u64)> {
         let (kind, seed) = name
             .rsplit_once('-')
@@ -92,8 +108,8 @@ impl Test {
 pub struct Race {
     /// The winner's index and seed.
     pub winner: (usize, u64),
-    /// Every racer's episodes.
-    pub episodes: Vec<usize>,
+    /// The race's last episode (the most any racer trained).
+    pub ended_at: usize,
     /// Whether a racer's validation ended the race (else every budget was used).
     pub stopped_early: bool,
 }
@@ -115,6 +131,10 @@ pub struct Line {
     pub test: Option<Test>,
     /// The race, for a line that raced.
     pub race: Option<Race>,
+    /// Where a finished line came from: the commit of the binary and the machine, for a line
+    /// of the record; `None` for one read from the queue's folder (the page's `--commit` and
+    /// `--cpu` name those).
+    pub origin: Option<(String, String)>,
 }
 
 impl Line {
@@ -168,9 +188,10 @@ struct RacerJson {
     episodes: usize,
 }
 
-/// Reads every line of `plan` (in its order) from `runs`; a line that has not started has no
-/// parts.
-pub fn load(plan: &Path, runs: &Path) -> Result<Vec<Line>> {
+/// Reads every line of `plan` (in its order): from `record` (the committed rows, as
+/// [`read_record`] gives them) where it has the line, else from its folder in `runs`; a line
+/// that has not started has no parts.
+pub fn load(plan: &Path, runs: &Path, record: &BTreeMap<String, Line>) -> Result<Vec<Line>> {
     let text = std::fs::read_to_string(plan).with_context(|| format!("{}", plan.display()))?;
     let mut lines = Vec::new();
     for row in text.lines() {
@@ -180,9 +201,164 @@ pub fn load(plan: &Path, runs: &Path) -> Result<Vec<Line>> {
         }
         let name = row.split_whitespace().next().unwrap_or_default();
         let (kind, seed) = Kind::of(name)?;
-        lines.push(load_line(&runs.join(name), name, kind, seed)?);
+        match record.get(name) {
+            Some(line) => lines.push(line.clone()),
+            None => lines.push(load_line(&runs.join(name), name, kind, seed)?),
+        }
     }
     Ok(lines)
+}
+
+/// The record's columns, in order.
+const RECORD_COLUMNS: [&str; 14] = [
+    "name",
+    "commit",
+    "machine",
+    "parts",
+    "wall_s",
+    "cpu_s",
+    "success",
+    "settled_error",
+    "stuck",
+    "gate",
+    "winner",
+    "winner_seed",
+    "ended_at",
+    "ended_by",
+];
+
+/// The record's finished lines by name (an absent file is an empty record). `#` starts a
+/// comment line.
+pub fn read_record(path: &Path) -> Result<BTreeMap<String, Line>> {
+    let text = match std::fs::read_to_string(path) {
+        Ok(text) => text,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(BTreeMap::new()),
+        Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
+    };
+    let mut lines = BTreeMap::new();
+    for (i, row) in text.lines().enumerate() {
+        if row.trim().is_empty() || row.starts_with('#') {
+            continue;
+        }
+        let at = || format!("{} line {}", path.display(), i + 1);
+        let f: Vec<&str> = row.split('\t').collect();
+        if f.len() != RECORD_COLUMNS.len() {
+            bail!(
+                "{}: expected {} tab-separated columns ({}), found {}",
+                at(),
+                RECORD_COLUMNS.len(),
+                RECORD_COLUMNS.join(", "),
+                f.len()
+            );
+        }
+        let num = |k: usize| -> Result<f64> {
+            f[k].parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .with_context(|| {
+                    format!("{}: {} {:?} is not a number", at(), RECORD_COLUMNS[k], f[k])
+                })
+        };
+        let (kind, seed) = Kind::of(f[0]).with_context(at)?;
+        let parts = num(3)? as usize;
+        if parts == 0 {
+            bail!("{}: a finished line has at least one part", at());
+        }
+        let (wall, cpu) = (num(4)?, num(5)?);
+        // The record keeps the sums; the first part carries them, the others are counted.
+        let mut all = vec![Part { code: 0, wall, cpu }];
+        all.extend((1..parts).map(|_| Part {
+            code: 0,
+            wall: 0.0,
+            cpu: 0.0,
+        }));
+        let passed = match f[9] {
+            "PASS" => true,
+            "FAIL" => false,
+            other => bail!("{}: gate {other:?} is neither PASS nor FAIL", at()),
+        };
+        let race = match f[10] {
+            "-" => None,
+            w => Some(Race {
+                winner: (
+                    w.parse()
+                        .with_context(|| format!("{}: winner {w:?}", at()))?,
+                    f[11]
+                        .parse()
+                        .with_context(|| format!("{}: winner_seed", at()))?,
+                ),
+                ended_at: f[12]
+                    .parse()
+                    .with_context(|| format!("{}: ended_at", at()))?,
+                stopped_early: match f[13] {
+                    "validation" => true,
+                    "budget" => false,
+                    other => bail!(
+                        "{}: ended_by {other:?} is neither validation nor budget",
+                        at()
+                    ),
+                },
+            }),
+        };
+        let line = Line {
+            name: f[0].to_string(),
+            kind,
+            seed,
+            parts: all,
+            done: true,
+            test: Some(Test {
+                success: num(6)?,
+                error: num(7)?,
+                stuck: num(8)?,
+                passed,
+            }),
+            race,
+            origin: Some((f[1].to_string(), f[2].to_string())),
+        };
+        if lines.insert(line.name.clone(), line).is_some() {
+            bail!("{}: {} is in the record twice", at(), f[0]);
+        }
+    }
+    Ok(lines)
+}
+
+/// The record's row of a finished line (`None` for one not finished), with the commit and
+/// machine it ran on; figures at the page's precision or finer.
+pub fn record_row(line: &Line, commit: &str, machine: &str) -> Option<String> {
+    let t = line.test.filter(|_| line.done)?;
+    let (winner, seed, ended, by) = match &line.race {
+        Some(r) => (
+            r.winner.0.to_string(),
+            r.winner.1.to_string(),
+            r.ended_at.to_string(),
+            if r.stopped_early {
+                "validation"
+            } else {
+                "budget"
+            }
+            .to_string(),
+        ),
+        None => ("-".into(), "-".into(), "-".into(), "-".into()),
+    };
+    Some(
+        [
+            line.name.clone(),
+            commit.to_string(),
+            machine.to_string(),
+            line.parts.len().to_string(),
+            format!("{:.2}", line.wall()),
+            format!("{:.2}", line.cpu()),
+            format!("{:.2}", t.success),
+            format!("{:.6}", t.error),
+            format!("{:.2}", t.stuck),
+            if t.passed { "PASS" } else { "FAIL" }.to_string(),
+            winner,
+            seed,
+            ended,
+            by,
+        ]
+        .join("\t"),
+    )
 }
 
 fn load_line(dir: &Path, name: &str, kind: Kind, seed: u64) -> Result<Line> {
@@ -194,6 +370,7 @@ fn load_line(dir: &Path, name: &str, kind: Kind, seed: u64) -> Result<Line> {
         done: dir.join("done").is_file(),
         test: None,
         race: None,
+        origin: None,
     };
     if let Ok(parts) = std::fs::read_to_string(dir.join("parts.txt")) {
         for p in parts.lines().filter(|l| !l.trim().is_empty()) {
@@ -236,7 +413,7 @@ fn load_line(dir: &Path, name: &str, kind: Kind, seed: u64) -> Result<Line> {
         let seed = race.racers.get(w).map(|r| r.seed).unwrap_or_default();
         line.race = Some(Race {
             winner: (w, seed),
-            episodes: race.racers.iter().map(|r| r.episodes).collect(),
+            ended_at: race.racers.iter().map(|r| r.episodes).max().unwrap_or(0),
             stopped_early: race.why.contains("was the first whose validation"),
         });
     }
@@ -277,6 +454,33 @@ pub fn today_rows(records: &[&Path]) -> Result<BTreeMap<u64, Test>> {
         }
     }
     Ok(rows)
+}
+
+/// Seeds as runs of consecutive numbers.
+///
+/// ```
+/// assert_eq!(studies::main_job::seed_ranges(&[0, 1, 2, 3, 5, 7, 8]), "0–3, 5, 7–8");
+/// assert_eq!(studies::main_job::seed_ranges(&[4]), "4");
+/// ```
+pub fn seed_ranges(seeds: &[u64]) -> String {
+    let mut v = seeds.to_vec();
+    v.sort_unstable();
+    v.dedup();
+    let mut out: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < v.len() {
+        let mut j = i;
+        while j + 1 < v.len() && v[j + 1] == v[j] + 1 {
+            j += 1;
+        }
+        out.push(if i == j {
+            v[i].to_string()
+        } else {
+            format!("{}–{}", v[i], v[j])
+        });
+        i = j + 1;
+    }
+    out.join(", ")
 }
 
 /// The median of `xs` (the mean of the middle two for an even count); `None` when empty.
@@ -327,9 +531,36 @@ pub fn render(lines: &[Line], today: &BTreeMap<u64, Test>, commit: &str, cpu: &s
     let mut out = String::new();
     let of = |k: Kind| lines.iter().filter(move |l| l.kind == k);
     let done = |k: Kind| of(k).filter(|l| l.done).count();
+    // Which binary and machine each line that ran ran on, in the order they first appear.
+    let mut origins: Vec<((String, String), BTreeMap<Kind, Vec<u64>>)> = Vec::new();
+    for l in lines.iter().filter(|l| !l.parts.is_empty()) {
+        let o = l
+            .origin
+            .clone()
+            .unwrap_or_else(|| (commit.to_string(), cpu.to_string()));
+        let at = match origins.iter().position(|(k, _)| *k == o) {
+            Some(at) => at,
+            None => {
+                origins.push((o, BTreeMap::new()));
+                origins.len() - 1
+            }
+        };
+        origins[at].1.entry(l.kind).or_default().push(l.seed);
+    }
+    let measured: Vec<String> = origins
+        .iter()
+        .map(|((c, m), kinds)| {
+            let lines: Vec<String> = kinds
+                .iter()
+                .map(|(k, seeds)| format!("{} {}", k.name(), seed_ranges(seeds)))
+                .collect();
+            format!("the binary of commit {c} on {m} ({})", lines.join("; "))
+        })
+        .collect();
     let _ = writeln!(
         out,
-        "Measured with the binary of commit {commit}, on {cpu}. Lines in: pinwheel {} of {}, today {} of {}, rings {} of {}, maze {} of {}.\n",
+        "Measured with {}. Lines in: pinwheel {} of {}, today {} of {}, rings {} of {}, maze {} of {}.\n",
+        if measured.is_empty() { "nothing yet".to_string() } else { measured.join("; ") },
         done(Kind::Pinwheel),
         of(Kind::Pinwheel).count(),
         done(Kind::Today),
@@ -409,7 +640,7 @@ fn row(l: &Line) -> String {
     let (winner, ended, by) = match &l.race {
         Some(r) => (
             format!("{}, {}", r.winner.0, r.winner.1),
-            r.episodes.iter().max().copied().unwrap_or(0).to_string(),
+            r.ended_at.to_string(),
             if r.stopped_early {
                 "validation"
             } else {

@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use studies::main_job::{load, render, Test};
+use studies::main_job::{load, read_record, record_row, render, Test};
 
 /// A finished line: its parts, `done`, and a run folder with an `eval.json` (and a `race.json`
 /// for a race won by racer `winner` at episode 1,600, or run to its budget).
@@ -61,7 +61,7 @@ fn the_page_shows_every_line_and_judges_only_a_complete_queue() {
             )
         })
         .collect();
-    let lines = load(&plan, &runs).expect("loads");
+    let lines = load(&plan, &runs, &BTreeMap::new()).expect("loads");
     assert_eq!(lines.len(), 21);
     assert!((lines[1].wall() - 151.0).abs() < 1e-9 && (lines[1].cpu() - 137.0).abs() < 1e-9);
     let page = render(&lines, &today, "abc1234", "a test machine");
@@ -88,5 +88,73 @@ fn the_page_shows_every_line_and_judges_only_a_complete_queue() {
         !page.contains("Verdict"),
         "nothing is judged before every line is in: {page}"
     );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The record keeps what the page needs of a finished line: the page rebuilt from the record
+/// alone (the folders gone, as on another machine) shows the same rows, and names the commit
+/// and machine each line ran on.
+#[test]
+fn a_page_rebuilt_from_the_record_shows_the_rows_the_folders_gave() {
+    let dir = std::env::temp_dir().join(format!("main-job-record-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let runs = dir.join("runs");
+    let plan = dir.join("plan.txt");
+    std::fs::create_dir_all(&runs).expect("runs");
+    std::fs::write(
+        &plan,
+        "today-0 --seed 0 --race 1\npinwheel-0 --seed 0\npinwheel-1 --seed 1\nrings-0 --seed 0\n",
+    )
+    .expect("plan");
+    line(&runs, "today-0", (1.0, 1.196, 0.46), None);
+    line(&runs, "pinwheel-0", (1.0, 0.303, 0.0), Some(true));
+    line(&runs, "pinwheel-1", (0.97, 0.7123, 0.03), Some(false));
+    let today = BTreeMap::new();
+    let from_folders = load(&plan, &runs, &BTreeMap::new()).expect("loads");
+    let page = render(&from_folders, &today, "abc1234", "machine A");
+
+    let record = dir.join("record.tsv");
+    let mut text = String::from("# a comment\n");
+    for l in &from_folders {
+        if let Some(row) = record_row(l, "abc1234", "machine A") {
+            text.push_str(&row);
+            text.push('\n');
+        }
+    }
+    assert_eq!(
+        text.lines().count(),
+        4,
+        "three finished lines and the comment: {text}"
+    );
+    std::fs::write(&record, &text).expect("record");
+    std::fs::remove_dir_all(&runs).expect("folders gone");
+    let kept = read_record(&record).expect("reads");
+    let from_record = load(&plan, &runs, &kept).expect("loads");
+    let rebuilt = render(&from_record, &today, "def5678", "machine B");
+    let rows = |p: &str| -> Vec<String> {
+        p.lines()
+            .filter(|l| l.starts_with("| "))
+            .map(str::to_string)
+            .collect()
+    };
+    assert_eq!(rows(&page), rows(&rebuilt));
+    assert!(
+        rebuilt.contains(
+            "Measured with the binary of commit abc1234 on machine A (today 0; pinwheel 0–1)."
+        ),
+        "{rebuilt}"
+    );
+
+    // A bad row is an error that names the file, the line and the column.
+    std::fs::write(
+        &record,
+        "pinwheel-0\tabc\tm\t1\t1.0\tx\t1\t0.1\t0\tPASS\t-\t-\t-\t-\n",
+    )
+    .expect("bad record");
+    let err = format!("{:#}", read_record(&record).expect_err("refused"));
+    assert!(err.contains("line 1: cpu_s \"x\" is not a number"), "{err}");
+    std::fs::write(&record, "pinwheel-0\tabc\n").expect("short record");
+    let err = format!("{:#}", read_record(&record).expect_err("refused"));
+    assert!(err.contains("expected 14 tab-separated columns"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1,19 +1,22 @@
 //! `main-job`: the main job's study page (docs/results/main-job.md) from its queue's folders.
 //!
 //! ```sh
-//! cargo run --release -p studies --bin main-job -- --runs runs/main-job \
+//! cargo run --release -p studies --bin main-job -- --runs runs/main-job --save-record \
 //!     --page docs/results/main-job.md --commit ae1b220 --cpu "2-vCPU AMD EPYC"
 //! ```
 //!
 //! Replaces the page's `## Results` section (everything after that heading); the protocol
-//! above it, fixed before the runs, is left as it is.
+//! above it, fixed before the runs, is left as it is. Lines in the committed record
+//! (`experiments/main-job/record.tsv`) are read from it, the others from `--runs`; with
+//! `--save-record`, every finished line read from `--runs` is added to the record first, with
+//! `--commit` and `--cpu`.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use clap::Parser;
-use studies::main_job::{load, render, today_rows};
+use studies::main_job::{load, read_record, record_row, render, today_rows};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -33,6 +36,13 @@ struct Args {
     /// The margin study's records, whose A0 rows are today's single run.
     #[arg(long, default_values = ["experiments/margin/record/screen.jsonl", "experiments/margin/record/confirm.jsonl"])]
     record: Vec<PathBuf>,
+    /// The finished lines kept across machines.
+    #[arg(long, default_value = "experiments/main-job/record.tsv")]
+    lines_record: PathBuf,
+    /// Add every finished line read from `--runs` to `--lines-record` (with `--commit` and
+    /// `--cpu`) before rendering.
+    #[arg(long)]
+    save_record: bool,
     /// The commit of the binary the queue ran.
     #[arg(long)]
     commit: String,
@@ -63,7 +73,33 @@ fn run(args: Args) -> Result<()> {
     let cut = page
         .find(HEADING)
         .with_context(|| format!("{} has no \"## Results\" heading", args.page.display()))?;
-    let lines = load(&args.plan, &args.runs)?;
+    let kept = read_record(&args.lines_record)?;
+    let lines = load(&args.plan, &args.runs, &kept)?;
+    if args.save_record {
+        let new: Vec<String> = lines
+            .iter()
+            .filter(|l| l.origin.is_none())
+            .filter_map(|l| record_row(l, &args.commit, &args.cpu))
+            .collect();
+        if !new.is_empty() {
+            let path = &args.lines_record;
+            let mut text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read {}", path.display()))?;
+            if !text.is_empty() && !text.ends_with('\n') {
+                text.push('\n');
+            }
+            for row in &new {
+                text.push_str(row);
+                text.push('\n');
+            }
+            write_whole(path, &text)?;
+            eprintln!(
+                "main-job: {} finished line(s) added to {}",
+                new.len(),
+                path.display()
+            );
+        }
+    }
     let records: Vec<&std::path::Path> = args.record.iter().map(PathBuf::as_path).collect();
     let today = today_rows(&records)?;
     let mut results = render(&lines, &today, &args.commit, &args.cpu);
@@ -74,9 +110,12 @@ fn run(args: Args) -> Result<()> {
         results.insert_str(at, &notes);
     }
     let text = format!("{}{HEADING}\n{results}", &page[..cut]);
-    // Written beside the page and renamed into place: a reader never sees half a page.
-    let tmp = args.page.with_extension("partial");
+    write_whole(&args.page, &text)
+}
+
+/// Written beside the file and renamed into place: a reader never sees half a file.
+fn write_whole(path: &std::path::Path, text: &str) -> Result<()> {
+    let tmp = path.with_extension("partial");
     std::fs::write(&tmp, text).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, &args.page)
-        .with_context(|| format!("cannot write {}", args.page.display()))
+    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
 }
