@@ -532,7 +532,8 @@ pub fn render(lines: &[Line], today: &BTreeMap<u64, Test>, commit: &str, cpu: &s
     let of = |k: Kind| lines.iter().filter(move |l| l.kind == k);
     let done = |k: Kind| of(k).filter(|l| l.done).count();
     // Which binary and machine each line that ran ran on, in the order they first appear.
-    let mut origins: Vec<((String, String), BTreeMap<Kind, Vec<u64>>)> = Vec::new();
+    type Seeds = BTreeMap<Kind, Vec<u64>>;
+    let mut origins: Vec<((String, String), Seeds)> = Vec::new();
     for l in lines.iter().filter(|l| !l.parts.is_empty()) {
         let o = l
             .origin
