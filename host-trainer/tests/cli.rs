@@ -575,7 +575,19 @@ fn ppo_and_dqn_train_end_to_end_through_the_cli() {
             ]);
             assert_ok(&act);
             let line = String::from_utf8_lossy(&act.stdout);
-            assert!(line.ends_with(&format!(" choice {choice}\n")), "{line}");
+            assert!(line.contains(&format!(" choice {choice} q ")), "{line}");
+            // The rows' Q bits, whose argmax is the choice.
+            let bits = line
+                .rsplit_once('[')
+                .expect("q bits")
+                .1
+                .trim_end_matches("]\n");
+            let q: Vec<f32> = bits
+                .split(' ')
+                .map(|b| f32::from_bits(u32::from_str_radix(b, 16).expect("hex")))
+                .collect();
+            assert_eq!(q.len(), usize::from(model.header().shape.choices), "{line}");
+            assert_eq!(policy_core::model::argmax(&q), choice, "{line}");
         }
         let export = host_trainer(&["export", "--run", s(&run)]);
         assert_ok(&export);

@@ -621,6 +621,25 @@ int32_t dcp_choose(const struct dcp_model *model,
                    struct dcp_error *err);
 
 /**
+ * A discrete policy's Q value of every action-table row, `q[k]` for row `k`, as computed (NaN
+ * as it comes): the values `dcp_choose` takes its argmax of, for a port or a log to compare.
+ * `q_len` must be the blob's `choices` (`DCP_ERR_SIZE_MISMATCH`, `what` = `"choice count"`).
+ * On an actor or critic: `DCP_ERR_WRONG_KIND`. Sizes and scratch as `dcp_act`; `q` is written
+ * only on success and must not overlap `obs` or `scratch`.
+ *
+ * # Safety
+ * As `dcp_act`; `q` is NULL or `q_len` writable floats.
+ */
+int32_t dcp_choice_q(const struct dcp_model *model,
+                     const float *obs,
+                     size_t obs_len,
+                     float *scratch,
+                     size_t scratch_len,
+                     float *q,
+                     size_t q_len,
+                     struct dcp_error *err);
+
+/**
  * The action bounds of an actor or discrete policy, `low[i]` and `high[i]` for each of its
  * `len` action dimensions (`len` must be the blob's action size). On a critic:
  * `DCP_ERR_WRONG_KIND`.

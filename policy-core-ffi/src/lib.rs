@@ -7,7 +7,7 @@
 //! - [`dcp_verify`]: verifies a blob completely and fills a [`DcpHeader`].
 //! - [`dcp_model_load`] / [`dcp_model_for_policy`]: verify a blob and fill a caller-provided
 //!   [`DcpModel`] (opaque storage) with a model that reads its weights from the blob's bytes.
-//! - [`dcp_act`], [`dcp_q`], [`dcp_choose`]: run it with a caller's scratch of
+//! - [`dcp_act`], [`dcp_q`], [`dcp_choose`], [`dcp_choice_q`]: run it with a caller's scratch of
 //!   [`dcp_scratch_floats`] floats.
 //! - [`dcp_slot_choose`]: the A/B flash slot rule, as the Rust example firmware boots.
 //! - [`dcp_abi_check`]: refuses a header of another ABI version ([`DCP_ABI_VERSION`]) than the
@@ -49,8 +49,8 @@ pub use abi::{dcp_abi_check, dcp_abi_version, DCP_ABI_VERSION, DCP_MAX_SCRATCH_W
 pub use header::{dcp_verify, DcpHeader};
 pub use header::{DCP_ACTIVATION_RELU, DCP_ACTIVATION_TANH, DCP_LABEL_LEN};
 pub use model::{
-    dcp_act, dcp_action_bounds, dcp_choose, dcp_model_for_policy, dcp_model_header, dcp_model_load,
-    dcp_q, dcp_scratch_floats, DcpModel, DCP_MODEL_BYTES,
+    dcp_act, dcp_action_bounds, dcp_choice_q, dcp_choose, dcp_model_for_policy, dcp_model_header,
+    dcp_model_load, dcp_q, dcp_scratch_floats, DcpModel, DCP_MODEL_BYTES,
 };
 pub use slot::{
     dcp_slot_choose, dcp_slot_read, DcpBoot, DcpSlotStatus, DCP_SLOT_A, DCP_SLOT_B,

@@ -362,6 +362,38 @@ pub unsafe extern "C" fn dcp_choose(
     unsafe { finish(err, run) }
 }
 
+/// A discrete policy's Q value of every action-table row, `q[k]` for row `k`, as computed (NaN
+/// as it comes): the values `dcp_choose` takes its argmax of, for a port or a log to compare.
+/// `q_len` must be the blob's `choices` (`DCP_ERR_SIZE_MISMATCH`, `what` = `"choice count"`).
+/// On an actor or critic: `DCP_ERR_WRONG_KIND`. Sizes and scratch as `dcp_act`; `q` is written
+/// only on success and must not overlap `obs` or `scratch`.
+///
+/// # Safety
+/// As `dcp_act`; `q` is NULL or `q_len` writable floats.
+#[no_mangle]
+pub unsafe extern "C" fn dcp_choice_q(
+    model: *const DcpModel,
+    obs: *const f32,
+    obs_len: usize,
+    scratch: *mut f32,
+    scratch_len: usize,
+    q: *mut f32,
+    q_len: usize,
+    err: *mut DcpError,
+) -> i32 {
+    let run = || -> Result<(), Failure> {
+        let q = Raw::new(q.cast_const(), q_len, "q")?;
+        // SAFETY: forwarded contract.
+        let p = unsafe { pass(model, obs, obs_len, scratch, scratch_len, &[q]) }?;
+        // SAFETY: writable by contract; disjoint from every other buffer (checked in `pass`).
+        let q = unsafe { q.slice_mut() };
+        p.model.choice_values_in(p.obs, p.scratch, q)?;
+        Ok(())
+    };
+    // SAFETY: `err` is NULL or writable, by the caller's contract.
+    unsafe { finish(err, run) }
+}
+
 /// The action bounds of an actor or discrete policy, `low[i]` and `high[i]` for each of its
 /// `len` action dimensions (`len` must be the blob's action size). On a critic:
 /// `DCP_ERR_WRONG_KIND`.

@@ -402,6 +402,28 @@ fn null_for_every_pointer_argument_is_an_error_code() {
             dcp_choose(&model, o, 2, s, 128, null_mut(), &mut e),
             &e,
         );
+        let mut rows = [0.0f32; 4];
+        let r = rows.as_mut_ptr();
+        check(
+            "model",
+            dcp_choice_q(null(), o, 2, s, 128, r, 4, &mut e),
+            &e,
+        );
+        check(
+            "obs",
+            dcp_choice_q(&model, null(), 2, s, 128, r, 4, &mut e),
+            &e,
+        );
+        check(
+            "scratch",
+            dcp_choice_q(&model, o, 2, null_mut(), 128, r, 4, &mut e),
+            &e,
+        );
+        check(
+            "q",
+            dcp_choice_q(&model, o, 2, s, 128, null_mut(), 4, &mut e),
+            &e,
+        );
 
         let (lo, hi) = (low.as_mut_ptr(), high.as_mut_ptr());
         check("model", dcp_action_bounds(null(), lo, hi, 2, &mut e), &e);
@@ -627,6 +649,11 @@ fn wrong_lengths_and_kinds_are_error_codes() {
         let mut index = 0;
         assert_eq!(
             dcp_choose(&m, obs.as_ptr(), 2, s, 96, &mut index, &mut e),
+            DCP_ERR_WRONG_KIND
+        );
+        let mut rows = [0.0f32; 2];
+        assert_eq!(
+            dcp_choice_q(&m, obs.as_ptr(), 2, s, 96, rows.as_mut_ptr(), 2, &mut e),
             DCP_ERR_WRONG_KIND
         );
         assert_eq!(
@@ -1081,6 +1108,50 @@ fn a_discrete_policy_chooses_as_the_model_does() {
         let mut b = [0.0f32; 2];
         model.act(&obs, &mut fixed, &mut b).expect("act");
         assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits));
+        // Every row's Q, as the model computes it, and the index is their argmax.
+        let mut q = [0.0f32; 5];
+        // SAFETY: valid, distinct buffers.
+        let code = unsafe {
+            dcp_choice_q(
+                &m,
+                obs.as_ptr(),
+                2,
+                scratch.as_mut_ptr(),
+                64,
+                q.as_mut_ptr(),
+                5,
+                null_mut(),
+            )
+        };
+        assert_eq!(code, DCP_OK);
+        let mut want = [0.0f32; 5];
+        model
+            .choice_values_in(&obs, fixed.as_mut_slice(), &mut want)
+            .expect("values");
+        assert_eq!(q.map(f32::to_bits), want.map(f32::to_bits));
+        assert_eq!(policy_core::model::argmax(&q), index as usize);
+    }
+    // A q of another length than the blob's choices, and a q over the scratch, are codes.
+    let mut e = new_error();
+    let mut scratch = [0.0f32; 70];
+    let obs = [0.5f32, -0.5];
+    // SAFETY: valid buffers; the lengths and the overlap are what is tested.
+    unsafe {
+        let s = scratch.as_mut_ptr();
+        let mut q = [0.0f32; 4];
+        assert_eq!(
+            dcp_choice_q(&m, obs.as_ptr(), 2, s, 64, q.as_mut_ptr(), 4, &mut e),
+            DCP_ERR_SIZE_MISMATCH
+        );
+        assert_eq!((e.expected, e.found), (5, 4));
+        assert_eq!(
+            std::ffi::CStr::from_ptr(e.what.as_ptr()).to_str(),
+            Ok("choice count")
+        );
+        assert_eq!(
+            dcp_choice_q(&m, obs.as_ptr(), 2, s, 64, s.add(60), 5, &mut e),
+            DCP_ERR_OVERLAP
+        );
     }
 }
 

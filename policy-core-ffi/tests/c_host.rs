@@ -180,6 +180,7 @@ fn a_c_program_refuses_bad_input_and_acts_bit_exactly() {
         ("act_on_critic", DCP_ERR_WRONG_KIND),
         ("act_overlap", DCP_ERR_OVERLAP),
         ("choose_on_actor", DCP_ERR_WRONG_KIND),
+        ("choice_q_on_actor", DCP_ERR_WRONG_KIND),
         ("scratch_floats", DCP_OK),
         ("slot_choose", DCP_OK),
         ("act_slot_model", DCP_OK),

@@ -227,6 +227,29 @@ fn every_conformance_vector_passes_through_the_c_api() {
                     };
                     assert_eq!(code, DCP_OK, "{line}");
                     assert_eq!(index.to_string(), f["index"], "{line}");
+                    // Every row's Q value; a NaN matches any NaN (its bits are the CPU's).
+                    let want = floats(f["q"]);
+                    let mut q = vec![0.0f32; want.len()];
+                    // SAFETY: every buffer is valid for its length and distinct.
+                    let code = unsafe {
+                        dcp_choice_q(
+                            m,
+                            obs.as_ptr(),
+                            obs.len(),
+                            s,
+                            n,
+                            q.as_mut_ptr(),
+                            q.len(),
+                            null_mut(),
+                        )
+                    };
+                    assert_eq!(code, DCP_OK, "{line}: {}", name(code));
+                    for (k, (g, w)) in q.iter().zip(&want).enumerate() {
+                        assert!(
+                            g.to_bits() == w.to_bits() || (g.is_nan() && w.is_nan()),
+                            "{line}: row {k}: {g} against {w}"
+                        );
+                    }
                 }
             }
             "slot" => {

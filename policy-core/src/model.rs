@@ -451,6 +451,45 @@ impl<'a> Model<'a> {
         Ok(argmax(self.forward(x, y)))
     }
 
+    /// A discrete policy's Q value of every action-table row, into `q` (one per row: `q.len()`
+    /// must be the blob's `choices`, else [`Error::SizeMismatch`] with `what` =
+    /// `"choice count"`), as computed: NaN is returned as it comes, so a port can compare the
+    /// values [`Model::choose_in`] takes its argmax of. Sizes and scratch as
+    /// [`Model::act_in`].
+    ///
+    /// ```
+    /// use policy_core::model::{argmax, Model};
+    /// static BLOB: &[u8] = include_bytes!("../conformance/blobs/discrete-2x8-relu-f32.blob");
+    /// let policy = Model::from_blob(BLOB).unwrap();
+    /// let mut scratch = vec![0.0f32; policy.scratch_floats()];
+    /// let mut q = vec![0.0f32; usize::from(policy.header().shape.choices)];
+    /// policy.choice_values_in(&[0.5, -1.0], &mut scratch, &mut q).unwrap();
+    /// assert_eq!(argmax(&q), policy.choose_in(&[0.5, -1.0], &mut scratch).unwrap());
+    /// ```
+    pub fn choice_values_in(
+        &self,
+        obs: &[f32],
+        scratch: &mut [f32],
+        q: &mut [f32],
+    ) -> Result<(), Error> {
+        if self.header.kind != ModelKind::Discrete {
+            return Err(self.wrong_kind(ModelKind::Discrete));
+        }
+        let (x, y) = self.split_checked(obs.len(), self.layout.actions, scratch)?;
+        if q.len() != self.layout.outputs {
+            return Err(Error::SizeMismatch {
+                what: "choice count",
+                expected: self.layout.outputs,
+                found: q.len(),
+            });
+        }
+        self.normalize(obs, x);
+        for (o, &v) in q.iter_mut().zip(self.forward(x, y)) {
+            *o = v;
+        }
+        Ok(())
+    }
+
     /// Checks the sizes and the scratch, then splits the scratch into its two vectors of
     /// `len / 2` floats each.
     fn split_checked<'s>(

@@ -4,7 +4,7 @@
 //!
 //! An actor or a discrete policy prints its action for an observation (`Model::act`: normalised,
 //! clipped, the forward pass, `tanh`, scaled into the bounds; a discrete policy's action-table
-//! row, then the row's index, `choice N`); a critic prints Q(s, a) for an observation followed by a unit-box action
+//! row, then the row's index, `choice N`, and every row's Q value, `q ...`); a critic prints Q(s, a) for an observation followed by a unit-box action
 //! (`Model::q`). Inputs are the ones a chip may see, NaN and infinities included.
 
 use std::io::Read;
@@ -103,9 +103,12 @@ pub(crate) fn act_command(args: &ActArgs) -> Result<()> {
         };
         text.push_str(&line(values, &outputs));
         if h.kind == ModelKind::Discrete {
-            // The row's index: the choice a port's argmax must make (ties: the lowest).
+            // The row's index: the choice a port's argmax must make (ties: the lowest), then
+            // every row's Q value, the argmax's input, with its bits.
             let choice = model.choose_in(values, &mut scratch)?;
-            text.push_str(&format!(" choice {choice}"));
+            let mut q = vec![0.0f32; usize::from(h.shape.choices)];
+            model.choice_values_in(values, &mut scratch, &mut q)?;
+            text.push_str(&format!(" choice {choice} q {}", values_and_bits(&q)));
         }
         text.push('\n');
     }
@@ -116,12 +119,24 @@ pub(crate) fn act_command(args: &ActArgs) -> Result<()> {
 /// `inputs -> outputs [bits]`: every value in Rust's shortest round-trip form, then the
 /// outputs' IEEE-754 bit patterns in hex, which a port compares.
 fn line(inputs: &[f32], outputs: &[f32]) -> String {
-    let join = |v: &[f32]| v.iter().map(f32::to_string).collect::<Vec<_>>().join(" ");
-    let bits: Vec<String> = outputs
+    format!("{} -> {}", join(inputs), values_and_bits(outputs))
+}
+
+/// `v0 v1 [bits0 bits1]`.
+fn values_and_bits(values: &[f32]) -> String {
+    let bits: Vec<String> = values
         .iter()
         .map(|v| format!("{:08x}", v.to_bits()))
         .collect();
-    format!("{} -> {} [{}]", join(inputs), join(outputs), bits.join(" "))
+    format!("{} [{}]", join(values), bits.join(" "))
+}
+
+fn join(values: &[f32]) -> String {
+    values
+        .iter()
+        .map(f32::to_string)
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// One input's values, separated by commas and/or whitespace.

@@ -103,6 +103,8 @@ int main(int argc, char **argv) {
     code("act_overlap", dcp_act(&actor_model, scratch, 2, scratch, 256, action, 2, &err), &err);
     uint32_t index;
     code("choose_on_actor", dcp_choose(&actor_model, obs, 2, scratch, 256, &index, &err), &err);
+    float rows[4];
+    code("choice_q_on_actor", dcp_choice_q(&actor_model, obs, 2, scratch, 256, rows, 4, &err), &err);
     size_t floats = 0;
     code("scratch_floats", dcp_scratch_floats(&actor_model, &floats, &err), &err);
     printf("FLOATS %zu\n", floats);

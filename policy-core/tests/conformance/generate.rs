@@ -379,10 +379,15 @@ fn accept_with(v: &mut Vectors, name: &str, bytes: Vec<u8>, extra: &[Vec<f32>]) 
                 let index = model.choose(&obs, scratch).expect("choose");
                 let mut action = vec![0.0; a];
                 model.act(&obs, scratch, &mut action).expect("act");
+                let mut q = vec![0.0; usize::from(h.shape.choices)];
+                model
+                    .choice_values_in(&obs, scratch.as_mut_slice(), &mut q)
+                    .expect("choice values");
                 v.lines.push(format!(
-                    "choose {name} obs={} index={index} action={}",
+                    "choose {name} obs={} index={index} action={} q={}",
                     hex_bits(&obs),
-                    hex_bits(&action)
+                    hex_bits(&action),
+                    hex_bits(&q)
                 ));
             }
             ModelKind::Critic => {

@@ -176,6 +176,19 @@ fn every_vector_holds_for_policy_core() {
                 let mut action = vec![0.0; expected.len()];
                 model.act(&obs, scratch, &mut action).expect(&at);
                 assert_eq!(hex_bits(&action), hex_bits(&expected), "{at}");
+                // Every row's Q value, the argmax's input; a NaN matches any NaN, as for `q`.
+                let expected = parse_bits(line.field("q"));
+                let mut q = vec![0.0; expected.len()];
+                model
+                    .choice_values_in(&obs, scratch.as_mut_slice(), &mut q)
+                    .expect(&at);
+                for (k, (&got, &want)) in q.iter().zip(&expected).enumerate() {
+                    if want.is_nan() {
+                        assert!(got.is_nan(), "{at}: row {k}: {got}");
+                    } else {
+                        assert_eq!(got.to_bits(), want.to_bits(), "{at}: row {k}");
+                    }
+                }
             }
             ("slot", _) => {
                 let region = |key| read(&format!("slots/{}.slot", line.field(key)));
