@@ -103,6 +103,36 @@ def test_the_plan_skips_runs_done_and_retries_failed_ones_only_when_asked(tmp_pa
         grid.plan(tmp_path, ["pendulum"], ["dqn"], [0], retry_failed=False)
 
 
+def test_kept_runs_outlive_the_folder_and_are_never_replaced(tmp_path: Path) -> None:
+    out, kept, fresh = tmp_path / "out", tmp_path / "kept", tmp_path / "fresh"
+    run = grid.run_folder(out, "pendulum", "dcp", 0)
+    run.mkdir(parents=True)
+    (run / "result.json").write_text(json.dumps({"test": {"mean_return": -140.0}}))
+    (run / "train.jsonl").write_text('{"return": -1200.0}\n')
+    (run / "checkpoint.bin").write_bytes(b"large, not kept")
+    unfinished = grid.run_folder(out, "pendulum", "dcp", 1)
+    unfinished.mkdir(parents=True)
+    (unfinished / "train.jsonl").write_text('{"return": -1300.0}\n')
+    (out / "pendulum" / "random.json").write_text('{"mean_return": -1200.0}')
+    assert grid.keep(out, kept) == 3
+    assert grid.keep(out, kept) == 0  # the same files: nothing to do
+    assert not (kept / "pendulum" / "dcp" / "seed0" / "checkpoint.bin").exists()
+    assert not (kept / "pendulum" / "dcp" / "seed1").exists()
+    # On another machine: the kept run is put back, and the plan skips it.
+    assert grid.restore(kept, fresh) == 3
+    todo = grid.plan(fresh, ["pendulum"], ["dcp"], [0, 1], retry_failed=False)
+    assert todo == [("pendulum", "dcp", 1)]
+    # A finished run that differs from the kept one is refused, and nothing is copied.
+    other = grid.run_folder(out, "pendulum", "dcp", 2)
+    other.mkdir(parents=True)
+    (other / "result.json").write_text("{}")
+    (run / "result.json").write_text(json.dumps({"test": {"mean_return": -150.0}}))
+    with pytest.raises(grid.GridError, match="a finished run is never replaced"):
+        grid.keep(out, kept)
+    assert not (kept / "pendulum" / "dcp" / "seed2").exists()
+    assert json.loads((kept / "pendulum" / "dcp" / "seed0" / "result.json").read_text())["test"] == {"mean_return": -140.0}
+
+
 def test_a_second_grid_in_one_folder_is_refused(tmp_path: Path) -> None:
     first = grid.GridLock(tmp_path)
     try:

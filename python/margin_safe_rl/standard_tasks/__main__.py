@@ -4,7 +4,10 @@
   link), every episode measured and appended to FILE;
 - ``run --out DIR [--tasks ...] [--agents ...] [--seeds 0-4] [--jobs N] [--steps N]``: the
   grid's runs not done yet (``--steps`` overrides every budget: for the CI's tiny grid only);
-- ``status --out DIR``: runs done, failed and left per task and agent.
+- ``status --out DIR``: runs done, failed and left per task and agent;
+- ``keep --out DIR --to KEPT``: what the page needs of every finished run, copied into KEPT (the
+  repository's ``experiments/standard-tasks/kept``), so the grid and its page outlive the
+  machine; ``run --kept KEPT`` puts those runs back into a new folder before it plans.
 """
 from __future__ import annotations
 
@@ -100,6 +103,10 @@ def _run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     lock = grid.GridLock(out)
     try:
+        if args.kept:
+            restored = grid.restore(Path(args.kept), out)
+            if restored:
+                print(f"{restored} kept files put back into {out} from {args.kept}", flush=True)
         todo = grid.plan(out, args.tasks, args.agents, args.seeds, args.retry_failed)
         programs = _programs(args)
         os.environ["FIRMWARE_SIM"] = programs.firmware_sim  # nav-walls's plant (see `_one`)
@@ -159,6 +166,22 @@ def _speed(args: argparse.Namespace) -> int:
     return 0
 
 
+def _keep(args: argparse.Namespace) -> int:
+    out, kept = Path(args.out), Path(args.to)
+    # The grid's writer stays out while its folder is read; one keeper at a time in KEPT.
+    lock = grid.GridLock(out)
+    try:
+        keeper = grid.GridLock(kept, ".keep.lock")
+        try:
+            copied = grid.keep(out, kept)
+        finally:
+            keeper.release()
+    finally:
+        lock.release()
+    print(f"{copied} files kept in {kept}")
+    return 0
+
+
 def _status(args: argparse.Namespace) -> int:
     import json
 
@@ -193,6 +216,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     r.add_argument("--steps", type=int, default=None, help="override every budget (tiny grids)")
     r.add_argument("--test-episodes", type=int, default=grid.TEST_EPISODES)
     r.add_argument("--retry-failed", action="store_true")
+    r.add_argument("--kept", help="put the runs kept in this folder back into --out first")
     r.add_argument("--host-trainer", help="the host-trainer program (default: on PATH)")
     r.add_argument("--firmware-sim", help="the firmware-sim program (default: on PATH)")
     o = commands.add_parser("one", help="one run of the grid (what `run` starts per run)")
@@ -213,6 +237,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     c.add_argument("--out", required=True, help="the grid's folder (chip.json is written there)")
     c.add_argument("--repo", default=".", help="the repository (for scripts/cortex-m.sh)")
     c.add_argument("--tasks", type=_names, default=grid.all_tasks())
+    k = commands.add_parser("keep", help="copy what the page needs of the finished runs into a kept folder")
+    k.add_argument("--out", required=True, help="the grid's folder")
+    k.add_argument("--to", required=True, help="the kept folder (experiments/standard-tasks/kept)")
     st = commands.add_parser("status", help="what is done in a grid's folder")
     st.add_argument("--out", required=True)
     st.add_argument("--seeds", type=_seeds, default=list(range(5)))
@@ -224,6 +251,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return _one(args)
         if args.command == "chip":
             return _chip(args)
+        if args.command == "keep":
+            return _keep(args)
         if args.command == "speed":
             if args.steps < 2000:
                 raise grid.GridError("--steps must be at least 2000 (1000 of them before the first update)")

@@ -7,6 +7,12 @@ mid-way continues from its last checkpoint (``host-trainer train --resume``); an
 again. A run whose program fails is recorded as failed (``result.json`` with ``failed``) and
 counted on the page; ``--retry-failed`` runs it again.
 
+A run's folder stays on the machine that ran it. What the page needs of each finished run (its
+``result.json`` and ``train.jsonl``, each task's ``random.json``, the grid's ``chip.json`` and
+``speed.json``) is kept in the repository with :func:`keep` (``standard_tasks keep``), and
+``run --kept DIR`` puts the kept runs back into a new machine's folder first, so the grid goes
+on there from where it stopped.
+
 Agents:
 - ``sb3-td3``, ``sb3-sac``, ``sb3-ddpg``: SB3 with the Zoo's settings and budget for the task;
 - ``dcp``, ``dcp-paper``, ``ddpg``, ``td3``: the toolkit's agents with its defaults (4x48 ReLU),
@@ -72,6 +78,63 @@ def _write_atomic(path: Path, text: str) -> None:
         f.flush()
         os.fsync(f.fileno())
     os.replace(tmp, path)
+
+
+RUN_FILES = ("result.json", "train.jsonl")
+TASK_FILES = ("random.json",)
+GRID_FILES = ("chip.json", "speed.json")
+
+
+def _kept_files(root: Path) -> list[Path]:
+    """Every file of ``root`` that a kept grid holds, relative to it: the grid's files, each
+    task's, and each finished run's (a run without ``result.json`` is not finished)."""
+    found = [Path(name) for name in GRID_FILES if (root / name).is_file()]
+    for result in sorted(root.glob("*/*/seed*/result.json")):
+        run = result.parent.relative_to(root)
+        found += [run / name for name in RUN_FILES if (root / run / name).is_file()]
+    for t in sorted({p.parts[0] for p in found if len(p.parts) > 1}):
+        found += [Path(t) / name for name in TASK_FILES if (root / t / name).is_file()]
+    return found
+
+
+def _copy_through(src_root: Path, dst_root: Path, what: str) -> int:
+    """Copies every kept file of ``src_root`` that ``dst_root`` lacks; a file both hold must be
+    the same bytes (a finished run is never replaced: a difference is an error naming both, and
+    nothing is copied). Returns the number of files copied."""
+    todo = []
+    for rel in _kept_files(src_root):
+        src, dst = src_root / rel, dst_root / rel
+        data = src.read_bytes()
+        if dst.exists():
+            if dst.read_bytes() != data:
+                raise GridError(
+                    f"{what}: {dst} differs from {src}; a finished run is never replaced "
+                    "(move one of them away if the other is the one to keep)"
+                )
+            continue
+        todo.append((dst, data))
+    for dst, data in todo:
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        tmp = dst.with_name(f".{dst.name}.{os.getpid()}.tmp")
+        tmp.write_bytes(data)
+        os.replace(tmp, dst)
+    return len(todo)
+
+
+def keep(out: Path, kept: Path) -> int:
+    """Copies what the page needs of every finished run in ``out`` (failed ones too: the page
+    counts them) into ``kept``, the folder committed with the page; returns the files copied."""
+    if not out.is_dir():
+        raise GridError(f"keep: no grid folder {out}")
+    return _copy_through(out, kept, "keep")
+
+
+def restore(kept: Path, out: Path) -> int:
+    """Puts the kept runs back into ``out`` (where it lacks them), so that the plan skips them
+    and the page reads them; returns the files copied."""
+    if not kept.is_dir():
+        raise GridError(f"--kept: no folder {kept}")
+    return _copy_through(kept, out, "--kept")
 
 
 def test_seeds(programs: Programs, episodes: int = TEST_EPISODES) -> list[int]:
