@@ -12,8 +12,10 @@
  * as the Rust firmware (firmware/src/main.rs) so that firmware/host-check checks and measures
  * both alike: which slot runs and why, the observations and actions as f32 bits (the host
  * recomputes them), fw_mark calls around each span a QEMU plugin counts, SysTick counts (the
- * fallback) and the stack's peak (painted). QEMU's exit status is 0 only if a slot's blob was
- * accepted and every action is finite and inside the blob's bounds. */
+ * fallback) and the stack's peak (painted). Built with -DMEASURE_CALLS it then measures the
+ * stack of every call of the C API one by one (scripts/cortex-m.sh builds it both ways, so that
+ * the measuring code stays out of the firmware's flash figures). QEMU's exit status is 0 only if
+ * a slot's blob was accepted and every action is finite and inside the blob's bounds. */
 #include <stddef.h>
 #include <stdint.h>
 
@@ -154,6 +156,124 @@ static uint32_t bits(float v) {
     return b;
 }
 
+/* --- the stack of each call (-DMEASURE_CALLS) ------------------------------------------- */
+#if defined(MEASURE_CALLS)
+
+/* Two more slot records in the link script's probe regions, loaded as the slots are: a critic
+ * and a discrete policy of this firmware's sizes, for the calls only those kinds take. A
+ * region without a record (a firmware flashed with its slots only) skips those calls. */
+extern const uint8_t _probe_critic[], _probe_discrete[], _probe_size[];
+
+/* Paints the stack below the caller's stack pointer and returns that pointer. Inlined, so that
+ * it is the pointer the caller's next call starts from: GCC's ARM frames are set up once in the
+ * prologue, and stacked arguments lie above the pointer, in the caller's frame. */
+static inline __attribute__((always_inline)) uintptr_t painted(void) {
+    uintptr_t sp = stack_pointer();
+    paint(sp);
+    return sp;
+}
+
+/* "STACK_PHASE <call> <bytes>": what the call used below its caller's frame. The run fails
+ * unless it returned `want` (a figure of a call that failed early would mean nothing). */
+static void call_stack(const char *call, uint32_t bytes, int32_t got, int32_t want) {
+    line l;
+    if (got != want) {
+        line_new(&l, "FAIL stack of ");
+        line_push(&l, call);
+        line_push(&l, ": status ");
+        line_push(&l, dcp_status_name(got));
+        line_emit(&l);
+        exit_failure();
+    }
+    line_new(&l, "STACK_PHASE ");
+    line_push(&l, call);
+    line_dec(&l, bytes);
+    line_emit(&l);
+}
+
+/* Runs `call` (an expression giving a status) on a freshly painted stack and prints its peak.
+ * The stack is measured before call_stack's own frame is pushed. */
+#define STACK_OF(name, want, call)                                                         \
+    do {                                                                                   \
+        uintptr_t at_ = painted();                                                         \
+        int32_t got_ = (call);                                                             \
+        call_stack((name), used_below(at_), got_, (want));                                 \
+    } while (0)
+
+/* Loads a probe region's record into `model`: DCP_OK, or why not (an empty region skips it). */
+static int32_t load_probe(const uint8_t *region, uint32_t kind) {
+    uint32_t sequence;
+    const uint8_t *blob;
+    size_t len;
+    dcp_header header;
+    size_t size = (size_t)(uintptr_t)_probe_size;
+    if (dcp_slot_read(region, size, &sequence, &blob, &len, NULL) != DCP_OK) {
+        return DCP_ERR_SLOT_EMPTY;
+    }
+    if (dcp_model_load(blob, len, &model, NULL) != DCP_OK ||
+        dcp_model_header(&model, &header, NULL) != DCP_OK || header.kind != kind ||
+        header.observations != OBS || header.actions != ACT) {
+        fail("a probe region holds a record that is not a model of this kind and sizes");
+    }
+    return DCP_OK;
+}
+
+/* The stack of every call a firmware makes, each alone below this function's frame: on the
+ * running slot's actor, then on the probe regions' critic and discrete policy. The error paths
+ * are measured with a dcp_error to fill: building its message is the costly part. Reloads
+ * `model` and rewrites `*boot`: nothing may use them afterwards. */
+__attribute__((noinline)) static void measure_calls(const uint8_t *slot, size_t slot_size,
+                                                    dcp_boot *boot) {
+    uint32_t sequence, index;
+    const uint8_t *blob;
+    size_t len, floats;
+    dcp_header header;
+    dcp_error err;
+    float obs[OBS], action[ACT], low[ACT], high[ACT], q[8];
+    const float unit_action[ACT] = {0.5f, -0.5f};
+    __builtin_memcpy(obs, OBSERVATIONS[1], sizeof obs);
+
+    STACK_OF("dcp_abi_version", DCP_OK, dcp_abi_version() == DCP_ABI_VERSION ? DCP_OK : -1);
+    STACK_OF("dcp_abi_check", DCP_OK, DCP_ABI_CHECK(NULL));
+    STACK_OF("dcp_slot_choose", DCP_OK,
+             dcp_slot_choose(_slot_a, slot_size, _slot_b, slot_size, OBS, ACT, W, boot, &model,
+                             NULL));
+    STACK_OF("dcp_slot_read", DCP_OK,
+             dcp_slot_read(slot, slot_size, &sequence, &blob, &len, NULL));
+    STACK_OF("dcp_verify", DCP_OK, dcp_verify(blob, len, &header, NULL));
+    STACK_OF("dcp_model_load", DCP_OK, dcp_model_load(blob, len, &model, NULL));
+    STACK_OF("dcp_model_for_policy", DCP_OK,
+             dcp_model_for_policy(blob, len, OBS, ACT, W, &model, NULL));
+    STACK_OF("dcp_model_header", DCP_OK, dcp_model_header(&model, &header, NULL));
+    STACK_OF("dcp_scratch_floats", DCP_OK, dcp_scratch_floats(&model, &floats, NULL));
+    STACK_OF("dcp_action_bounds", DCP_OK, dcp_action_bounds(&model, low, high, ACT, NULL));
+    STACK_OF("dcp_act", DCP_OK, dcp_act(&model, obs, OBS, scratch, 2 * W, action, ACT, NULL));
+    STACK_OF("dcp_status_name", DCP_OK,
+             dcp_status_name(DCP_ERR_CHECKSUM_MISMATCH)[0] ? DCP_OK : -1);
+    /* Errors with their details: a scratch too small on the hot path, and a blob for another
+     * plant at load (verified in full, then refused with both sizes in the message). */
+    STACK_OF("dcp_act+error", DCP_ERR_SCRATCH_TOO_SMALL,
+             dcp_act(&model, obs, OBS, scratch, 2, action, ACT, &err));
+    STACK_OF("dcp_model_for_policy+error", DCP_ERR_SIZE_MISMATCH,
+             dcp_model_for_policy(blob, len, OBS + 1, ACT, W, &model, &err));
+
+    if (load_probe(_probe_critic, DCP_KIND_CRITIC) == DCP_OK) {
+        STACK_OF("dcp_q", DCP_OK,
+                 dcp_q(&model, obs, OBS, unit_action, ACT, scratch, 2 * W, &q[0], NULL));
+    }
+    if (load_probe(_probe_discrete, DCP_KIND_DISCRETE) == DCP_OK) {
+        size_t choices = dcp_model_header(&model, &header, NULL) == DCP_OK ? header.choices : 0;
+        if (choices > sizeof q / sizeof q[0]) {
+            fail("the probe's discrete policy has more choices than the firmware's buffer");
+        }
+        STACK_OF("dcp_choose", DCP_OK,
+                 dcp_choose(&model, obs, OBS, scratch, 2 * W, &index, NULL));
+        STACK_OF("dcp_choice_q", DCP_OK,
+                 dcp_choice_q(&model, obs, OBS, scratch, 2 * W, q, choices, NULL));
+    }
+}
+#endif
+
 int main(void) {
     uintptr_t sp = stack_pointer();
     paint(sp);
@@ -270,6 +390,11 @@ int main(void) {
             }
         }
     }
+#if defined(MEASURE_CALLS)
+    /* Last: it reloads `model`. */
+    measure_calls(booted.running == DCP_SLOT_A ? _slot_a : _slot_b, (size_t)(uintptr_t)_slot_size,
+                  &booted);
+#endif
     line_new(&l, "DONE");
     line_emit(&l);
     exit_ok();

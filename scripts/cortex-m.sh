@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # cortex-m.sh -- build the example firmware (firmware/) for a Cortex-M4F and a Cortex-M3, run it
 # under QEMU on several blobs, check its actions bit for bit against policy-core on the host, and
-# write a resource report (flash, static RAM, peak stack, instructions per `act`, boot cost);
-# then boot the M4F firmware on the A/B slot cases (which slot runs, fallback, safe state).
+# write a resource report (flash, static RAM, peak stack, instructions per `act`, boot cost, the
+# C API's stack per call); then boot the M4F firmware on the A/B slot cases (which slot runs,
+# fallback, safe state).
 #
 # The firmware holds no blob: policies live in two flash slots after it (firmware/memory.x), and
 # each run loads a slot image (policy-core's slot record: a 16-byte header with a sequence number,
@@ -25,7 +26,12 @@
 # The c-* variants run the example C firmware (firmware-c/, C11 built with Debian's GNU Arm
 # toolchain) on the same blobs: policy-core's C API (policy-core-ffi) built as a static library
 # for the target (release profile, fat LTO, -Zbuild-std=core) and linked into a C program that
-# prints the same lines as the Rust firmware, so host-check checks and measures both alike.
+# prints the same lines as the Rust firmware, so host-check checks and measures both alike. A
+# second build of it (-DMEASURE_CALLS, run once more; not in the flash figures) measures the
+# stack of every call of the C API one by one (a STACK_PHASE line each, the report's
+# stack_per_call and its second table), the critic's and the discrete policy's calls on two more
+# slot records loaded beside the slots: policy-core's golden critic_2x32 and the conformance blob
+# discrete-2x8-relu-f32.
 #
 # Usage: bash scripts/cortex-m.sh [--blob FILE] [--out FILE] [--install-only]
 #   --blob FILE     a trained policy blob (e.g. from host-trainer; any shape up to 64 wide, up to
@@ -314,8 +320,8 @@ FW_ENV=(env -u RUSTFLAGS -u CARGO_ENCODED_RUSTFLAGS -u CARGO_BUILD_RUSTFLAGS RUS
   CARGO_PROFILE_RELEASE_SIZE_OPT_LEVEL="$SIZE_OPT_LEVEL")
 QEMU_BASE=(qemu-system-arm -nographic -semihosting-config enable=on,target=native -icount shift=0)
 # The address of a slot (a or b) in a firmware ELF: memory.x's _slot_a / _slot_b symbols.
-slot_addr() { # ELF a|b|critic -> memory.x's _slot_a, _slot_b or _critic address
-  local sym=_slot_$2; [ "$2" = critic ] && sym=_critic
+slot_addr() { # ELF a|b|critic|probe_critic|probe_discrete -> _slot_a, _slot_b, _critic, ... address
+  local sym=_slot_$2; case $2 in critic|probe_*) sym=_$2 ;; esac
   local a; a=$(nm "$1" | awk -v s="$sym" '$3==s{print $1}'); [ -n "$a" ] || die "no $sym symbol in $1"; echo "0x$a"; }
 # run_qemu DIR MACHINE CPU [ADDR IMAGE]...: boots DIR/firmware.elf with each IMAGE loaded at its
 # ADDR (a flasher's job on a board); the firmware's output goes to DIR/firmware.log and the
@@ -344,8 +350,8 @@ FFI_ENV=(env -u RUSTFLAGS -u CARGO_ENCODED_RUSTFLAGS -u CARGO_BUILD_RUSTFLAGS RU
   CARGO_RESOLVER_FEATURE_UNIFICATION=package
   CARGO_PROFILE_RELEASE_LTO=fat CARGO_PROFILE_RELEASE_CODEGEN_UNITS=1 CARGO_PROFILE_RELEASE_PANIC=abort CARGO_PROFILE_RELEASE_DEBUG=true)
 C_FLAGS=(-std=c11 -O2 -g -Wall -Wextra -Werror -ffreestanding -ffunction-sections -fdata-sections)
-build_c_firmware() { # TARGET OUT.elf
-  local target=$1 out=$2 cpu
+build_c_firmware() { # TARGET OUT.elf [CFLAG...]
+  local target=$1 out=$2 cpu; shift 2
   case $target in
     thumbv7em-none-eabihf) cpu=(-mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16) ;;
     thumbv7m-none-eabi) cpu=(-mcpu=cortex-m3 -mthumb -mfloat-abi=soft) ;;
@@ -359,10 +365,17 @@ build_c_firmware() { # TARGET OUT.elf
     | { grep -vE '^ +(Compiling|Downloaded|Downloading|Locking|Adding|Updating|Finished)' || true; }) || return 1
   local lib=$WORK/ffi/$target/release/libpolicy_core_ffi.a
   [ -f "$lib" ] || { echo "no $lib"; return 1; }
-  arm-none-eabi-gcc "${cpu[@]}" "${C_FLAGS[@]}" -I "$ROOT/policy-core-ffi/include" \
+  arm-none-eabi-gcc "${cpu[@]}" "${C_FLAGS[@]}" "$@" -I "$ROOT/policy-core-ffi/include" \
     -nostdlib -Wl,--gc-sections -Wl,-z,noexecstack -L "$ROOT/firmware" -T "$ROOT/firmware-c/link.ld" \
     "$ROOT"/firmware-c/{main,startup,console}.c "$lib" -lgcc -o "$out"
 }
+# The two slot records the C firmware measures the critic's and the discrete policy's calls on
+# (firmware-c/link.ld's probe regions), and the calls every c-* variant must report.
+PROBE_CRITIC=$ROOT/policy-core/tests/golden/critic_2x32.postcard
+PROBE_DISCRETE=$ROOT/policy-core/conformance/blobs/discrete-2x8-relu-f32.blob
+C_CALLS="dcp_abi_version dcp_abi_check dcp_slot_choose dcp_slot_read dcp_verify dcp_model_load
+  dcp_model_for_policy dcp_model_header dcp_scratch_floats dcp_action_bounds dcp_act
+  dcp_status_name dcp_act+error dcp_model_for_policy+error dcp_q dcp_choose dcp_choice_q"
 
 #==================================================================================================
 # HIL (hardware in the loop) -- begin. The HIL firmware (feature `hil`: after the same boot it
@@ -580,8 +593,12 @@ for spec in "${ALL_VARIANTS[@]}"; do
   blob=$(blob_for "$which")
 
   if [ "${firmware:-rust}" = c ]; then
-    step "$name: build the C firmware ($target; policy-core-ffi, profile $profile; no blob inside)"
+    step "$name: build the C firmware ($target; policy-core-ffi, profile $profile; no blob inside), and again with -DMEASURE_CALLS"
     if ! build_c_firmware "$target" "$dir/firmware.elf"; then FAILED+=("$name: build"); continue; fi
+    # The same firmware that then measures the stack of each call of the C API: a build of its
+    # own, so that the measuring code stays out of the figures of the firmware above.
+    mkdir -p "$dir/calls"; rm -f "$dir/calls"/*.log
+    if ! build_c_firmware "$target" "$dir/calls/firmware.elf" -DMEASURE_CALLS; then FAILED+=("$name: build (-DMEASURE_CALLS)"); continue; fi
   else
   step "$name: build ($target, profile $profile${encodings:+, encodings $encodings only}; no blob inside)"
   if ! (cd "$ROOT/firmware" && "${FW_ENV[@]}" "${refine_env[@]}" cargo build --profile "$profile" --locked -Zbuild-std=core \
@@ -613,9 +630,30 @@ for spec in "${ALL_VARIANTS[@]}"; do
 
   step "$name: compare with policy-core on the host (bit-exact) and measure"
   if ! "$HC" check "$blob" "$dir/firmware.log" "${critic_args[@]}"; then FAILED+=("$name: actions differ from the host"); continue; fi
+  main_plugin_log=("${plugin_log[@]}"); calls_args=()
+  if [ "${firmware:-rust}" = c ]; then
+    step "$name: the stack of each call of the C API (the -DMEASURE_CALLS build; a critic and a discrete policy in its probe regions)"
+    "$HC" image "$PROBE_CRITIC" "$dir/calls/probe-critic.bin" --sequence 1 >/dev/null
+    "$HC" image "$PROBE_DISCRETE" "$dir/calls/probe-discrete.bin" --sequence 1 >/dev/null
+    set +e
+    run_qemu "$dir/calls" "$machine" "$cpu" "$(slot_addr "$dir/calls/firmware.elf" a)" "$dir/slot-a.bin" \
+      "$(slot_addr "$dir/calls/firmware.elf" probe_critic)" "$dir/calls/probe-critic.bin" \
+      "$(slot_addr "$dir/calls/firmware.elf" probe_discrete)" "$dir/calls/probe-discrete.bin"
+    rc=$?
+    set -e
+    if [ $rc != 0 ]; then
+      tail -5 "$dir/calls/firmware.log"
+      FAILED+=("$name: the -DMEASURE_CALLS build: QEMU exit status $rc$([ $rc = 124 ] && echo ' (timeout)')"); continue
+    fi
+    calls_args=(--calls-log "$dir/calls/firmware.log")
+  fi
   if ! "$HC" measure --variant "$name" --target "$target" --machine "$machine" --cpu "$cpu" --blob "$blob" --image "$dir/slot-a.bin" \
-        --profile "$profile" --opt-level "${OPT_LEVEL[$profile]}" --encodings "${encodings:-f32,f16,int8}" --sizes "$dir/sizes.txt" --fw-log "$dir/firmware.log" "${plugin_log[@]}" "${critic_args[@]}" --out "$dir/resources.json"; then
+        --profile "$profile" --opt-level "${OPT_LEVEL[$profile]}" --encodings "${encodings:-f32,f16,int8}" --sizes "$dir/sizes.txt" --fw-log "$dir/firmware.log" "${main_plugin_log[@]}" "${critic_args[@]}" "${calls_args[@]}" --out "$dir/resources.json"; then
     FAILED+=("$name: measurement"); continue
+  fi
+  if [ "${firmware:-rust}" = c ]; then
+    missing=$(for call in $C_CALLS; do grep -q "\"call\": \"$call\"" "$dir/resources.json" || printf ' %s' "$call"; done)
+    [ -z "$missing" ] || { FAILED+=("$name: no stack figure for$missing"); continue; }
   fi
   JSONS+=("$dir/resources.json")
 done
@@ -713,6 +751,7 @@ set +e
   --meta "encodings=every firmware runs f32, f16 and int8 blobs except the *-int8-only* variants (int8 only; per variant: firmware_encodings)" \
   --meta "c firmware=the c-* variants: firmware-c/ (arm-none-eabi-gcc $(arm-none-eabi-gcc -dumpversion), ${C_FLAGS[*]}) linked with policy-core-ffi built with the release profile" \
   --meta "instructions=exact counts from a TCG plugin between fw_mark calls (mark cost subtracted)" \
+  --meta "stack=painted: peak stack = main's frame + the largest of its phases below it (boot, act); stack_per_call (c-* variants) = each C API call alone, below the frame of the function that makes it, not in the peak" \
   --meta "command=${VARIANTS:+VARIANTS=\"$VARIANTS\" }${SIZE_OPT_LEVEL_SET:+SIZE_OPT_LEVEL=$SIZE_OPT_LEVEL }${EXTRA_FEATURES:+EXTRA_FEATURES=$EXTRA_FEATURES }bash scripts/cortex-m.sh${BLOB:+ --blob $BLOB}${REFINE_RUN:+ --refine-run $REFINE_RUN}" \
   "${JSONS[@]}" 2>"$WORK/report.err"
 rc=$?

@@ -30,6 +30,10 @@ pub struct FirmwareLog {
     pub stack_main: Option<u64>,
     /// Stack bytes used below `main` in each phase.
     pub stack_phases: BTreeMap<String, u64>,
+    /// Stack bytes each C API call used below its caller's frame, in the order printed: the C
+    /// firmware's `STACK_PHASE` lines named for a call (`dcp_act`, `dcp_act+error`), measured
+    /// one by one below the function that makes them, not below `main`.
+    pub stack_calls: Vec<(String, u64)>,
     /// What became of each flash slot at boot: `SLOT A running 3` gives `"A" -> "running 3"`.
     pub slots: BTreeMap<String, String>,
     /// `RUNNING A`, `RUNNING B` or `RUNNING safe`: the slot the firmware runs.
@@ -41,6 +45,11 @@ pub struct FirmwareLog {
     pub done: bool,
     /// `FAIL ...` lines.
     pub failures: Vec<String>,
+}
+
+/// A stack phase named for a C API call (every function of the header starts with `dcp_`).
+fn is_call(phase: &str) -> bool {
+    phase.starts_with("dcp_")
 }
 
 fn num(field: Option<&str>, line: &str) -> Result<u64> {
@@ -109,7 +118,12 @@ impl FirmwareLog {
                         .next()
                         .ok_or_else(|| anyhow!("short line {line:?}"))?
                         .to_string();
-                    log.stack_phases.insert(name, num(f.next(), line)?);
+                    let bytes = num(f.next(), line)?;
+                    if is_call(&name) {
+                        log.stack_calls.push((name, bytes));
+                    } else {
+                        log.stack_phases.insert(name, bytes);
+                    }
                 }
                 Some("SLOT") => {
                     let id = f.next().ok_or_else(|| anyhow!("short line {line:?}"))?;
@@ -180,7 +194,8 @@ mod tests {
 
     const LOG: &str = "SHAPE 4 48 2 2\nSCRATCH_BYTES 512\nOBS 0 00000000 3f800000\n\
                        ACT 0 3e800000 be800000\nSPAN overhead 1\nSPAN act 0\nSPAN tanhf 64\n\
-                       STACK_MAIN 96\nSTACK_PHASE act 120\nSLOT A running 3\n\
+                       STACK_MAIN 96\nSTACK_PHASE act 120\nSTACK_PHASE dcp_verify 988\n\
+                       STACK_PHASE dcp_act+error 1128\nSLOT A running 3\n\
                        SLOT B failed: checksum mismatch: stored CRC-32 0x1\nRUNNING A\nDONE\n";
 
     #[test]
@@ -197,6 +212,12 @@ mod tests {
         assert_eq!(f32::from_bits(log.actions[&0][0]), 0.25);
         assert_eq!(log.spans[1], ("act0".to_string(), 1));
         assert_eq!(log.stack_phases["act"], 120);
+        assert_eq!(
+            log.stack_calls,
+            [("dcp_verify".into(), 988), ("dcp_act+error".into(), 1128)],
+            "calls kept apart from main's phases, in the order printed"
+        );
+        assert_eq!(log.stack_phases.len(), 1);
         assert_eq!(log.slots["A"], "running 3");
         assert_eq!(
             log.slots["B"],

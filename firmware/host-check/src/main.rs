@@ -13,7 +13,10 @@
 //!                                          step if it ran one); bit-exact or exit 1
 //! host-check measure --variant NAME --target T --machine M --cpu C --blob BLOB --image SLOT_BIN
 //!                    --profile PROFILE --opt-level LEVEL --sizes SIZE_A_TXT --fw-log LOG
-//!                    [--encodings f32,f16,int8] [--plugin-log LOG] --out JSON
+//!                    [--encodings f32,f16,int8] [--plugin-log LOG] [--calls-log LOG] --out JSON
+//!                                          one variant's figures; --calls-log: the log of the
+//!                                          same C firmware built to measure the stack of each
+//!                                          call (its STACK_PHASE dcp_* lines)
 //! host-check image BLOB OUT.bin|OUT.hex --sequence N [--address ADDR]
 //!                                          a slot record (header + blob) for a flash slot
 //! host-check damage IN OUT (--flip OFFSET | --cut LEN)
@@ -206,7 +209,15 @@ fn measure(flags: &BTreeMap<String, String>) -> Result<()> {
     let blob_path = flag(flags, "blob")?;
     let blob = read(blob_path)?;
     let info = BlobInfo::of(&blob)?;
-    let log = FirmwareLog::parse(&read_text(flag(flags, "fw-log")?)?)?;
+    let mut log = FirmwareLog::parse(&read_text(flag(flags, "fw-log")?)?)?;
+    if let Some(path) = flags.get("calls-log") {
+        let calls = FirmwareLog::parse(&read_text(path)?)?;
+        calls.require_success().with_context(|| path.clone())?;
+        if calls.stack_calls.is_empty() {
+            bail!("{path}: expected STACK_PHASE lines of C API calls, found none");
+        }
+        log.stack_calls = calls.stack_calls;
+    }
     let critic = flags.get("critic").map(|c| read(c)).transpose()?;
     let cmp = check::compare_with(&blob, critic.as_deref(), &log, false)?;
     let plugin = flags.get("plugin-log").map(|p| read_text(p)).transpose()?;
@@ -259,7 +270,11 @@ fn report(
         .iter()
         .map(|f| serde_json::from_str(&read_text(f)?).with_context(|| format!("{f} is not JSON")))
         .collect::<Result<Vec<serde_json::Value>>>()?;
-    let table = report::table(&variants);
+    let mut table = report::table(&variants);
+    let calls = report::call_table(&variants);
+    if !calls.is_empty() {
+        table += &format!("\nStack per call of the C API (the c-* variants):\n\n{calls}");
+    }
     let doc = report::document(meta, variants)?;
     let out = Path::new(flag(flags, "out")?);
     write_atomic(out, serde_json::to_string_pretty(&doc)?.as_bytes())?;

@@ -127,6 +127,48 @@ pub fn table(variants: &[Value]) -> String {
     out
 }
 
+/// A Markdown table of the stack each C API call used below its caller's frame (one row per
+/// call, in the order the firmware measured them; one column per variant that measured them),
+/// or nothing when no variant did.
+pub fn call_table(variants: &[Value]) -> String {
+    let measured: Vec<(&str, &Vec<Value>)> = variants
+        .iter()
+        .filter_map(|v| {
+            let calls = v.pointer("/ram/stack_per_call")?.as_array()?;
+            (!calls.is_empty()).then(|| (v["variant"].as_str().unwrap_or("?"), calls))
+        })
+        .collect();
+    let mut calls: Vec<&str> = Vec::new();
+    for call in measured.iter().flat_map(|(_, c)| c.iter()) {
+        let name = call["call"].as_str().unwrap_or("?");
+        if !calls.contains(&name) {
+            calls.push(name);
+        }
+    }
+    if calls.is_empty() {
+        return String::new();
+    }
+    let mut out = String::from("| stack B below the caller |");
+    let mut rule = String::from("|---|");
+    for (variant, _) in &measured {
+        out += &format!(" {variant} |");
+        rule += "---:|";
+    }
+    out += &format!("\n{rule}\n");
+    for call in calls {
+        out += &format!("| `{call}` |");
+        for (_, measured_calls) in &measured {
+            let bytes = measured_calls.iter().find(|c| c["call"] == call);
+            out += &format!(
+                " {} |",
+                or_dash(bytes.map_or(Value::Null, |c| c["bytes"].clone()))
+            );
+        }
+        out.push('\n');
+    }
+    out
+}
+
 /// The whole report document.
 pub fn document(meta: Vec<(String, String)>, variants: Vec<Value>) -> Result<Value> {
     let aims = aims(&variants);
@@ -170,5 +212,27 @@ mod tests {
             json!(["m4f-2x32-relu-f16"])
         );
         assert!(table(&v).contains("| m4f-4x48-relu-int8 | int8 | release (opt 3) |"));
+        assert_eq!(call_table(&v), "", "no variant measured its calls");
+    }
+
+    #[test]
+    fn the_call_table_has_a_row_per_call_and_a_column_per_variant() {
+        let calls = |list: &[(&str, u64)]| {
+            list.iter()
+                .map(|(c, b)| json!({ "call": c, "bytes": b }))
+                .collect::<Vec<_>>()
+        };
+        let v = vec![
+            json!({ "variant": "c-m4f-trained", "ram": { "stack_per_call":
+                    calls(&[("dcp_verify", 900), ("dcp_q", 700)]) } }),
+            json!({ "variant": "m4f-trained", "ram": { "stack_phases": { "act": 100 } } }),
+            json!({ "variant": "c-m0-trained", "ram": { "stack_per_call":
+                    calls(&[("dcp_verify", 988)]) } }),
+        ];
+        assert_eq!(
+            call_table(&v),
+            "| stack B below the caller | c-m4f-trained | c-m0-trained |\n|---|---:|---:|\n\
+             | `dcp_verify` | 900 | 988 |\n| `dcp_q` | 700 | - |\n"
+        );
     }
 }
