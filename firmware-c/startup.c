@@ -1,6 +1,8 @@
 /* Reset and exception entry of the example C firmware: the vector table, copying .data and
    zeroing .bss, the FPU switched on (Cortex-M4F), then main. Any fault or unexpected interrupt
-   prints a FAIL line and ends the run, as the Rust firmware's handlers do. */
+   prints a FAIL line and ends the run, as the Rust firmware's handlers do. The same code serves
+   the Cortex-M0 (ARMv6-M, Thumb-1, no FPU): it uses no instruction beyond Thumb-1 and no
+   register the M0 lacks. */
 #include <stdint.h>
 
 #include "console.h"
@@ -33,7 +35,9 @@ static void default_handler(void) {
     fail("unexpected exception or interrupt");
 }
 
-/* 16 system exceptions and 32 device interrupts (the mps2 boards' first ones). */
+/* 16 system exceptions and 32 device interrupts (the mps2 boards' first ones; all of the
+   nRF51's). On the Cortex-M0 the MemManage, BusFault, UsageFault and DebugMonitor entries are
+   reserved: never taken, every fault there is a HardFault. */
 __attribute__((section(".vector_table"), used)) static void (*const vector_table[48])(void) = {
     (void (*)(void))(uintptr_t)&_stack_top,
     reset_handler,

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# cortex-m.sh -- build the example firmware (firmware/) for a Cortex-M4F and a Cortex-M3, run it
-# under QEMU on several blobs, check its actions bit for bit against policy-core on the host, and
-# write a resource report (flash, static RAM, peak stack, instructions per `act`, boot cost, the
-# C API's stack per call); then boot the M4F firmware on the A/B slot cases (which slot runs,
-# fallback, safe state).
+# cortex-m.sh -- build the example firmware (firmware/) for a Cortex-M4F and a Cortex-M3 and the
+# example C firmware (firmware-c/) for those and a Cortex-M0, run them under QEMU on several
+# blobs, check their actions bit for bit against policy-core on the host, and write a resource
+# report (flash, static RAM, peak stack, instructions per `act`, boot cost, the C API's stack per
+# call); then boot the M4F firmware on the A/B slot cases (which slot runs, fallback, safe state).
 #
 # The firmware holds no blob: policies live in two flash slots after it (firmware/memory.x), and
 # each run loads a slot image (policy-core's slot record: a 16-byte header with a sequence number,
@@ -31,7 +31,9 @@
 # stack of every call of the C API one by one (a STACK_PHASE line each, the report's
 # stack_per_call and its second table), the critic's and the discrete policy's calls on two more
 # slot records loaded beside the slots: policy-core's golden critic_2x32 and the conformance blob
-# discrete-2x8-relu-f32.
+# discrete-2x8-relu-f32. The c-m0-* variants run the C firmware on a
+# Cortex-M0 (thumbv6m-none-eabi, QEMU's microbit: an nRF51822, 256 KiB of flash, 16 KiB of
+# RAM; the layout of firmware-c/nrf51/memory.x, 88 KiB slots).
 #
 # Usage: bash scripts/cortex-m.sh [--blob FILE] [--out FILE] [--install-only]
 #   --blob FILE     a trained policy blob (e.g. from host-trainer; any shape up to 64 wide, up to
@@ -103,6 +105,7 @@ QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
 # policy-core-ffi's static library built with the profile).
 M4F=thumbv7em-none-eabihf:mps2-an386:cortex-m4
 M3=thumbv7m-none-eabi:mps2-an385:cortex-m3
+M0=thumbv6m-none-eabi:microbit:cortex-m0
 ALL_VARIANTS=(
   m4f-trained:$M4F:trained
   m4f-trained-f16:$M4F:trained-f16
@@ -141,6 +144,9 @@ ALL_VARIANTS=(
   c-m4f-trained:$M4F:trained:release:::c
   c-m4f-4x48:$M4F:4x48-tanh:release:::c
   c-m3-trained:$M3:trained:release:::c
+  c-m0-trained:$M0:trained:release:::c
+  c-m0-4x48:$M0:4x48-tanh:release:::c
+  c-m0-4x48-relu-int8:$M0:4x48-relu-int8:release:::c
 )
 # The opt-level of each profile the variants use (firmware/Cargo.toml; release-size's is set
 # here, through cargo's CARGO_PROFILE_RELEASE_SIZE_OPT_LEVEL), for the report.
@@ -259,7 +265,7 @@ else
   install_toolchain
   toolchain_ready || die "toolchain still incomplete after install"
 fi
-for t in thumbv7em-none-eabihf thumbv7m-none-eabi; do
+for t in thumbv7em-none-eabihf thumbv7m-none-eabi thumbv6m-none-eabi; do
   "$RUSTC_X" --print target-list | grep -qx "$t" || die "rustc-web does not know $t"
 done
 echo "$("$RUSTC_X" -V) | $(cargo -V) | $(qemu-system-arm --version | head -1)"
@@ -351,10 +357,12 @@ FFI_ENV=(env -u RUSTFLAGS -u CARGO_ENCODED_RUSTFLAGS -u CARGO_BUILD_RUSTFLAGS RU
   CARGO_PROFILE_RELEASE_LTO=fat CARGO_PROFILE_RELEASE_CODEGEN_UNITS=1 CARGO_PROFILE_RELEASE_PANIC=abort CARGO_PROFILE_RELEASE_DEBUG=true)
 C_FLAGS=(-std=c11 -O2 -g -Wall -Wextra -Werror -ffreestanding -ffunction-sections -fdata-sections)
 build_c_firmware() { # TARGET OUT.elf [CFLAG...]
-  local target=$1 out=$2 cpu; shift 2
+  local target=$1 out=$2 cpu layout=$ROOT/firmware; shift 2
   case $target in
     thumbv7em-none-eabihf) cpu=(-mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16) ;;
     thumbv7m-none-eabi) cpu=(-mcpu=cortex-m3 -mthumb -mfloat-abi=soft) ;;
+    # The microbit's nRF51822: its own memory.x (256 KiB of flash, 16 KiB of RAM).
+    thumbv6m-none-eabi) cpu=(-mcpu=cortex-m0 -mthumb -mfloat-abi=soft); layout=$ROOT/firmware-c/nrf51 ;;
     *) die "no C flags for $target" ;;
   esac
   # `cargo rustc --crate-type staticlib`: the static library alone. Built together with the
@@ -366,7 +374,7 @@ build_c_firmware() { # TARGET OUT.elf [CFLAG...]
   local lib=$WORK/ffi/$target/release/libpolicy_core_ffi.a
   [ -f "$lib" ] || { echo "no $lib"; return 1; }
   arm-none-eabi-gcc "${cpu[@]}" "${C_FLAGS[@]}" "$@" -I "$ROOT/policy-core-ffi/include" \
-    -nostdlib -Wl,--gc-sections -Wl,-z,noexecstack -L "$ROOT/firmware" -T "$ROOT/firmware-c/link.ld" \
+    -nostdlib -Wl,--gc-sections -Wl,-z,noexecstack -L "$layout" -T "$ROOT/firmware-c/link.ld" \
     "$ROOT"/firmware-c/{main,startup,console}.c "$lib" -lgcc -o "$out"
 }
 # The two slot records the C firmware measures the critic's and the discrete policy's calls on
