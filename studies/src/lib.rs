@@ -10,6 +10,7 @@
 
 pub mod main_job;
 pub mod paired;
+pub mod restat;
 pub mod run_folder;
 pub mod standard_tasks;
 pub mod walls;

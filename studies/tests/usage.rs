@@ -9,6 +9,7 @@ fn no_arguments_is_a_usage_error() {
         (env!("CARGO_BIN_EXE_stuck-critic"), "stuck-critic"),
         (env!("CARGO_BIN_EXE_quantisation-cost"), "quantisation-cost"),
         (env!("CARGO_BIN_EXE_compare-in-loop"), "compare-in-loop"),
+        (env!("CARGO_BIN_EXE_restat"), "restat"),
     ] {
         let out = study(binary, &[]);
         assert!(!out.status.success(), "{name}");

@@ -215,8 +215,15 @@ fn gather(out: &Path, grid: &Grid) -> Result<(Teams, Vec<String>), Error> {
     ))
 }
 
+/// The protocol's rule reads the 95 % t interval (`mean ± half-width`).
 fn interval_text(values: &[f64]) -> String {
     stats::interval_text(values, 3)
+}
+
+/// A table's mean over seeds: the percentile bootstrap interval, never outside the values'
+/// range, `(all 5 equal)` without spread (docs/design.md §7).
+fn mean_text(values: &[f64]) -> String {
+    crate::stats::bootstrap::mean_text(values, 3)
 }
 
 fn per_seed_text(values: &[(u64, f64)]) -> String {
@@ -229,8 +236,9 @@ fn per_seed_text(values: &[(u64, f64)]) -> String {
 
 /// A table of one team measure, the reference players as the last rows.
 fn measure_table(teams: &Teams, get: fn(&TeamMeasures) -> Option<f64>) -> String {
-    let mut t =
-        String::from("| team | teams measured | mean ± 95 % | per seed |\n|---|---|---|---|\n");
+    let mut t = String::from(
+        "| team | teams measured | mean (95 % bootstrap) | per seed |\n|---|---|---|---|\n",
+    );
     for (kind, seeds) in &teams.rows {
         let values = teams.per_seed(kind, get);
         let v: Vec<f64> = values.iter().map(|p| p.1).collect();
@@ -240,7 +248,7 @@ fn measure_table(teams: &Teams, get: fn(&TeamMeasures) -> Option<f64>) -> String
             kind.name,
             values.len(),
             seeds.len(),
-            interval_text(&v),
+            mean_text(&v),
             per_seed_text(&values)
         );
     }
@@ -292,7 +300,7 @@ fn score_row(page: &mut String, a: &str, b: &str, scored: &[Scored]) -> Vec<f64>
         page,
         "| {a} | {b} | {} | {} | {} |",
         v.len(),
-        interval_text(&v),
+        mean_text(&v),
         per_seed_text(&values)
     );
     v
@@ -313,7 +321,8 @@ pub fn body(
         "Every measure plays the exported blobs through policy-core against the scripted \
          reference player: {} serves for the catch and serve tests, {} points each way for the \
          reset effect, {} points per team match. A team's value is the mean over its players; \
-         mean ± 95 % Student-t interval over seeds.\n",
+         the tables give its mean over seeds with the 95 % percentile bootstrap interval, the \
+         rule of claim 4 the 95 % Student-t interval it names.\n",
         b.balls, b.points, b.match_points
     );
     let _ = writeln!(
@@ -357,7 +366,7 @@ pub fn body(
         "## Table 4: team scores (figures 10–13)\n\nTeam A's share of the points won against \
          team B (lets left out), pairings drawn uniformly from their players, each team serving \
          half; the reference players as a team B of one player.\n\n\
-         | team A | team B | seeds | A's score | per seed |\n|---|---|---|---|---|"
+         | team A | team B | seeds | A's score (95 % bootstrap) | per seed |\n|---|---|---|---|---|"
     );
     for kind in KINDS {
         for (reference, _) in &teams.references {

@@ -7,8 +7,9 @@
 //! - a **rate of runs** (k runs of n failed): the exact Clopper–Pearson interval
 //!   ([`binomial::clopper_pearson`]);
 //! - a **per-run quantity averaged over seeds** (success on the test starts, settled error):
-//!   the mean with a t interval clipped to the quantity's range ([`student_t`]), or no interval
-//!   when every seed gave the same value;
+//!   the mean with its percentile bootstrap interval, which never leaves the values' range
+//!   ([`bootstrap::mean_text`]), or no interval when every seed gave the same value; the t
+//!   interval ([`student_t`]) only where a rule fixed before the runs names it;
 //! - **paired pass/fail outcomes**: the exact McNemar test ([`binomial::mcnemar_exact`]);
 //! - **paired differences**: the sign-flip permutation test ([`permutation`]); unpaired groups,
 //!   the two-sample permutation test;
@@ -20,8 +21,8 @@
 //!   effect, and the power at the seeds it had, [`power`]).
 //!
 //! The functions are pure: the same inputs (and seed, where there is one) give the same
-//! numbers on every machine. `tests/stats_golden.py` computes the same quantities with scipy;
-//! its output, `tests/stats_golden.json`, is asserted by the unit tests.
+//! numbers on every machine. `tests/golden/stats_scipy.py` computes the same quantities with scipy;
+//! its output, `tests/golden/stats_scipy.json`, is asserted by the unit tests.
 //!
 //! References: Agarwal et al., "Deep Reinforcement Learning at the Edge of the Statistical
 //! Precipice" (NeurIPS 2021; rliable); Colas, Sigaud and Oudeyer, "How Many Random Seeds?"

@@ -29,12 +29,14 @@ pub struct Sensitivity {
 
 impl std::fmt::Display for Sensitivity {
     /// `one run flips it (14 of the 20 can)`, `2 runs flip it (15 sets of 2 of the 20 can)`,
+    /// `3 runs flip it (one set of 3 of the 20 can)`,
     /// or `no change of up to 3 of the 20 runs flips it`.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let (sets, of, searched) = (self.sets, self.of, self.searched);
         match self.runs {
             None => write!(f, "no change of up to {searched} of the {of} runs flips it"),
             Some(1) => write!(f, "one run flips it ({sets} of the {of} can)"),
+            Some(k) if sets == 1 => write!(f, "{k} runs flip it (one set of {k} of the {of} can)"),
             Some(k) => write!(f, "{k} runs flip it ({sets} sets of {k} of the {of} can)"),
         }
     }

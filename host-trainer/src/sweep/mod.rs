@@ -11,8 +11,10 @@
 //! 2. [`supervise`] runs them, at most `jobs` at once; each child's stdout and stderr are appended
 //!    to `OUT/sweep-logs/{run}.log` as it runs, so nothing it printed is lost to a kill. A run that
 //!    fails is recorded with its exit code and last line, and the others go on.
-//! 3. [`report`] summarises the runs: one row each, then per (task, algo) the mean
-//!    and a 95 % Student-t interval over the finished seeds ([`crate::stats::student_t`]); [`record`] is what became of each run.
+//! 3. [`report`] summarises the runs: one row each; per (task, algo) the mean with a 95 %
+//!    percentile bootstrap interval over the finished seeds and the failed trainings with their
+//!    exact interval; per task, each pair of algos by the sign-flip permutation test on the
+//!    seeds both finished. [`record`] is what became of each run.
 
 pub mod plan;
 pub mod record;

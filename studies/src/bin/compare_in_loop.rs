@@ -12,9 +12,9 @@
 //!
 //! Prints one markdown row per run and setting (success, settled error, stuck at margin, the
 //! share of ticks on which a proposal replaced the actor's action), then per (task, algorithm)
-//! and setting the mean over the runs with its 95 % t interval clipped to the quantity's range,
-//! and the mean paired difference from the plain actor with its clipped interval and its
-//! sign-flip permutation p ([`studies::paired`]).
+//! and setting the mean over the runs with its 95 % percentile bootstrap interval, and the mean
+//! paired difference from the plain actor with the bootstrap interval of the differences and
+//! their sign-flip permutation p ([`studies::paired`]).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -25,8 +25,8 @@ use firmware_sim::controller::Controller;
 use firmware_sim::nav::test_protocol::evaluate_controller;
 use firmware_sim::refine::RefiningPolicy;
 use host_trainer::run::folder;
-use host_trainer::stats::student_t::{clipped_text, Range, NON_NEGATIVE, UNIT};
-use studies::paired::{paired_text, ANY, RATE};
+use host_trainer::stats::bootstrap::mean_text;
+use studies::paired::paired_text;
 use studies::run_folder;
 
 /// The settings compared: None is the plain actor, Some(T) the compare step with T proposals.
@@ -82,8 +82,8 @@ fn run_one(dir: &Path) -> Result<(String, Vec<Outcome>), String> {
     Ok((name, out))
 }
 
-/// The columns of an outcome: digits and the quantity's range.
-const COLUMNS: [(usize, Range); 4] = [(2, UNIT), (3, NON_NEGATIVE), (2, UNIT), (3, UNIT)];
+/// The digits of each column of an outcome.
+const DIGITS: [usize; 4] = [2, 3, 2, 3];
 
 fn main() -> ExitCode {
     let dirs: Vec<PathBuf> = std::env::args().skip(1).map(PathBuf::from).collect();
@@ -125,12 +125,12 @@ fn main() -> ExitCode {
     println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for ((group, k), (outcomes, diffs)) in &groups {
         let col = |v: &[Outcome], i: usize| v.iter().map(|o| o[i]).collect::<Vec<f64>>();
-        let mean = |i: usize| clipped_text(&col(outcomes, i), COLUMNS[i].0, COLUMNS[i].1);
-        let delta = |i: usize, range: Range| {
+        let mean = |i: usize| mean_text(&col(outcomes, i), DIGITS[i]);
+        let delta = |i: usize| {
             if *k == 0 {
                 "-".to_string()
             } else {
-                paired_text(&col(diffs, i), COLUMNS[i].0, range)
+                paired_text(&col(diffs, i), DIGITS[i])
             }
         };
         println!(
@@ -141,9 +141,9 @@ fn main() -> ExitCode {
             mean(1),
             mean(2),
             mean(3),
-            delta(0, RATE),
-            delta(1, ANY),
-            delta(2, RATE)
+            delta(0),
+            delta(1),
+            delta(2)
         );
     }
     ExitCode::SUCCESS

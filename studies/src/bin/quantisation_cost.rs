@@ -9,8 +9,8 @@
 //!
 //! Prints one markdown row per run and encoding (success, settled error, stuck at margin, and
 //! the difference from the f32 blob), then per (task, algorithm) and encoding the mean
-//! difference over the runs (paired by run) with its 95 % t interval clipped to the difference's
-//! range and its sign-flip permutation p ([`studies::paired`]), and whether every int8 run stays
+//! difference over the runs (paired by run) with the 95 % percentile bootstrap interval of the
+//! differences and their sign-flip permutation p ([`studies::paired`]), and whether every int8 run stays
 //! within 0.02 of f32 success and 0.05 of its settled error.
 
 use std::collections::BTreeMap;
@@ -21,7 +21,7 @@ use firmware_sim::nav::test_protocol::evaluate;
 use host_trainer::blob::export::encode;
 use host_trainer::run::folder;
 use policy_core::Encoding;
-use studies::paired::{paired_text, ANY, RATE};
+use studies::paired::paired_text;
 use studies::run_folder;
 
 /// Success rate, settled error and stuck rate of one blob.
@@ -95,16 +95,16 @@ fn main() -> ExitCode {
     );
     println!("|---|---|---:|---:|---:|---:|");
     for ((group, encoding), diffs) in &groups {
-        let cell = |k: usize, range| {
+        let cell = |k: usize| {
             let values: Vec<f64> = diffs.iter().map(|d| d[k]).collect();
-            paired_text(&values, 3, range)
+            paired_text(&values, 3)
         };
         println!(
             "| {group} | {encoding} | {} | {} | {} | {} |",
             diffs.len(),
-            cell(0, RATE),
-            cell(1, ANY),
-            cell(2, RATE)
+            cell(0),
+            cell(1),
+            cell(2)
         );
     }
     println!();
