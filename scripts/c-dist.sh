@@ -26,19 +26,19 @@
 #
 # Then, unless --no-check, the folder is used as a C team would, with no Rust involved: the
 # example C firmware (firmware-c/) is configured with CMake (`find_package(policy_core)`) for the
-# M4F, M4 and M33 and compiled with `pkg-config`'s flags for the M3, and each of the four runs
-# under QEMU on a blob, its actions checked bit for bit against policy-core (M3: mps2-an385, M4
-# and M4F: mps2-an386, M33: mps2-an505); a program that boots and acts is linked for every
-# Cortex-M core with its pkg-config flags (the M0's only check: no QEMU M0 board is set up); and
-# a host C program (examples/c-host-cmake/) is built with CMake and with pkg-config and run on
-# three blobs, its actions compared bit for bit with `host-trainer act`'s.
+# M4F, M4 and M33 and compiled with `pkg-config`'s flags for the M3 and the M0, and each of the
+# five runs under QEMU on a blob, its actions checked bit for bit against policy-core (M0:
+# microbit, M3: mps2-an385, M4 and M4F: mps2-an386, M33: mps2-an505); a C89 program that boots
+# and acts is linked for every Cortex-M core with its pkg-config flags; and a host C program
+# (examples/c-host-cmake/) is built with CMake and with pkg-config and run on three blobs, its
+# actions compared bit for bit with `host-trainer act`'s.
 #
 # Usage: bash scripts/c-dist.sh [--out DIR] [--no-check]
 #   --out DIR     where the release folder goes (default: <target dir>/c-dist).
 #   --no-check    build the folder only.
 # Environment: PREFIX (the compiler prefix, default /opt/rust-web), CARGO_TARGET_DIR, CC (the
 # host C compiler, default cc).
-# Exit status: 0 = every archive built (and, with the check, every example built, the four
+# Exit status: 0 = every archive built (and, with the check, every example built, the five
 # firmwares and the host program bit-exact with the host's policy-core).
 set -euo pipefail
 
@@ -66,7 +66,7 @@ RELEASE=$("$RUSTC_X" -vV | sed -n 's/^release: //p'); LLVM=$("$RUSTC_X" -vV | se
 
 VERSION=$(sed -n 's/^version = "\(.*\)"/\1/p' "$ROOT/Cargo.toml" | head -1)
 ABI=$(sed -n 's/^#define DCP_ABI_VERSION \([0-9]*\)$/\1/p' "$ROOT/policy-core-ffi/include/policy_core.h")
-[ -n "$VERSION" ] && [ -n "$ABI" ] || die "expected the workspace version and DCP_ABI_VERSION, found '$VERSION' and '$ABI'"
+{ [ -n "$VERSION" ] && [ -n "$ABI" ]; } || die "expected the workspace version and DCP_ABI_VERSION, found '$VERSION' and '$ABI'"
 DIST=$OUT/policy-core-$VERSION
 # core name : Rust target : GCC flags
 CORES=(
@@ -243,32 +243,36 @@ for spec in "${CORES[@]}"; do
   nm "$EX/$core-c89.elf" | grep -q ' T dcp_act$' || die "$core: expected dcp_act in the linked program, found none"
 done
 
-# The example firmware (its calibration loop is Thumb-2 assembly: every core but the M0): with
-# CMake for the M4F, M4 and M33, with pkg-config's flags for the M3.
+# The example firmware: with CMake for the M4F, M4 and M33.
 TOOLCHAIN=$ROOT/examples/c-cmake/arm-none-eabi.cmake
 for core in cortex-m4f cortex-m4 cortex-m33; do
   echo "=== $core: the example C firmware with CMake, find_package(policy_core)"
   memory=(); [ "$core" != cortex-m33 ] || memory=(-DMEMORY_DIR="$ROOT/examples/c-cmake/mps2-an505")
   cmake_build "$core" "$ROOT/examples/c-cmake" -DCMAKE_TOOLCHAIN_FILE="$TOOLCHAIN" -DREPO="$ROOT" "${memory[@]}"
 done
-echo "=== cortex-m3: the example C firmware with pkg-config --cflags --libs policy_core-cortex-m3"
-mkdir -p "$EX/cortex-m3"
-# shellcheck disable=SC2046 # pkg-config's output is a list of flags
-arm-none-eabi-gcc -mcpu=cortex-m3 -mthumb -mfloat-abi=soft -std=c11 -O2 -Wall -Wextra -Werror -ffreestanding \
-  -ffunction-sections -fdata-sections -nostdlib -Wl,--gc-sections -Wl,-z,noexecstack -L "$ROOT/firmware" \
-  -T "$ROOT/firmware-c/link.ld" "$ROOT"/firmware-c/{main,startup,console}.c $(pkgflags cortex-m3) -lgcc \
-  -o "$EX/cortex-m3/firmware.elf" \
-  || die "cortex-m3: the example did not build with pkg-config's flags"
+# With pkg-config's flags for the M3 and the M0 (the M0 with the microbit's nRF51822 layout: 256 KiB
+# of flash, 16 KiB of RAM).
+for spec in "cortex-m3:-mcpu=cortex-m3:firmware" "cortex-m0:-mcpu=cortex-m0:firmware-c/nrf51"; do
+  IFS=: read -r core cpu layout <<<"$spec"
+  echo "=== $core: the example C firmware with pkg-config --cflags --libs policy_core-$core"
+  mkdir -p "$EX/$core"
+  # shellcheck disable=SC2046 # pkg-config's output is a list of flags
+  arm-none-eabi-gcc "$cpu" -mthumb -mfloat-abi=soft -std=c11 -O2 -Wall -Wextra -Werror -ffreestanding \
+    -ffunction-sections -fdata-sections -nostdlib -Wl,--gc-sections -Wl,-z,noexecstack -L "$ROOT/$layout" \
+    -T "$ROOT/firmware-c/link.ld" "$ROOT"/firmware-c/{main,startup,console}.c $(pkgflags "$core") -lgcc \
+    -o "$EX/$core/firmware.elf" \
+    || die "$core: the example did not build with pkg-config's flags"
+done
 
-echo "=== the four firmwares under QEMU on the trained blob, checked against policy-core on the host"
+echo "=== the five firmwares under QEMU on the trained blob, checked against policy-core on the host"
 HC_DIR=$BASE/cortex-m/host
 (cd "$ROOT" && env -u RUSTC -u RUSTC_BOOTSTRAP -u RUSTFLAGS CARGO_TARGET_DIR="$HC_DIR" \
   cargo build --release --locked -q --manifest-path firmware/host-check/Cargo.toml)
 HC=$HC_DIR/release/host-check
 BLOB=$ROOT/models/nav-walls__dcp-paper__0.postcard
 "$HC" image "$BLOB" "$EX/slot-a.bin" --sequence 1 >/dev/null
-for run in cortex-m3:mps2-an385:cortex-m3 cortex-m4:mps2-an386:cortex-m4 cortex-m4f:mps2-an386:cortex-m4 \
-    cortex-m33:mps2-an505:cortex-m33; do
+for run in cortex-m0:microbit:cortex-m0 cortex-m3:mps2-an385:cortex-m3 cortex-m4:mps2-an386:cortex-m4 \
+    cortex-m4f:mps2-an386:cortex-m4 cortex-m33:mps2-an505:cortex-m33; do
   IFS=: read -r core machine cpu <<<"$run"
   elf=$EX/$core/firmware.elf; log=$EX/$core-firmware.log
   slot_a=0x$(nm "$elf" | awk '$3=="_slot_a"{print $1}')
@@ -299,5 +303,5 @@ for blob in models/nav-walls__dcp-paper__0.postcard policy-core/tests/golden/act
   done
   echo "$name: $(tail -1 <<<"$verdict")"
 done
-echo "RESULT: PASS ($DIST: $((${#CORES[@]} + 1)) archives; the firmware bit-exact under QEMU on the M3, M4, M4F and M33," \
+echo "RESULT: PASS ($DIST: $((${#CORES[@]} + 1)) archives; the firmware bit-exact under QEMU on the M0, M3, M4, M4F and M33," \
   "every Cortex-M archive linked, the host program bit-exact with host-trainer act; $((SECONDS - T0)) s)"
