@@ -1,5 +1,7 @@
-//! Puts memory.x where cortex-m-rt's link.x finds it. The firmware holds no blob: policies are
-//! flashed into the slots memory.x declares, separately from the firmware.
+//! Puts memory.x where cortex-m-rt's link.x finds it. The RISC-V's layout, fe310/memory.x, goes
+//! to the linker by path (.cargo/config.toml): riscv-rt's `INCLUDE memory.x` would find this
+//! folder's Cortex-M memory.x first (the linker runs here). The firmware holds no blob: policies
+//! are flashed into the slots memory.x declares, separately from the firmware.
 
 use std::{env, fs, path::PathBuf, process::exit};
 
@@ -13,6 +15,7 @@ fn main() {
     }
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed=memory.x");
+    println!("cargo:rerun-if-changed=fe310/memory.x");
 
     // Feature `refine`: the number of proposals per tick, a build input like memory.x.
     println!("cargo:rerun-if-env-changed=REFINE_T");

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# cortex-m.sh -- build the example firmware (firmware/) for a Cortex-M4F and a Cortex-M3 and the
-# example C firmware (firmware-c/) for those and a Cortex-M0, run them under QEMU on several
-# blobs, check their actions bit for bit against policy-core on the host, and write a resource
-# report (flash, static RAM, peak stack, instructions per `act`, boot cost, the C API's stack per
-# call); then boot the M4F firmware on the A/B slot cases (which slot runs, fallback, safe state).
+# cortex-m.sh -- build the example firmware (firmware/) for a Cortex-M4F, a Cortex-M3 and a RISC-V
+# RV32IMAC and the example C firmware (firmware-c/) for the Cortex-Ms and a Cortex-M0, run them
+# under QEMU on several blobs, check their actions bit for bit against policy-core on the host,
+# and write a resource report (flash, static RAM, peak stack, instructions per `act`, boot cost,
+# the C API's stack per call); then boot the M4F firmware on the A/B slot cases (which slot runs,
+# fallback, safe state).
 #
 # The firmware holds no blob: policies live in two flash slots after it (firmware/memory.x), and
 # each run loads a slot image (policy-core's slot record: a 16-byte header with a sequence number,
@@ -34,6 +35,12 @@
 # discrete-2x8-relu-f32. The c-m0-* variants run the C firmware on a
 # Cortex-M0 (thumbv6m-none-eabi, QEMU's microbit: an nRF51822, 256 KiB of flash, 16 KiB of
 # RAM; the layout of firmware-c/nrf51/memory.x, 88 KiB slots).
+# The rv32-* variants run the same Rust firmware on a RISC-V RV32IMAC without an FPU
+# (riscv32imac-unknown-none-elf, riscv-rt; QEMU's sifive_e, a SiFive FE310: flash from
+# 0x20400000, 16 KiB of RAM; the layout of firmware/fe310/memory.x, 128 KiB slots), with
+# semihosting through `ebreak` for its output and exit, checked and measured like the Cortex-M
+# ones: the trained blob in each encoding, a generated f32 tanh 4x48, f16 and int8 ReLU 4x48.
+# Another RISC-V variant is one line in ALL_VARIANTS below.
 #
 # Usage: bash scripts/cortex-m.sh [--blob FILE] [--out FILE] [--install-only]
 #   --blob FILE     a trained policy blob (e.g. from host-trainer; any shape up to 64 wide, up to
@@ -71,8 +78,10 @@
 #     with rustup, so they are never installed); `core` is built from source with -Zbuild-std;
 #   * linker: Debian's lld-NN, NN = the LLVM major rustc-web links against;
 #   * C compiler for the c-* variants: Debian's gcc-arm-none-eabi (freestanding: no newlib);
-#   * emulator: qemu-system-arm from bookworm-backports (bookworm's 7.2 would remove qemu-utils 10),
-#     with a tiny TCG plugin (firmware/qemu-plugin/icount.c) for exact instruction counts.
+#   * emulator: qemu-system-arm and qemu-system-riscv (with the opensbi it depends on) from
+#     bookworm-backports (bookworm's 7.2 would remove qemu-utils 10; qemu-system-riscv is the part
+#     of qemu-system-misc that holds qemu-system-riscv32), with a tiny TCG plugin
+#     (firmware/qemu-plugin/icount.c, the same for both architectures) for exact instruction counts.
 # A second run finds everything in place, makes no network access for the toolchain, and only
 # rebuilds what changed. Exit status: 0 = every variant built, ran, matched the host and stayed
 # within its budgets (firmware/budgets.txt).
@@ -94,7 +103,8 @@ SLOT_CASES=1
 HIL=1; HIL_ONLY=0; FAILED=()
 REFINE_RUN=
 QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
-# name:target:qemu machine:qemu cpu:blob[:profile[:refine T[:encodings[:firmware]]]]. blob: trained
+# name:target:qemu machine:qemu cpu:blob[:profile[:refine T[:encodings[:firmware]]]]. The machine
+# picks the emulator (qemu_for: sifive_e runs on qemu-system-riscv32). blob: trained
 # (= --blob) or DEPTHxWIDTH-ACTIVATION (host-check gen), either with an optional -f16 or -int8
 # (re-encoded; default f32), the generated ones with an optional _OxA (O observations, A
 # actions; default 2x2), or refine-actor (--refine-run's policy). profile: a cargo profile of
@@ -106,6 +116,7 @@ QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
 M4F=thumbv7em-none-eabihf:mps2-an386:cortex-m4
 M3=thumbv7m-none-eabi:mps2-an385:cortex-m3
 M0=thumbv6m-none-eabi:microbit:cortex-m0
+RV32=riscv32imac-unknown-none-elf:sifive_e:sifive-e31
 ALL_VARIANTS=(
   m4f-trained:$M4F:trained
   m4f-trained-f16:$M4F:trained-f16
@@ -147,6 +158,12 @@ ALL_VARIANTS=(
   c-m0-trained:$M0:trained:release:::c
   c-m0-4x48:$M0:4x48-tanh:release:::c
   c-m0-4x48-relu-int8:$M0:4x48-relu-int8:release:::c
+  rv32-trained:$RV32:trained
+  rv32-trained-f16:$RV32:trained-f16
+  rv32-trained-int8:$RV32:trained-int8
+  rv32-4x48:$RV32:4x48-tanh
+  rv32-4x48-relu-f16:$RV32:4x48-relu-f16
+  rv32-4x48-relu-int8:$RV32:4x48-relu-int8
 )
 # The opt-level of each profile the variants use (firmware/Cargo.toml; release-size's is set
 # here, through cargo's CARGO_PROFILE_RELEASE_SIZE_OPT_LEVEL), for the report.
@@ -193,13 +210,13 @@ mkdir -p "$WORK"
 RUST_HOST=x86_64-unknown-linux-gnu
 RUSTC_X=$PREFIX/bin/rustc
 lld_major() { readlink "$PREFIX/usr/lib/rustlib/$RUST_HOST/bin/rust-lld" 2>/dev/null | sed -n 's|.*/lld-\([0-9][0-9]*\)$|\1|p'; }
-qemu_major() { qemu-system-arm --version 2>/dev/null | sed -n '1s/.*version \([0-9]*\)\..*/\1/p'; }
+qemu_major() { "${1:-qemu-system-arm}" --version 2>/dev/null | sed -n '1s/.*version \([0-9]*\)\..*/\1/p'; }
 toolchain_ready() {
   local have; have=$(cat "$PREFIX/.recipe-ok" 2>/dev/null) || return 1
   [ -z "$RUST_WEB_VERSION" ] || [ "$have" = "$RUST_WEB_VERSION" ] || return 1
   local llvm; llvm=$(lld_major); [ -n "$llvm" ] && command -v "lld-$llvm" >/dev/null || return 1
   "$RUSTC_X" -V >/dev/null 2>&1 || return 1
-  [ "$(qemu_major)" -ge 9 ] 2>/dev/null && command -v gcc >/dev/null && command -v size >/dev/null \
+  [ "$(qemu_major)" -ge 9 ] 2>/dev/null && [ "$(qemu_major qemu-system-riscv32)" = "$(qemu_major)" ] && command -v gcc >/dev/null && command -v size >/dev/null \
     && command -v arm-none-eabi-gcc >/dev/null
 }
 
@@ -224,10 +241,11 @@ EOF
   rw_ver=$(apt-cache "${APTO[@]}" show --no-all-versions "rustc-web$vs" | sed -n 's/^Version: //p')
   echo "rustc-web $rw_ver, $libstd, LLVM $llvm"
 
-  step "apt install: qemu-system-arm (bookworm-backports), lld-$llvm, libllvm$llvm, gcc, binutils, gcc-arm-none-eabi"
+  step "apt install: qemu-system-arm and qemu-system-riscv (bookworm-backports), lld-$llvm, libllvm$llvm, gcc, binutils, gcc-arm-none-eabi"
   # --no-remove: abort rather than let apt remove anything already installed.
   $SUDO env DEBIAN_FRONTEND=noninteractive apt-get "${APTO[@]}" -q -y install --no-install-recommends --no-remove \
-    qemu-system-arm/bookworm-backports qemu-system-common/bookworm-backports qemu-system-data/bookworm-backports \
+    qemu-system-arm/bookworm-backports qemu-system-riscv/bookworm-backports opensbi/bookworm-backports \
+    qemu-system-common/bookworm-backports qemu-system-data/bookworm-backports \
     "libllvm$llvm" "lld-$llvm" gcc libc6-dev binutils gcc-arm-none-eabi >"$WORK/apt-install.log" \
     || { tail -20 "$WORK/apt-install.log"; die "apt-get install failed (log: $WORK/apt-install.log)"; }
   grep -E 'newly installed' "$WORK/apt-install.log" || true
@@ -265,10 +283,10 @@ else
   install_toolchain
   toolchain_ready || die "toolchain still incomplete after install"
 fi
-for t in thumbv7em-none-eabihf thumbv7m-none-eabi thumbv6m-none-eabi; do
+for t in thumbv7em-none-eabihf thumbv7m-none-eabi thumbv6m-none-eabi riscv32imac-unknown-none-elf; do
   "$RUSTC_X" --print target-list | grep -qx "$t" || die "rustc-web does not know $t"
 done
-echo "$("$RUSTC_X" -V) | $(cargo -V) | $(qemu-system-arm --version | head -1)"
+echo "$("$RUSTC_X" -V) | $(cargo -V) | $(qemu-system-arm --version | head -1) (arm and riscv32)"
 # The budgets' figures belong to the pinned compiler: another one would move them silently.
 RUSTC_RELEASE=$("$RUSTC_X" -vV | sed -n 's/^release: //p'); RUSTC_LLVM=$("$RUSTC_X" -vV | sed -n 's/^LLVM version: //p')
 [ "$RUSTC_RELEASE $RUSTC_LLVM" = "$PIN_RELEASE $PIN_LLVM" ] \
@@ -324,7 +342,9 @@ blob_for() { # trained[-ENC] | DEPTHxWIDTH-ACTIVATION[-ENC][_OxA] -> blob path (
 # host, measure.
 FW_ENV=(env -u RUSTFLAGS -u CARGO_ENCODED_RUSTFLAGS -u CARGO_BUILD_RUSTFLAGS RUSTC="$RUSTC_X" RUSTC_BOOTSTRAP=1 CARGO_TARGET_DIR="$WORK/fw"
   CARGO_PROFILE_RELEASE_SIZE_OPT_LEVEL="$SIZE_OPT_LEVEL")
-QEMU_BASE=(qemu-system-arm -nographic -semihosting-config enable=on,target=native -icount shift=0)
+QEMU_ARGS=(-nographic -semihosting-config enable=on,target=native -icount shift=0)
+# The emulator of a QEMU machine: the RISC-V's sifive_e, else an Arm board.
+qemu_for() { case $1 in sifive_e) echo qemu-system-riscv32 ;; *) echo qemu-system-arm ;; esac; }
 # The address of a slot (a or b) in a firmware ELF: memory.x's _slot_a / _slot_b symbols.
 slot_addr() { # ELF a|b|critic|probe_critic|probe_discrete -> _slot_a, _slot_b, _critic, ... address
   local sym=_slot_$2; case $2 in critic|probe_*) sym=_$2 ;; esac
@@ -332,18 +352,28 @@ slot_addr() { # ELF a|b|critic|probe_critic|probe_discrete -> _slot_a, _slot_b, 
 # run_qemu DIR MACHINE CPU [ADDR IMAGE]...: boots DIR/firmware.elf with each IMAGE loaded at its
 # ADDR (a flasher's job on a board); the firmware's output goes to DIR/firmware.log and the
 # plugin's counts to DIR/plugin.log (plugin_log is set for host-check). Returns QEMU's status.
+# On sifive_e a raw IMAGE goes as Intel HEX at ADDR (IMAGE.hex): QEMU's loader takes a raw image
+# only up to the machine's RAM size, 16 KiB there.
 run_qemu() {
   local dir=$1 machine=$2 cpu=$3; shift 3
-  local loaders=() plugin_args=()
-  while [ $# -ge 2 ]; do loaders+=(-device "loader,file=$2,addr=$1"); shift 2; done
+  local loaders=() plugin_args=() image
+  while [ $# -ge 2 ]; do
+    image=$2
+    if [ "$machine" = sifive_e ] && [ "${image%.bin}" != "$image" ]; then
+      image=${image%.bin}.hex; "$HC" hex "$2" "$image" --address "$1" >/dev/null
+    fi
+    loaders+=(-device "loader,file=$image,addr=$1"); shift 2
+  done
   plugin_log=()
   if [ -f "$PLUGIN_SO" ]; then
     local mark; mark=$(nm "$dir/firmware.elf" | awk '$3=="fw_mark"{print $1}')
     [ -n "$mark" ] || die "$dir: no fw_mark symbol in the firmware"
-    plugin_args=(-plugin "$PLUGIN_SO,mark=$(printf '0x%x' $((0x$mark & ~1)))" -d plugin)  # drop the Thumb bit
+    # The plugin is the same on every architecture; `& ~1` drops the Cortex-M's Thumb bit (a
+    # RISC-V function is at least 2-aligned: a no-op there).
+    plugin_args=(-plugin "$PLUGIN_SO,mark=$(printf '0x%x' $((0x$mark & ~1)))" -d plugin)
     plugin_log=(--plugin-log "$dir/plugin.log")
   fi
-  timeout "$QEMU_TIMEOUT" "${QEMU_BASE[@]}" -M "$machine" -cpu "$cpu" "${plugin_args[@]}" "${loaders[@]}" \
+  timeout "$QEMU_TIMEOUT" "$(qemu_for "$machine")" "${QEMU_ARGS[@]}" -M "$machine" -cpu "$cpu" "${plugin_args[@]}" "${loaders[@]}" \
     -kernel "$dir/firmware.elf" </dev/null >"$dir/firmware.log" 2>"$dir/plugin.log"
 }
 # The C firmware (c-* variants): policy-core-ffi as a static library for the target, built with
@@ -754,7 +784,7 @@ mkdir -p "$(dirname "$OUT")"
 set +e
 "$HC" report --out "$OUT" --budgets "$BUDGETS" \
   --meta "rustc=$("$RUSTC_X" -V) (rustc-web $RUST_WEB_VERSION, LLVM $RUSTC_LLVM)" --meta "cargo=$(cargo -V)" \
-  --meta "qemu=$(qemu-system-arm --version | head -1)" \
+  --meta "qemu=$(qemu-system-arm --version | head -1) (qemu-system-arm; qemu-system-riscv32: $(qemu-system-riscv32 --version | head -1 | sed 's/.*version //'))" \
   --meta "profile=release: opt-level 3, fat LTO, codegen-units 1, panic abort, -Zbuild-std=core; release-s: the same at opt-level s; release-size: the same at opt-level $SIZE_OPT_LEVEL (per variant: the profile column)" \
   --meta "encodings=every firmware runs f32, f16 and int8 blobs except the *-int8-only* variants (int8 only; per variant: firmware_encodings)" \
   --meta "c firmware=the c-* variants: firmware-c/ (arm-none-eabi-gcc $(arm-none-eabi-gcc -dumpversion), ${C_FLAGS[*]}) linked with policy-core-ffi built with the release profile" \

@@ -4,7 +4,16 @@
 //! the success path does not link the formatting machinery: the flash figures then show the
 //! policy, not `Display`. Only the failure paths use `core::fmt`.
 
+// The two crates have the same API: semihosting through `bkpt` on the Cortex-M, through the
+// `slli x0; ebreak; srai x0` sequence on RISC-V (QEMU's -semihosting-config for both).
+#[cfg(target_arch = "arm")]
+use cortex_m::asm::wfi;
+#[cfg(target_arch = "arm")]
 use cortex_m_semihosting::{debug, hio};
+#[cfg(target_arch = "riscv32")]
+use riscv::asm::wfi;
+#[cfg(target_arch = "riscv32")]
+use riscv_semihosting::{debug, hio};
 
 /// One output line of at most 256 bytes; longer text is cut (the newline is always kept).
 pub struct Line {
@@ -82,7 +91,7 @@ pub fn exit_ok() -> ! {
     debug::exit(debug::EXIT_SUCCESS);
     // Reached only on a board without a debugger attached: stop here.
     loop {
-        cortex_m::asm::wfi();
+        wfi();
     }
 }
 
@@ -96,6 +105,6 @@ pub fn fail(what: &str) -> ! {
 pub fn exit_failure() -> ! {
     debug::exit(debug::EXIT_FAILURE);
     loop {
-        cortex_m::asm::wfi();
+        wfi();
     }
 }

@@ -23,8 +23,9 @@ use hil_protocol::{
 use policy_core::model::{Model, Scratch};
 use policy_core::slot::{self, Boot, SlotId, Status};
 
+use crate::chip::{elapsed, ticks};
 use crate::uart::Uart0;
-use crate::{control_step, elapsed, first, fw_mark, sizes, ticks, MAX_ACT, MAX_OBS, W};
+use crate::{control_step, first, fw_mark, sizes, MAX_ACT, MAX_OBS, W};
 
 /// Always true: `main` serves the host instead of running the fixed observations.
 pub const SERVE: bool = true;

@@ -1,4 +1,5 @@
-//! Example firmware: a DCP policy running on a Cortex-M, straight from flash.
+//! Example firmware: a DCP policy running on a microcontroller (a Cortex-M, or a RISC-V
+//! RV32IMAC), straight from flash.
 //!
 //! The part a user copies is short ([`boot`] and [`control_step`]). The firmware holds no blob:
 //! policies are flashed into two slots of their own (memory.x, [`slots`]), so a new policy never
@@ -24,12 +25,13 @@
 //! observations of the blob's size ([`observations::fill`]), prints the observations and actions
 //! as `f32` bits (the host recomputes them), which slot runs and why, calls
 //! [`fw_mark`] around each span whose instructions a QEMU plugin counts, times the same spans
-//! with SysTick (the fallback count), and paints the stack to find its peak. The run ends with
-//! QEMU's exit status: 0 only if a slot's blob was accepted at boot and every action is finite
-//! and inside the bounds; panics and faults exit too.
+//! with SysTick or `mcycle` (the fallback count, [`chip`]), and paints the stack to find its
+//! peak. The run ends with QEMU's exit status: 0 only if a slot's blob was accepted at boot and
+//! every action is finite and inside the bounds; panics and faults exit too.
 #![no_std]
 #![no_main]
 
+mod chip;
 mod console;
 #[cfg(feature = "hil")]
 mod hil;
@@ -46,11 +48,10 @@ mod uart;
 
 use core::hint::black_box;
 
-use cortex_m::peripheral::{syst::SystClkSource, SYST};
-use cortex_m_rt::{entry, exception, ExceptionFrame};
 use policy_core::model::{Model, Scratch};
 use policy_core::slot::{self, SlotId, Status};
 
+use chip::{calibrate, elapsed, start_clock, ticks};
 use console::{exit_failure, exit_ok, fail, Line};
 use observations::CASES;
 pub(crate) use sizes::{MAX_ACT, MAX_OBS};
@@ -112,19 +113,11 @@ pub(crate) fn first(buffer: &mut [f32], n: usize) -> &mut [f32] {
     buffer.get_mut(..n).unwrap_or_default()
 }
 
-#[entry]
-fn main() -> ! {
-    // cortex-m-rt turns a `static mut` declared here into a `&'static mut`: `main` runs once and
-    // nothing else can name it, so this is the only reference and no `unsafe` is needed. The
-    // scratch is all zeros, so it sits in .bss (RAM) and costs no flash.
-    static mut SCRATCH: Scratch<W> = Scratch::new();
-
-    let sp = cortex_m::register::msp::read() as usize;
+/// The run, from the chip's reset entry ([`chip`]), with the activation scratch in `.bss`.
+fn run(scratch: &'static mut Scratch<W>) -> ! {
+    let sp = chip::stack_pointer();
     stack::paint(sp);
-    let Some(mut core) = cortex_m::Peripherals::take() else {
-        fail("core peripherals already taken")
-    };
-    start_systick(&mut core.SYST);
+    start_clock();
     let (cal_insns, cal_ticks) = calibrate();
 
     fw_mark(0); // span "overhead": two marks back to back
@@ -144,7 +137,7 @@ fn main() -> ! {
     // build too, and the optimiser drops it.
     #[cfg(feature = "hil")]
     if hil::SERVE {
-        hil::serve(&booted, (slot_a, slot_b), (cal_insns, cal_ticks), SCRATCH);
+        hil::serve(&booted, (slot_a, slot_b), (cal_insns, cal_ticks), scratch);
     }
 
     #[cfg(feature = "refine")]
@@ -163,12 +156,12 @@ fn main() -> ! {
     for (k, action) in actions.iter_mut().enumerate() {
         let (obs, action) = (first(&mut obs, n_obs), first(action, n_act));
         observations::fill(k, obs);
-        // Timed per observation, so the SysTick figure leaves out the filling, as the marks do.
+        // Timed per observation, so the clock's figure leaves out the filling, as the marks do.
         let t0 = ticks();
         fw_mark(4);
-        control_step(model, black_box(obs), SCRATCH, action);
+        control_step(model, black_box(obs), scratch, action);
         #[cfg(feature = "refine")]
-        if let Some(refined) = model.and_then(|m| refiner.step(m, obs, SCRATCH)) {
+        if let Some(refined) = model.and_then(|m| refiner.step(m, obs, scratch)) {
             action.iter_mut().zip(refined).for_each(|(a, r)| *a = r);
         }
         fw_mark(5);
@@ -313,34 +306,6 @@ fn time_tanhf() -> f32 {
     sum
 }
 
-fn start_systick(syst: &mut SYST) {
-    syst.set_clock_source(SystClkSource::Core);
-    syst.set_reload(0x00FF_FFFF);
-    syst.clear_current();
-    syst.enable_counter();
-}
-
-fn ticks() -> u32 {
-    SYST::get_current()
-}
-
-/// SysTick ticks since `t0` (it counts down, 24 bits).
-fn elapsed(t0: u32) -> u32 {
-    t0.wrapping_sub(ticks()) & 0x00FF_FFFF
-}
-
-/// Runs a loop of known length (2 instructions per turn) and returns (instructions, ticks): under
-/// QEMU's `-icount` this converts SysTick ticks into instructions when the plugin is unavailable.
-fn calibrate() -> (u32, u32) {
-    const TURNS: u32 = 100_000;
-    let t0 = ticks();
-    // SAFETY: a register-only countdown loop; touches no memory and no stack.
-    unsafe {
-        core::arch::asm!("1:", "subs {0}, {0}, #1", "bne 1b", inout(reg) TURNS => _, options(nomem, nostack));
-    }
-    (2 * TURNS, elapsed(t0))
-}
-
 /// Ends a run whose critic (feature `refine`) cannot be used, with policy-core's reason.
 #[cfg(feature = "refine")]
 fn fail_critic(e: &policy_core::Error) -> ! {
@@ -355,20 +320,6 @@ fn fail_critic(e: &policy_core::Error) -> ! {
 /// one-line reasons). The actions printed before it are the safe state's.
 fn fail_boot() -> ! {
     Line::new("FAIL boot: no slot holds a policy this firmware can run (safe state)").emit();
-    exit_failure()
-}
-
-#[exception]
-unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
-    Line::new("FAIL HardFault at pc").hex(frame.pc()).emit();
-    exit_failure()
-}
-
-#[exception]
-unsafe fn DefaultHandler(irqn: i16) -> ! {
-    Line::new("FAIL unexpected exception or interrupt")
-        .dec(irqn as u16 as u32)
-        .emit();
     exit_failure()
 }
 

@@ -1,15 +1,16 @@
 //! Peak stack measurement by painting: fill the free stack with a pattern, run, and find the
 //! lowest word the pattern no longer holds.
 //!
-//! cortex-m-rt places the stack at the top of RAM growing down towards `__sheap` (the end of
-//! `.bss`), so everything between `__sheap` and the current stack pointer is free to paint.
+//! cortex-m-rt and riscv-rt both place the stack at the top of RAM growing down towards `__sheap`
+//! (the end of `.bss`), so everything between `__sheap` and the current stack pointer is free to
+//! paint.
 
 const PAINT: u32 = 0x5AFE_C0DE;
 
 extern "C" {
-    /// End of the statics: the lowest address the stack may grow to (cortex-m-rt's link.x).
+    /// End of the statics: the lowest address the stack may grow to (the runtime's link.x).
     static __sheap: u32;
-    /// The initial stack pointer, the top of RAM (cortex-m-rt's link.x).
+    /// The initial stack pointer, the top of RAM (the runtime's link.x).
     static _stack_start: u32;
 }
 

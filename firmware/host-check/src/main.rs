@@ -1,4 +1,4 @@
-//! host-check: the host half of scripts/cortex-m.sh.
+//! host-check: the host half of scripts/cortex-m.sh (Cortex-M and RISC-V alike).
 //!
 //! ```text
 //! host-check gen DEPTHxWIDTH OUT [--seed N] [--activation tanh|relu] [--encoding f32|f16|int8]
@@ -19,6 +19,9 @@
 //!                                          call (its STACK_PHASE dcp_* lines)
 //! host-check image BLOB OUT.bin|OUT.hex --sequence N [--address ADDR]
 //!                                          a slot record (header + blob) for a flash slot
+//! host-check hex IN.bin OUT.hex --address ADDR
+//!                                          a raw image as Intel HEX at ADDR (QEMU's loader
+//!                                          takes a raw image no larger than the machine's RAM)
 //! host-check damage IN OUT (--flip OFFSET | --cut LEN)
 //!                                          a copy with one byte inverted, or cut short
 //! host-check fill OUT --len N (--byte B | --random SEED)
@@ -106,6 +109,7 @@ fn run(args: &[String]) -> Result<()> {
         }
         ("measure", []) => measure(&flags),
         ("image", [blob, out]) => slots::image(&read(blob)?, Path::new(out), &flags),
+        ("hex", [input, out]) => slots::hex(&read(input)?, Path::new(out), &flags),
         ("damage", [input, out]) => slots::damage(&read(input)?, Path::new(out), &flags),
         ("fill", [out]) => slots::fill(Path::new(out), &flags),
         ("slot-case", []) => slots::case(&flags),

@@ -42,6 +42,23 @@ pub fn parse_sizes(text: &str) -> BTreeMap<String, u64> {
         .collect()
 }
 
+/// Bytes of the startup code's own sections: riscv-rt puts the Rust half of its reset code in
+/// `.init.rust`, outside `.text` (its assembly half, `.init`, is inside). None on the Cortex-M.
+fn init_sections(sizes: &BTreeMap<String, u64>) -> u64 {
+    sizes
+        .iter()
+        .filter(|(name, _)| name.starts_with(".init"))
+        .map(|(_, size)| size)
+        .sum()
+}
+
+/// The firmware's flash (without a blob): the sections a flasher writes. `.data` is in RAM at
+/// run time but its initial values are stored in flash.
+fn firmware_flash(sizes: &BTreeMap<String, u64>) -> u64 {
+    let sec = |n: &str| sizes.get(n).copied().unwrap_or(0);
+    sec(".vector_table") + sec(".text") + init_sections(sizes) + sec(".rodata") + sec(".data")
+}
+
 /// Instructions per span: from the plugin when its log is there, else from SysTick ticks under
 /// `-icount` (resolution of one tick, tens of instructions). Returns the spans and the source.
 fn instruction_spans(
@@ -85,7 +102,7 @@ pub fn measure(
     cmp: &Comparison,
 ) -> Result<Value> {
     let sec = |n: &str| sizes.get(n).copied().unwrap_or(0);
-    let firmware = sec(".vector_table") + sec(".text") + sec(".rodata") + sec(".data");
+    let firmware = firmware_flash(sizes);
     let flash = firmware + record_len;
     let static_ram = sec(".data") + sec(".bss") + sec(".uninit");
     let scratch = log
@@ -131,6 +148,7 @@ pub fn measure(
                   "version": info.version },
         "flash": {
             "total": flash, "vector_table": sec(".vector_table"), "text": sec(".text"),
+            "init": init_sections(sizes),
             "rodata": sec(".rodata"), "data": sec(".data"), "blob": blob_len,
             "slot_record": record_len, "blob_share": round(blob_len as f64 / flash as f64, 3),
             "without_blob": firmware,
@@ -175,5 +193,28 @@ mod tests {
         assert_eq!(s[".text"], 5000);
         assert_eq!(s[".bss"], 28900);
         assert!(!s.contains_key("Total"));
+    }
+
+    /// The RISC-V firmware's reset code in `.init.rust` was left out of its flash figure.
+    #[test]
+    fn flash_counts_the_startup_sections_beside_text() {
+        let riscv = "fw  :
+section  size  addr
+.text.dummy 0 541065216
+.text  44380  541065216
+                     .init.rust  22  541109596
+.rodata  4268  541109620
+.data 0 2147483648
+                     .bss 512 2147483648
+.stack 15872 2147484160
+";
+        assert_eq!(firmware_flash(&parse_sizes(riscv)), 44380 + 22 + 4268);
+        let arm = "fw  :
+.vector_table 1024 0
+.text 5000 1024
+.rodata 300 6024
+.data 8 536870912
+";
+        assert_eq!(firmware_flash(&parse_sizes(arm)), 1024 + 5000 + 300 + 8);
     }
 }

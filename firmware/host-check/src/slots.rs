@@ -49,6 +49,15 @@ pub fn image(blob: &[u8], out: &Path, flags: &BTreeMap<String, String>) -> Resul
     Ok(())
 }
 
+/// `hex IN OUT.hex --address ADDR`: a raw image (a slot record, whole or damaged) as Intel HEX at
+/// ADDR. QEMU's loader reads a raw image only up to the machine's RAM size (16 KiB on sifive_e,
+/// less than a 4x48 f32 slot record) but Intel HEX of any size, at the addresses inside it.
+pub fn hex(raw: &[u8], out: &Path, flags: &BTreeMap<String, String>) -> Result<()> {
+    let address = number(flags, "address")?;
+    let text = policy_core::slot::intel_hex(raw, address)?;
+    write_atomic(out, text.as_bytes())
+}
+
 /// `damage IN OUT --flip OFFSET` inverts one byte (a bad transfer); `--cut LEN` keeps the first
 /// LEN bytes (a transfer cut short by a power loss).
 pub fn damage(input: &[u8], out: &Path, flags: &BTreeMap<String, String>) -> Result<()> {
