@@ -3,18 +3,20 @@
 //!
 //! ```text
 //! blob    = header padding payload crc
-//! header  = postcard(Header)            magic "DCPB", version 2 (f32) or 3 (f16, int8), kind,
-//!                                       encoding, shape, activation, label, payload length
+//! header  = postcard(Header)            magic "DCPB", version 2 (f32), 3 (f16, int8) or 4
+//!                                       (integer), kind, encoding, shape, activation, label,
+//!                                       payload length
 //! padding = 0 to 3 zero bytes           so that the payload starts at a multiple of 4
 //! payload = every parameter             f32: 4 bytes little-endian each; f16 and int8 store
-//!                                       the layers' weights in 2 or 1 bytes (see [`Encoding`])
+//!                                       the layers' weights in 2 or 1 bytes, integer stores
+//!                                       integer layers ([`IntegerLayer`]; see [`Encoding`])
 //! crc     = u32 little-endian           CRC-32/ISO-HDLC of everything before it
 //! ```
 //!
 //! Version 1 blobs (no encoding field, no `choices` in the shape, no padding) still load.
 //!
 //! Loading checks, in order: magic, version, header, an encoding this build reads (cargo features
-//! `f32`, `f16`, `int8`, all on by default), limits, length, padding, checksum
+//! `f32`, `f16`, `int8`, `integer`, all on by default), limits, length, padding, checksum
 //! ([`verify`]); then the parameter rules ([`check_parameters`]: finite values, normaliser,
 //! bounds, action table), which [`Model::from_blob`](crate::model::Model::from_blob) and
 //! [`load_into`] both run; [`load_into`] also checks kind and shape against its type. Nothing
