@@ -94,7 +94,7 @@ impl Encoding {
     ];
 
     /// The encodings that store weights only, everything else staying f32: the ones
-    /// [`blob::write`](crate::blob::write()) and [`blob::encode`](crate::blob::encode) make from
+    /// [`blob::write`](crate::blob::write()) and `blob::encode` (host side) make from
     /// f32 parameters alone. [`Encoding::Integer`] also needs the activations' ranges
     /// ([`blob::write_integer`](crate::blob::write_integer)).
     pub const WEIGHTS_ONLY: [Encoding; 3] = [Encoding::F32, Encoding::F16, Encoding::Int8];

@@ -389,7 +389,7 @@ impl<'a> Model<'a> {
     /// the layers read or make before their activation: `observe(0, z)` with the normalised
     /// observation, then `observe(l + 1, y)` with layer `l`'s outputs (hidden layers, then the
     /// output layer, before tanh). The same arithmetic as [`Model::act_in`]; what the integer
-    /// encoding's calibration measures ([`blob::calibrate`](crate::blob::calibrate)).
+    /// encoding's calibration measures ([`blob::calibrate_into`]).
     ///
     /// ```
     /// use policy_core::model::Model;
