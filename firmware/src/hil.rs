@@ -133,6 +133,7 @@ fn hello(
                 policy_core::Encoding::F32 => Encoding::F32,
                 policy_core::Encoding::F16 => Encoding::F16,
                 policy_core::Encoding::Int8 => Encoding::Int8,
+                policy_core::Encoding::Integer => Encoding::Integer,
             },
         }
     });

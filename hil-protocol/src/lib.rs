@@ -176,6 +176,8 @@ pub enum Encoding {
     F16,
     /// int8 weights with per-output scales.
     Int8,
+    /// Integer arithmetic throughout (format version 4): int8 weights and activations.
+    Integer,
 }
 
 /// A loop of `instructions` instructions took `ticks` SysTick ticks: under QEMU's

@@ -653,6 +653,63 @@ fn quantised_exports_inspect_and_evaluate() {
     std::fs::remove_dir_all(&base).expect("cleanup");
 }
 
+/// `export --encoding integer` calibrates on the observations the policy meets in test episodes
+/// and writes policy-integer.postcard (format version 4); `inspect` shows its input map, zero
+/// points and multipliers and, `--against` the f32 blob, the action error; it boots in
+/// firmware-sim; a calibration of 0 episodes is a one-line error that writes nothing.
+#[test]
+fn integer_export_calibrates_inspects_and_evaluates() {
+    let base = scratch("integer-export");
+    assert_ok(&train_smoke(&base, 2, &[]));
+    let run = base.join("nav-walls__dcp__3");
+    let f32 = run.join("policy.postcard");
+    let before = entries(&run);
+    let none = host_trainer(&[
+        "export",
+        "--run",
+        s(&run),
+        "--encoding",
+        "integer",
+        "--calibration-episodes",
+        "0",
+    ]);
+    assert_one_line_error(&none, &["calibration-episodes"]);
+    assert_eq!(entries(&run), before, "nothing written");
+    let out = host_trainer(&[
+        "export",
+        "--run",
+        s(&run),
+        "--encoding",
+        "integer",
+        "--calibration-episodes",
+        "3",
+    ]);
+    assert_ok(&out);
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        said.contains("policy-integer.postcard") && said.contains("from 3 test episodes"),
+        "{said}"
+    );
+    let file = run.join("policy-integer.postcard");
+    let inspect = host_trainer(&["inspect", s(&file), "--against", s(&f32)]);
+    assert_ok(&inspect);
+    let text = String::from_utf8_lossy(&inspect.stdout);
+    for expected in [
+        "encoding    integer\n",
+        "version     4\n",
+        "input       scales [",
+        "layer 0     2x32, output zero point ",
+        "layer 2     32x2, output zero point ",
+        "tanh table",
+        "actions     over 10000 observations of the normaliser's box",
+    ] {
+        assert!(text.contains(expected), "{expected:?} in\n{text}");
+    }
+    let eval = host_trainer(&["eval", "--blob", s(&file), "--episodes", "3"]);
+    assert_ok(&eval);
+    std::fs::remove_dir_all(&base).expect("cleanup");
+}
+
 /// `export --image bin|hex --slot a|b --sequence N [--address A]` writes the slot record beside
 /// the policy: the raw image boots in firmware-sim's slot rule (the newer slot runs), the Intel
 /// HEX image carries the slot's address; a record that does not fit the slot, or --image

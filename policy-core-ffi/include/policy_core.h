@@ -287,6 +287,12 @@
 #define DCP_ENCODING_INT8 2
 
 /**
+ * Integer arithmetic throughout (format version 4, actors only); loaded and run through the
+ * float entry, `dcp_act`.
+ */
+#define DCP_ENCODING_INTEGER 3
+
+/**
  * Bytes of `dcp_error.what` (NUL included; longer text is cut).
  */
 #define DCP_WHAT_LEN 80

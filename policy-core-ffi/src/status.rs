@@ -83,6 +83,9 @@ pub const DCP_ENCODING_F32: u32 = 0;
 pub const DCP_ENCODING_F16: u32 = 1;
 /// Signed bytes with an f32 scale per output.
 pub const DCP_ENCODING_INT8: u32 = 2;
+/// Integer arithmetic throughout (format version 4, actors only); loaded and run through the
+/// float entry, `dcp_act`.
+pub const DCP_ENCODING_INTEGER: u32 = 3;
 
 /// Bytes of `dcp_error.what` (NUL included; longer text is cut).
 pub const DCP_WHAT_LEN: usize = 80;
@@ -363,6 +366,7 @@ pub(crate) fn encoding_code(encoding: Encoding) -> u32 {
         Encoding::F32 => DCP_ENCODING_F32,
         Encoding::F16 => DCP_ENCODING_F16,
         Encoding::Int8 => DCP_ENCODING_INT8,
+        Encoding::Integer => DCP_ENCODING_INTEGER,
     }
 }
 

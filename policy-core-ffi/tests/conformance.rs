@@ -92,6 +92,7 @@ fn encoding(code: u32) -> &'static str {
         DCP_ENCODING_F32 => "f32",
         DCP_ENCODING_F16 => "f16",
         DCP_ENCODING_INT8 => "int8",
+        DCP_ENCODING_INTEGER => "integer",
         _ => "?",
     }
 }

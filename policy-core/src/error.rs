@@ -40,7 +40,7 @@ pub enum Error {
         found: Encoding,
     },
     /// The blob stores its weights in an encoding this build of policy-core does not read: its
-    /// cargo feature (`f32`, `f16` or `int8`, all on by default) was left out, as a firmware
+    /// cargo feature (`f32`, `f16`, `int8` or `integer`, all on by default) was left out, as a firmware
     /// that runs one encoding only does to save flash.
     EncodingNotCompiled {
         /// The encoding in the blob.
@@ -89,6 +89,16 @@ pub enum Error {
         /// Which rule the parameter breaks.
         what: &'static str,
         /// Index of the offending component (observation or action dimension).
+        index: usize,
+    },
+    /// The calibration an integer blob is written from is missing or unusable: a NaN or
+    /// infinite observation or range, a range that is empty (a layer whose outputs never
+    /// vary), or ranges of the wrong count (host side; a loader never returns it).
+    Calibration {
+        /// What is wrong.
+        what: &'static str,
+        /// Which sample, range or layer: the range's index (0 = the observations, `l + 1` =
+        /// layer `l`), or the observation's, as `what` says.
         index: usize,
     },
     /// A shape is outside the format's documented limits (or the kind's rules).
@@ -205,6 +215,9 @@ impl fmt::Display for Error {
             }
             Error::InvalidParameter { what, index } => {
                 write!(f, "invalid parameter in dimension {index}: {what}")
+            }
+            Error::Calibration { what, index } => {
+                write!(f, "cannot calibrate the integer encoding (at {index}): {what}")
             }
             Error::ShapeBeyondLimits {
                 what,

@@ -18,8 +18,12 @@ pub const VERSION: u16 = 2;
 /// An f32 blob stays version 2, byte for byte; a reader that predates quantisation reports a
 /// quantised blob as an unsupported version instead of misreading it.
 pub const VERSION_QUANTISED: u16 = 3;
+/// The format version of a blob in the [`Encoding::Integer`] encoding, whose forward pass is
+/// integer arithmetic throughout. A version of its own, so that a reader of versions 1–3 reports
+/// it as an unsupported version instead of misreading it; versions 1–3 are unchanged.
+pub const VERSION_INTEGER: u16 = 4;
 /// The format versions this build reads.
-pub const VERSIONS_READ: [u16; 3] = [1, 2, 3];
+pub const VERSIONS_READ: [u16; 4] = [1, 2, 3, 4];
 /// Capacity of the free-text label in the header, in bytes.
 pub const LABEL_CAPACITY: usize = 32;
 /// Bytes of the trailing checksum.
@@ -57,8 +61,10 @@ impl core::fmt::Display for ModelKind {
     }
 }
 
-/// How the payload stores the layers' weights. Everything else (normaliser, bounds, action
-/// table, biases, scales) is always f32; activations are always f32.
+/// How the payload stores the layers' weights. For f32, f16 and int8 everything else
+/// (normaliser, bounds, action table, biases, scales) is f32 and so is every activation;
+/// [`Encoding::Integer`] stores and computes the layers in integers (docs/blob-format.md, "The
+/// integer encoding").
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Encoding {
     /// 4-byte little-endian IEEE-754 single precision (format version 2).
@@ -70,27 +76,46 @@ pub enum Encoding {
     /// Signed bytes with one f32 scale per output: `W[o, j] = scale[o] · q[j, o]`, computed as
     /// `y[o] = b[o] + scale[o] · Σ_j q[j, o] · x[j]` (format version 3).
     Int8,
+    /// Integer arithmetic throughout (format version 4, actors only): int8 weights with one
+    /// fixed-point requantisation multiplier per output, int32 biases and accumulators, int8
+    /// activations with a zero point per layer, ReLU fused into the requantisation clamp, tanh
+    /// by a 256-entry table, and the observation normaliser folded into the input quantisation.
+    /// A chip without an FPU runs it without software floats ([`crate::mlp::integer`]).
+    Integer,
 }
 
 impl Encoding {
     /// Every encoding, in header order.
-    pub const ALL: [Encoding; 3] = [Encoding::F32, Encoding::F16, Encoding::Int8];
+    pub const ALL: [Encoding; 4] = [
+        Encoding::F32,
+        Encoding::F16,
+        Encoding::Int8,
+        Encoding::Integer,
+    ];
+
+    /// The encodings that store weights only, everything else staying f32: the ones
+    /// [`blob::write`](crate::blob::write()) and `blob::encode` (host side) make from
+    /// f32 parameters alone. [`Encoding::Integer`] also needs the activations' ranges
+    /// ([`blob::write_integer`](crate::blob::write_integer)).
+    pub const WEIGHTS_ONLY: [Encoding; 3] = [Encoding::F32, Encoding::F16, Encoding::Int8];
 
     /// The format version a blob of this encoding has.
     pub fn version(self) -> u16 {
         match self {
             Encoding::F32 => VERSION,
             Encoding::F16 | Encoding::Int8 => VERSION_QUANTISED,
+            Encoding::Integer => VERSION_INTEGER,
         }
     }
 
-    /// The cargo feature of policy-core that reads and runs this encoding: `f32`, `f16` or
-    /// `int8`, the encoding's name.
+    /// The cargo feature of policy-core that reads and runs this encoding: `f32`, `f16`,
+    /// `int8` or `integer`, the encoding's name.
     pub const fn feature(self) -> &'static str {
         match self {
             Encoding::F32 => "f32",
             Encoding::F16 => "f16",
             Encoding::Int8 => "int8",
+            Encoding::Integer => "integer",
         }
     }
 
@@ -104,6 +129,7 @@ impl Encoding {
             Encoding::F32 => cfg!(feature = "f32"),
             Encoding::F16 => cfg!(feature = "f16"),
             Encoding::Int8 => cfg!(feature = "int8"),
+            Encoding::Integer => cfg!(feature = "integer"),
         }
     }
 
@@ -112,7 +138,7 @@ impl Encoding {
         match self {
             Encoding::F32 => 4,
             Encoding::F16 => 2,
-            Encoding::Int8 => 1,
+            Encoding::Int8 | Encoding::Integer => 1,
         }
     }
 }
@@ -123,6 +149,7 @@ impl core::fmt::Display for Encoding {
             Encoding::F32 => "f32",
             Encoding::F16 => "f16",
             Encoding::Int8 => "int8",
+            Encoding::Integer => "integer",
         })
     }
 }
@@ -150,7 +177,9 @@ pub struct LayerLayout {
 }
 
 impl LayerLayout {
-    /// The layer with `inputs` and `outputs` starting at byte `start`, or `None` on overflow.
+    /// The layer with `inputs` and `outputs` starting at byte `start`, or `None` on overflow
+    /// and for [`Encoding::Integer`], whose layers have their own layout
+    /// ([`IntegerLayer`](crate::blob::IntegerLayer)).
     ///
     /// ```
     /// use policy_core::blob::{Encoding, LayerLayout};
@@ -162,6 +191,7 @@ impl LayerLayout {
         let scales = match encoding {
             Encoding::Int8 => outputs.checked_mul(4)?,
             Encoding::F32 | Encoding::F16 => 0,
+            Encoding::Integer => return None,
         };
         let weights = start.checked_add(scales)?;
         let weight_bytes = inputs
@@ -330,7 +360,9 @@ impl Shape {
         }
     }
 
-    /// Bytes of the payload in `encoding`, or `None` if it does not fit in `usize`.
+    /// Bytes of the payload in `encoding`, or `None` if it does not fit in `usize`, and for
+    /// [`Encoding::Integer`], whose length also depends on the activation (tanh layers carry a
+    /// table): [`Shape::payload_len_for`] takes it.
     ///
     /// ```
     /// use policy_core::{Encoding, ModelKind, Shape};
@@ -341,8 +373,10 @@ impl Shape {
     /// assert_eq!(int8, 4 * 9 + (2 * 48 + 8 * 48) + 3 * (48 * 48 + 8 * 48) + (48 * 2 + 8 * 2));
     /// ```
     pub fn payload_len_in(&self, kind: ModelKind, encoding: Encoding) -> Option<usize> {
-        if encoding == Encoding::F32 {
-            return self.payload_len(kind);
+        match encoding {
+            Encoding::F32 => return self.payload_len(kind),
+            Encoding::Integer => return None,
+            Encoding::F16 | Encoding::Int8 => {}
         }
         self.param_count(kind)?; // the same overflow checks as f32
         let mut end = self.prefix_count(kind).checked_mul(4)?;
@@ -352,6 +386,31 @@ impl Shape {
             l += 1;
         }
         Some(end)
+    }
+}
+
+impl Shape {
+    /// Bytes of the payload of a blob of this kind, encoding and hidden activation, or `None`
+    /// if it does not fit in `usize` (or, for [`Encoding::Integer`], the kind is not an actor).
+    /// The one length rule [`verify`](crate::blob::verify) and the writers apply.
+    ///
+    /// ```
+    /// use policy_core::{Activation, Encoding, ModelKind, Shape};
+    /// let s = Shape { observations: 2, actions: 2, width: 48, depth: 4, choices: 0 };
+    /// let tanh = s.payload_len_for(ModelKind::Actor, Encoding::Integer, Activation::Tanh).unwrap();
+    /// let relu = s.payload_len_for(ModelKind::Actor, Encoding::Integer, Activation::Relu).unwrap();
+    /// assert_eq!(tanh - relu, 4 * 256); // four hidden tanh tables
+    /// ```
+    pub fn payload_len_for(
+        &self,
+        kind: ModelKind,
+        encoding: Encoding,
+        activation: Activation,
+    ) -> Option<usize> {
+        match encoding {
+            Encoding::Integer => crate::integer_layout::payload_len(kind, *self, activation),
+            Encoding::F32 | Encoding::F16 | Encoding::Int8 => self.payload_len_in(kind, encoding),
+        }
     }
 }
 

@@ -57,6 +57,9 @@ pub mod error;
 // them; public as `blob::ModelKind` and so on.
 mod format;
 pub mod half;
+// Where an integer payload's parts lie: beside `format`, below `blob`; public as
+// `blob::IntegerLayer` and so on.
+mod integer_layout;
 pub mod mlp;
 pub mod model;
 pub mod normal;

@@ -33,6 +33,9 @@ use crate::mlp::activation::activate;
 use crate::mlp::{accumulate_bytes, accumulate_f16, accumulate_int8, squash};
 use crate::normalizer::normalize_value;
 
+// The integer encoding's entry points and forward pass.
+mod integer;
+
 /// Activation buffers for [`Model`]: two vectors of `W` floats, used in turn as a layer's input
 /// and output. `W` must be at least the blob's [`Shape::scratch_width`](crate::Shape::scratch_width)
 /// (its widest layer, observation or action vector); a narrower scratch is
@@ -370,12 +373,51 @@ impl<'a> Model<'a> {
         if self.header.kind != ModelKind::Actor {
             return Err(self.wrong_kind(ModelKind::Actor));
         }
+        if self.header.encoding == Encoding::Integer {
+            return self.act_unit_integer(obs, scratch, unit);
+        }
         let (x, y) = self.split_checked(obs.len(), unit.len(), scratch)?;
         self.normalize(obs, x);
         let out = self.forward(x, y);
         for (u, &v) in unit.iter_mut().zip(out) {
             *u = squash(v);
         }
+        Ok(())
+    }
+
+    /// Runs an actor (f32, f16 or int8) on one observation and shows `observe` every vector
+    /// the layers read or make before their activation: `observe(0, z)` with the normalised
+    /// observation, then `observe(l + 1, y)` with layer `l`'s outputs (hidden layers, then the
+    /// output layer, before tanh). The same arithmetic as [`Model::act_in`]; what the integer
+    /// encoding's calibration measures ([`blob::calibrate_into`]).
+    ///
+    /// ```
+    /// use policy_core::model::Model;
+    /// static BLOB: &[u8] = include_bytes!("../tests/golden/actor_4x48.postcard");
+    /// let model = Model::from_blob(BLOB).unwrap();
+    /// let mut seen = Vec::new();
+    /// model.pre_activations_in(&[4.0, -2.5], &mut [0.0; 96], &mut |l, v| seen.push((l, v.len()))).unwrap();
+    /// assert_eq!(seen, [(0, 2), (1, 48), (2, 48), (3, 48), (4, 48), (5, 2)]);
+    /// ```
+    pub fn pre_activations_in(
+        &self,
+        obs: &[f32],
+        scratch: &mut [f32],
+        observe: &mut dyn FnMut(usize, &[f32]),
+    ) -> Result<(), Error> {
+        if self.header.kind != ModelKind::Actor {
+            return Err(self.wrong_kind(ModelKind::Actor));
+        }
+        if self.header.encoding == Encoding::Integer {
+            return Err(Error::WrongEncoding {
+                expected: Encoding::F32,
+                found: Encoding::Integer,
+            });
+        }
+        let (x, y) = self.split_checked(obs.len(), self.layout.actions, scratch)?;
+        self.normalize(obs, x);
+        observe(0, x.get(..obs.len()).unwrap_or_default());
+        self.forward_with(x, y, observe);
         Ok(())
     }
 
@@ -584,18 +626,32 @@ impl<'a> Model<'a> {
 
     /// Runs every layer from the input in `x[..inputs]`; returns the linear output, which lies
     /// in `x` or `y` depending on the depth.
-    fn forward<'s>(&self, mut x: &'s mut [f32], mut y: &'s mut [f32]) -> &'s [f32] {
+    fn forward<'s>(&self, x: &'s mut [f32], y: &'s mut [f32]) -> &'s [f32] {
+        self.forward_with(x, y, |_, _| {})
+    }
+
+    /// [`Model::forward`], showing `observe` each layer's outputs before its activation (layer
+    /// `l` as `l + 1`).
+    #[inline(always)]
+    fn forward_with<'s>(
+        &self,
+        mut x: &'s mut [f32],
+        mut y: &'s mut [f32],
+        mut observe: impl FnMut(usize, &[f32]),
+    ) -> &'s [f32] {
         let l = self.layout;
         let activation = self.header.activation;
         let mut offset = l.layers;
         let mut inputs = l.inputs;
-        for _ in 0..=l.hidden_layers {
+        for k in 0..=l.hidden_layers {
             offset = self.dense(offset, inputs, l.width, x, y);
+            observe(k + 1, y.get(..l.width).unwrap_or_default());
             activate(activation, y.get_mut(..l.width).unwrap_or_default());
             core::mem::swap(&mut x, &mut y);
             inputs = l.width;
         }
         self.dense(offset, inputs, l.outputs, x, y);
+        observe(l.hidden_layers + 2, y.get(..l.outputs).unwrap_or_default());
         y.get(..l.outputs).unwrap_or_default()
     }
 
@@ -621,7 +677,10 @@ impl<'a> Model<'a> {
             Encoding::Int8 if cfg!(feature = "int8") => {
                 accumulate_int8(part(l.scales, l.weights), weights, bias, x, y)
             }
-            Encoding::F32 | Encoding::F16 | Encoding::Int8 => y.iter_mut().for_each(|v| *v = 0.0),
+            // The integer encoding runs its own forward pass (model/integer.rs), never this one.
+            Encoding::F32 | Encoding::F16 | Encoding::Int8 | Encoding::Integer => {
+                y.iter_mut().for_each(|v| *v = 0.0)
+            }
         }
         l.end
     }

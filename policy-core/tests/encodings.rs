@@ -23,7 +23,22 @@ static F32_BLOB: &[u8] = include_bytes!("golden/actor_4x48.postcard");
 /// quantises it.
 const INT8_BLOB: &str = "actor_4x48_int8.postcard";
 /// Its actions for [`OBSERVATIONS`], as f32 bit patterns, from the full build.
+#[cfg(feature = "int8")]
 const INT8_ACTIONS: &str = "actor_4x48_int8.txt";
+/// The same actor in the integer encoding, calibrated on [`calibration_grid`].
+const INTEGER_BLOB: &str = "actor_4x48_integer.postcard";
+/// Its actions for [`OBSERVATIONS`], from the full build.
+#[cfg(feature = "integer")]
+const INTEGER_ACTIONS: &str = "actor_4x48_integer.txt";
+
+/// The integer golden's calibration observations: a 25 × 25 grid over the arena, [-6, 6]².
+#[cfg(all(feature = "f32", feature = "integer"))]
+fn calibration_grid() -> Vec<f32> {
+    let step = |k: usize| -6.0 + 0.5 * k as f32;
+    (0..25)
+        .flat_map(|i| (0..25).flat_map(move |j| [step(i), step(j)]))
+        .collect()
+}
 
 /// The arena's corners and centre, sensor faults and extremes.
 const OBSERVATIONS: [[f32; 2]; 12] = [
@@ -56,11 +71,12 @@ fn updating() -> bool {
 }
 
 /// The int8 actor's actions, one line per observation: `obs0 obs1 -> action0 action1` in hex.
-fn actions_text(model: &Model<'_>) -> String {
+fn actions_text(model: &Model<'_>, name: &str) -> String {
     let mut scratch = Scratch::<64>::new();
-    let mut out = String::from(
-        "# The int8 actor_4x48_int8.postcard's actions (Model::act), f32 bit patterns in hex:\n\
+    let mut out = format!(
+        "# The {} {name}'s actions (Model::act), f32 bit patterns in hex:\n\
          # obs0 obs1 -> action0 action1. Written by the full build; every build must match.\n",
+        model.header().encoding
     );
     for obs in OBSERVATIONS {
         let mut action = [0.0f32; 2];
@@ -134,7 +150,7 @@ fn the_int8_blob_gives_the_full_builds_actions_bit_for_bit() {
     let blob = read(INT8_BLOB);
     let model = Model::from_blob(&blob).expect("the int8 golden loads");
     assert_eq!(model.header().encoding, Encoding::Int8);
-    let text = actions_text(&model);
+    let text = actions_text(&model, INT8_BLOB);
     let full_build = cfg!(all(feature = "f32", feature = "f16"));
     if updating() && full_build {
         std::fs::write(golden(INT8_ACTIONS), &text).expect("write the golden actions");
@@ -159,4 +175,61 @@ fn the_int8_golden_is_the_f32_golden_quantised() {
         std::fs::write(golden(INT8_BLOB), &quantised).expect("write the int8 golden");
     }
     assert_eq!(quantised, read(INT8_BLOB));
+}
+
+#[test]
+fn an_integer_blob_is_refused_unless_integer_is_compiled_in() {
+    let blob = read(INTEGER_BLOB);
+    let loaded = Model::from_blob(&blob).map(|m| m.header().encoding);
+    if cfg!(feature = "integer") {
+        assert_eq!(loaded, Ok(Encoding::Integer));
+    } else {
+        assert_eq!(
+            loaded,
+            Err(Error::EncodingNotCompiled {
+                found: Encoding::Integer
+            })
+        );
+    }
+}
+
+#[cfg(feature = "integer")]
+#[test]
+fn the_integer_blob_gives_the_full_builds_actions_bit_for_bit() {
+    let blob = read(INTEGER_BLOB);
+    let model = Model::from_blob(&blob).expect("the integer golden loads");
+    let text = actions_text(&model, INTEGER_BLOB);
+    let full_build = cfg!(all(feature = "f32", feature = "f16", feature = "int8"));
+    if updating() && full_build {
+        std::fs::write(golden(INTEGER_ACTIONS), &text).expect("write the golden actions");
+    }
+    let expected = String::from_utf8(read(INTEGER_ACTIONS)).expect("UTF-8");
+    assert_eq!(
+        text, expected,
+        "integer actions differ from the full build's"
+    );
+}
+
+// The integer golden is the f32 golden calibrated on the grid and written by the one writer, as
+// `blob::encode_integer` does (checked where f32 is read).
+#[cfg(all(feature = "f32", feature = "integer"))]
+#[test]
+fn the_integer_golden_is_the_f32_golden_calibrated_and_quantised() {
+    use policy_core::blob::{self, Spec};
+    let v = blob::verify(F32_BLOB).expect("the f32 golden verifies");
+    let model = Model::from_blob(F32_BLOB).expect("loads");
+    let mut ranges = vec![(f32::INFINITY, f32::NEG_INFINITY); 6];
+    let mut scratch = vec![0.0; model.scratch_floats()];
+    blob::calibrate_into(&model, &calibration_grid(), &mut scratch, &mut ranges)
+        .expect("calibrates");
+    let params: Vec<f32> = blob::values(&v.header, v.payload).collect();
+    let spec = Spec::like(&v.header, Encoding::Integer);
+    let mut out = vec![0u8; blob::encoded_len(&spec).expect("length")];
+    let n =
+        blob::write_integer(&spec, &ranges, &mut |sink| sink(&params), &mut out).expect("write");
+    assert_eq!(n, out.len());
+    if updating() {
+        std::fs::write(golden(INTEGER_BLOB), &out).expect("write the integer golden");
+    }
+    assert_eq!(out, read(INTEGER_BLOB));
 }

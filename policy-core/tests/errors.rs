@@ -79,26 +79,28 @@ fn wrong_magic() {
 
 #[test]
 fn unsupported_version() {
-    let b = with_header(|h| h.version = 4);
+    let b = with_header(|h| h.version = 5);
     assert_eq!(
         load_error(&b),
         Error::UnsupportedVersion {
-            supported: 3,
-            found: 4
+            supported: 4,
+            found: 5
         }
     );
 }
 
-/// An f32 blob is version 2 and a quantised one version 3: a header that pairs them otherwise
-/// is malformed (one encoding, one byte form).
+/// An f32 blob is version 2, an f16 or int8 one version 3 and an integer one version 4: a header
+/// that pairs them otherwise is malformed (one encoding, one byte form).
 #[test]
 fn encoding_and_version_must_agree() {
-    let b = with_header(|h| h.version = 3);
-    assert!(
-        matches!(load_error(&b), Error::Malformed { what } if what.contains("encoding")),
-        "{:?}",
-        load_error(&b)
-    );
+    for version in [3, 4] {
+        let b = with_header(|h| h.version = version);
+        assert!(
+            matches!(load_error(&b), Error::Malformed { what } if what.contains("encoding")),
+            "{:?}",
+            load_error(&b)
+        );
+    }
 }
 
 #[test]
@@ -277,7 +279,7 @@ fn reference_header_check(bytes: &[u8]) -> Result<(Header, usize), &'static str>
             };
             Ok((header, len))
         }
-        2 | 3 => {
+        2..=4 => {
             let (header, rest) = postcard::take_from_bytes::<Header>(bytes).map_err(what)?;
             let len = bytes.len() - rest.len();
             canonical(&header, &bytes[..len])?;

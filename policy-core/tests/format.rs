@@ -246,6 +246,58 @@ fn quantised_worked_examples_are_what_the_writer_writes() {
     }
 }
 
+/// The integer encoding's worked example: the tiny actor written by `write_integer` with the
+/// ranges the document gives is byte for byte its dump, and computes the codes and the action it
+/// works through.
+#[test]
+fn integer_worked_example_is_what_the_writer_writes() {
+    use policy_core::model::{Model, Scratch};
+    use policy_core::{Encoding, ModelKind};
+    let tiny = tiny_policy();
+    let mut params = Vec::new();
+    tiny.params(&mut |p| params.extend_from_slice(p));
+    let spec = blob::Spec {
+        kind: ModelKind::Actor,
+        encoding: Encoding::Integer,
+        shape: <policy_core::Policy<1, 2, 0, 1> as Compiled>::SHAPE,
+        activation: tiny.activation(),
+        label: TINY_LABEL,
+    };
+    let ranges = [(-3.0, 3.0), (-3.0, 3.5), (-1.0, 1.0)];
+    let mut bytes = vec![0u8; blob::encoded_len(&spec).expect("length")];
+    let n = blob::write_integer(&spec, &ranges, &mut |sink| sink(&params), &mut bytes)
+        .expect("integer tiny blob");
+    assert_eq!(n, bytes.len());
+    if std::env::var_os("PRINT_TINY").is_some() {
+        let hex: Vec<String> = bytes.iter().map(|b| format!("{b:02x}")).collect();
+        eprintln!("integer: {}", hex.join(" "));
+    }
+    assert_eq!(
+        doc_hex_of("tiny-blob-integer"),
+        bytes,
+        "docs/blob-format.md's integer dump is out of date"
+    );
+    let model = Model::from_blob(&bytes).expect("loads");
+    let mut codes = [0i8];
+    model.observation_codes(&[1.0], &mut codes).expect("codes");
+    let mut unit = [0i8];
+    model
+        .act_codes_in(&codes, &mut [0; 4], &mut unit)
+        .expect("act codes");
+    let mut a = [0.0f32];
+    model
+        .act(&[1.0], &mut Scratch::<2>::new(), &mut a)
+        .expect("act");
+    assert_eq!((codes[0], unit[0]), (INTEGER_CODE, INTEGER_UNIT), "{a:?}");
+    assert!((a[0] - INTEGER_ACTION).abs() < 1e-5, "{}", a[0]);
+}
+
+/// What the integer worked example computes on the observation 1.0: the input code, the unit
+/// code and the action (docs/blob-format.md).
+const INTEGER_CODE: i8 = 42;
+const INTEGER_UNIT: i8 = 93;
+const INTEGER_ACTION: f32 = 0.183_07;
+
 /// The slot-record example in `docs/blob-format.md` is the header policy-core writes for the
 /// tiny blob with sequence number 3, and reads back.
 #[test]

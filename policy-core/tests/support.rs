@@ -274,3 +274,27 @@ pub fn discrete_blob(seed: u64) -> Vec<u8> {
     };
     runtime_blob(ModelKind::Discrete, shape, Activation::Relu, seed)
 }
+
+/// The f32 actor blob `f32_blob` in the integer encoding, calibrated on `observations`
+/// (flattened) and written by policy-core's writer: what `blob::encode_integer` does, without
+/// the crate's `std` feature.
+pub fn integer_vec(f32_blob: &[u8], observations: &[f32]) -> Result<Vec<u8>, policy_core::Error> {
+    let model = policy_core::model::Model::from_blob(f32_blob)?;
+    let h = model.header().clone();
+    let mut ranges = vec![(f32::INFINITY, f32::NEG_INFINITY); usize::from(h.shape.depth) + 2];
+    let mut scratch = vec![0.0; model.scratch_floats()];
+    blob::calibrate_into(&model, observations, &mut scratch, &mut ranges)?;
+    let params: Vec<f32> = model.values().collect();
+    let spec = blob::Spec::like(&h, policy_core::Encoding::Integer);
+    let mut out = vec![0u8; blob::encoded_len(&spec)?];
+    let n = blob::write_integer(&spec, &ranges, &mut |sink| sink(&params), &mut out)?;
+    out.truncate(n);
+    Ok(out)
+}
+
+/// Observations of `size` components for calibration: `count` of them, each component uniform
+/// in `[-scale, scale]`.
+pub fn calibration_observations(size: usize, count: usize, scale: f32, seed: u64) -> Vec<f32> {
+    let mut rng = SplitMix64(seed);
+    (0..size * count).map(|_| rng.symmetric() * scale).collect()
+}

@@ -19,6 +19,8 @@ mod robustness;
 mod act_bounds;
 // f16 and int8 blobs: stored, computed and refused as documented.
 mod quantised;
+// The integer encoding: the page's forward pass, both entries, bounds, refusals, corruption.
+mod integer;
 // The vectorisable tanhf is bit-identical to libm::tanhf.
 mod tanh;
 // Batch normal draws are the single draws, bit for bit (libm's logf and cosf, ported).

@@ -221,7 +221,8 @@ fn quantised_base() -> impl Strategy<Value = Vec<u8>> {
     prop::sample::select(quantised_bases())
 }
 
-/// The f32 bases in f16 and in int8 (format version 3).
+/// The f32 bases in f16 and in int8 (format version 3), and the actors in the integer encoding
+/// (format version 4), calibrated on observations over the normaliser's range.
 fn quantised_bases() -> Vec<Vec<u8>> {
     let encode = |bytes: &[u8], encoding| blob::encode(bytes, encoding).expect("a base encodes");
     let mut all = Vec::new();
@@ -234,6 +235,17 @@ fn quantised_bases() -> Vec<Vec<u8>> {
         for encoding in [policy_core::Encoding::F16, policy_core::Encoding::Int8] {
             all.push(encode(&base, encoding));
         }
+    }
+    for base in [ACTOR_2X32.to_vec(), tiny_actor()] {
+        let s = usize::from(
+            blob::verify(&base)
+                .expect("a base")
+                .header
+                .shape
+                .observations,
+        );
+        let observations: Vec<f32> = (0..64 * s).map(|i| (i % 13) as f32 - 6.0).collect();
+        all.push(blob::encode_integer(&base, &observations).expect("an actor base encodes"));
     }
     all
 }

@@ -145,6 +145,7 @@ fn describe_blob(r: &Running) -> String {
         hil_protocol::Encoding::F32 => "f32",
         hil_protocol::Encoding::F16 => "f16",
         hil_protocol::Encoding::Int8 => "int8",
+        hil_protocol::Encoding::Integer => "integer",
     };
     format!("{}x{} {encoding}", r.depth, r.width)
 }

@@ -288,6 +288,105 @@ pub fn encode(bytes: &[u8], encoding: Encoding) -> Result<Vec<u8>, Error> {
     Ok(blob::encode(bytes, encoding)?)
 }
 
+/// Episodes of firmware-sim's test protocol an integer export is calibrated on by default.
+pub const CALIBRATION_EPISODES: u64 = 20;
+
+/// The seed of the calibration episodes: its own, so that no start the test protocol (seed 0 by
+/// default) or validation draws is the one the ranges were measured on.
+pub const CALIBRATION_SEED: u64 = 0xCA11_B8A7;
+
+/// The observations an actor visits on its plant, for the integer encoding's calibration: every
+/// observation the f32 `policy` blob is given in `episodes` episodes of firmware-sim's test
+/// protocol on `scenario` (ideal sensors, seed [`CALIBRATION_SEED`]), flattened. These are the
+/// states the exported policy itself meets in closed loop, which neither the replay buffer
+/// (exploration's states, and only off-policy algorithms have one) nor a validation round
+/// (which keeps no observations) gives.
+///
+/// ```
+/// use firmware_sim::nav::scenario::Scenario;
+/// use host_trainer::blob::export::calibration_observations;
+/// static F32: &[u8] = include_bytes!("../../../policy-core/tests/golden/actor_4x48.postcard");
+/// let s = Scenario::builtin("nav-walls").unwrap();
+/// let obs = calibration_observations(F32, &s, 2).unwrap();
+/// assert!(obs.len() >= 2 * 2 && obs.len() % 2 == 0);
+/// ```
+pub fn calibration_observations(
+    policy: &[u8],
+    scenario: &firmware_sim::nav::scenario::Scenario,
+    episodes: usize,
+) -> Result<Vec<f32>, Error> {
+    visited_observations(policy, scenario, episodes, CALIBRATION_SEED)
+}
+
+/// Every observation the `policy` blob is given in `episodes` episodes of firmware-sim's test
+/// protocol on `scenario` with `seed` (ideal sensors), flattened.
+pub fn visited_observations(
+    policy: &[u8],
+    scenario: &firmware_sim::nav::scenario::Scenario,
+    episodes: usize,
+    seed: u64,
+) -> Result<Vec<f32>, Error> {
+    use firmware_sim::controller::BlobPolicy;
+    use firmware_sim::nav::test_protocol::{evaluate_controller, EvalConfig};
+    let sim = |e: firmware_sim::Error| Error::Sim {
+        context: "calibration episodes".into(),
+        message: e.to_string(),
+    };
+    let inner = BlobPolicy::boot(policy).map_err(sim)?;
+    let mut recording = Recording {
+        inner,
+        seen: Vec::new(),
+    };
+    let config = EvalConfig {
+        episodes,
+        seed,
+        ..EvalConfig::default()
+    };
+    evaluate_controller(&mut recording, scenario, &config).map_err(sim)?;
+    Ok(recording.seen)
+}
+
+/// A controller that notes every observation it is given, then acts as the one it wraps.
+struct Recording<'a> {
+    inner: firmware_sim::controller::BlobPolicy<'a>,
+    seen: Vec<f32>,
+}
+
+impl firmware_sim::controller::Controller for Recording<'_> {
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+    fn observations(&self) -> usize {
+        self.inner.observations()
+    }
+    fn actions(&self) -> usize {
+        self.inner.actions()
+    }
+    fn reset(&mut self) {
+        self.inner.reset();
+    }
+    fn act(&mut self, obs: &[f32], action: &mut [f32]) {
+        self.seen.extend_from_slice(obs);
+        self.inner.act(obs, action);
+    }
+}
+
+/// The f32 actor blob `policy` in the integer encoding, calibrated on `observations`
+/// (flattened): [`policy_core::blob::encode_integer`] (its one definition), with this crate's
+/// error. A NaN in the data or a layer whose range is zero is policy-core's
+/// `Calibration` error, which names the observation or the layer.
+///
+/// ```
+/// use host_trainer::blob::export::encode_integer;
+/// static F32: &[u8] = include_bytes!("../../../policy-core/tests/golden/actor_4x48.postcard");
+/// assert!(encode_integer(F32, &[4.0, -2.5, 0.0, 1.0]).unwrap().len() < F32.len() / 2);
+/// let err = encode_integer(F32, &[f32::NAN, 0.0]).unwrap_err();
+/// assert!(err.to_string().contains("NaN or infinite observation"), "{err}");
+/// ```
+pub fn encode_integer(policy: &[u8], observations: &[f32]) -> Result<Vec<u8>, Error> {
+    Ok(blob::encode_integer(policy, observations)?)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

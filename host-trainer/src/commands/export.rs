@@ -10,6 +10,7 @@ use host_trainer::blob::export::{self, ImageFormat, SlotTarget};
 use host_trainer::run::config::read_text;
 use host_trainer::run::folder::{self, RunDir};
 use host_trainer::run::lock;
+use host_trainer::run::plant::RunPlant;
 use host_trainer::run::race::RaceRecord;
 use policy_core::slot::SlotId;
 use policy_core::Encoding;
@@ -27,9 +28,19 @@ pub(crate) struct ExportArgs {
     #[arg(long)]
     last: bool,
     /// How the policy's weights are stored: f32 (policy.postcard and the critic), f16 or int8
-    /// (policy-f16.postcard, policy-int8.postcard; weights only, everything else stays f32).
+    /// (policy-f16.postcard, policy-int8.postcard; weights only, everything else stays f32),
+    /// or integer (policy-integer.postcard: integer arithmetic throughout, calibrated on the
+    /// observations the policy meets in --calibration-episodes test episodes; actors only).
     #[arg(long, default_value = "f32", value_parser = parse_encoding)]
     encoding: Encoding,
+    /// Episodes of firmware-sim's test protocol (with their own seed) whose observations
+    /// calibrate the integer encoding's activation ranges.
+    #[arg(
+        long,
+        default_value_t = export::CALIBRATION_EPISODES,
+        value_parser = clap::value_parser!(u64).range(1..=10_000)
+    )]
+    calibration_episodes: u64,
     /// Also write a flash slot image of the policy (a slot record: header with --sequence, then
     /// the blob): bin (raw; the flasher is given the address) or hex (Intel HEX at the address).
     #[arg(long, value_enum, requires_all = ["slot", "sequence"])]
@@ -71,7 +82,7 @@ pub(crate) fn parse_encoding(s: &str) -> Result<Encoding, String> {
     Encoding::ALL
         .into_iter()
         .find(|e| e.to_string() == s)
-        .ok_or_else(|| format!("expected f32, f16 or int8, found {s:?}"))
+        .ok_or_else(|| format!("expected f32, f16, int8 or integer, found {s:?}"))
 }
 
 pub(crate) fn export_command(args: ExportArgs) -> Result<()> {
@@ -110,8 +121,34 @@ pub(crate) fn export_command(args: ExportArgs) -> Result<()> {
         }
         _ => format!("the last networks, episode {}", trainer.episode),
     };
+    let mut calibrated = String::new();
     let policy = match args.encoding {
         Encoding::F32 => f32,
+        Encoding::Integer => {
+            let scenario = match &trainer.plant {
+                RunPlant::Scenario(scenario) => scenario,
+                other => anyhow::bail!(
+                    "the integer encoding is calibrated on firmware-sim's test protocol, which \
+                     runs scenarios; this run's plant is {}",
+                    other.name()
+                ),
+            };
+            let header = policy_core::blob::verify(&f32)?.header;
+            let kind = header.kind;
+            if kind != policy_core::ModelKind::Actor {
+                anyhow::bail!(
+                    "the integer encoding holds actors only; this run's policy is a {kind}"
+                );
+            }
+            let episodes = args.calibration_episodes as usize;
+            let observations = export::calibration_observations(&f32, scenario, episodes)?;
+            let size = usize::from(header.shape.observations).max(1);
+            calibrated = format!(
+                ", calibrated on {} observations from {episodes} test episodes",
+                observations.len() / size
+            );
+            export::encode_integer(&f32, &observations)?
+        }
         other => export::encode(&f32, other)?,
     };
     // The image is made (and refused) before anything is written.
@@ -122,7 +159,7 @@ pub(crate) fn export_command(args: ExportArgs) -> Result<()> {
     if args.encoding != Encoding::F32 {
         out.write(&name, &policy)?;
         outln!(
-            "wrote {} ({} bytes, {} weights; {which})",
+            "wrote {} ({} bytes, {} weights{calibrated}; {which})",
             out.file(&name).display(),
             policy.len(),
             args.encoding,

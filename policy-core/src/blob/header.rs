@@ -13,7 +13,8 @@ use heapless::String;
 
 use crate::error::Error;
 use crate::format::{
-    Encoding, Header, ModelKind, Shape, LABEL_CAPACITY, MAGIC, VERSION, VERSION_QUANTISED,
+    Encoding, Header, ModelKind, Shape, LABEL_CAPACITY, MAGIC, VERSION, VERSION_INTEGER,
+    VERSION_QUANTISED,
 };
 use crate::mlp::activation::Activation;
 
@@ -89,10 +90,11 @@ impl Reader<'_> {
     }
 
     fn encoding(&mut self) -> Result<Encoding, Error> {
-        Ok(match self.variant(3)? {
+        Ok(match self.variant(4)? {
             0 => Encoding::F32,
             1 => Encoding::F16,
-            _ => Encoding::Int8,
+            2 => Encoding::Int8,
+            _ => Encoding::Integer,
         })
     }
 
@@ -129,9 +131,9 @@ pub(super) fn decode(bytes: &[u8]) -> Result<(Header, usize), Error> {
         padded: false,
     };
     let version = r.u16()?;
-    if !matches!(version, 1 | VERSION | VERSION_QUANTISED) {
+    if !matches!(version, 1 | VERSION | VERSION_QUANTISED | VERSION_INTEGER) {
         return Err(Error::UnsupportedVersion {
-            supported: VERSION_QUANTISED,
+            supported: VERSION_INTEGER,
             found: version,
         });
     }

@@ -26,13 +26,16 @@ pub fn check_parameters(header: &Header, payload: &[u8]) -> Result<(), Error> {
             found: header.encoding,
         });
     }
-    if header.encoding == Encoding::F32 {
-        let mut values = payload_values(payload);
-        if let Some(index) = values.position(|v| !v.is_finite()) {
-            return Err(Error::NonFiniteParameter { index });
+    match header.encoding {
+        Encoding::F32 => {
+            let mut values = payload_values(payload);
+            if let Some(index) = values.position(|v| !v.is_finite()) {
+                return Err(Error::NonFiniteParameter { index });
+            }
         }
-    } else {
-        check_quantised(header, payload)?;
+        // The `cfg!` guard lets the optimiser drop the integer checks from a build without them.
+        Encoding::Integer if cfg!(feature = "integer") => super::integer::check(header, payload)?,
+        Encoding::F16 | Encoding::Int8 | Encoding::Integer => check_quantised(header, payload)?,
     }
     let p = Prefix::of(header);
     let s = p.observations;
@@ -56,7 +59,9 @@ pub fn check_parameters(header: &Header, payload: &[u8]) -> Result<(), Error> {
 
 /// Every parameter, in blob order, decoded: an f16 weight as its exact f32 value, an int8
 /// weight as `scale · q` (the value the layer's arithmetic stands for; it computes
-/// `scale · Σ q x` instead), everything else as stored.
+/// `scale · Σ q x` instead), everything else as stored. An [`Encoding::Integer`] blob's f32
+/// parameters are its prefix (normaliser, bounds) only: its layers are integers, which
+/// [`IntegerLayer`](crate::blob::IntegerLayer) locates.
 ///
 /// ```
 /// use policy_core::blob;
@@ -74,7 +79,7 @@ pub fn values<'a>(header: &Header, payload: &'a [u8]) -> impl Iterator<Item = f3
     } else {
         payload
     };
-    let layers = if quantised {
+    let layers = if quantised && encoding != Encoding::Integer {
         shape.depth as usize + 1
     } else {
         0
@@ -179,7 +184,7 @@ fn check_quantised(h: &Header, payload: &[u8]) -> Result<(), Error> {
                     return Err(non_finite(first + i));
                 }
             }
-            Encoding::Int8 | Encoding::F16 | Encoding::F32 => {}
+            Encoding::Int8 | Encoding::F16 | Encoding::F32 | Encoding::Integer => {}
         }
         let mut bias = payload_values(payload.get(layer.bias..layer.end).unwrap_or_default());
         if let Some(o) = bias.position(|v| !v.is_finite()) {
@@ -244,7 +249,7 @@ fn layer_values(
             Encoding::Int8 if cfg!(feature = "int8") => {
                 word(s0 + 4 * (i % outputs)) * f32::from(byte(w0 + i) as i8)
             }
-            Encoding::F32 | Encoding::F16 | Encoding::Int8 => 0.0,
+            Encoding::F32 | Encoding::F16 | Encoding::Int8 | Encoding::Integer => 0.0,
         })
         .chain(payload_values(payload.get(bias..end).unwrap_or_default()))
 }

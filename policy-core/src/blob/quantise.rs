@@ -113,7 +113,7 @@ pub(super) fn quantise(
                             dst.copy_from_slice(&h.to_le_bytes());
                         }
                     }
-                    Encoding::Int8 | Encoding::F32 => {
+                    Encoding::Int8 | Encoding::F32 | Encoding::Integer => {
                         let scale = get_f32(payload, l.scales + 4 * (i % l.outputs));
                         let q = libm::roundf(v / scale).clamp(-127.0, 127.0) as i8;
                         if let Some(dst) = payload.get_mut(l.weights + i) {

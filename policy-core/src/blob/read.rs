@@ -6,7 +6,9 @@
 use super::header;
 use crate::crc32::crc32;
 use crate::error::Error;
-use crate::format::{padded_header_len, Header, CRC_LEN, MAGIC, MAX_PAYLOAD_LEN};
+use crate::format::{
+    padded_header_len, Encoding, Header, ModelKind, CRC_LEN, MAGIC, MAX_PAYLOAD_LEN,
+};
 
 /// A header and the payload bytes it describes, after the length and checksum checks.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -45,7 +47,13 @@ pub fn verify(bytes: &[u8]) -> Result<Verified<'_>, Error> {
     let (header, encoded_len) = header::decode(bytes)?;
     if header.version != 1 && header.encoding.version() != header.version {
         return Err(Error::Malformed {
-            what: "encoding does not match the format version (f32: 2, f16 and int8: 3)",
+            what:
+                "encoding does not match the format version (f32: 2, f16 and int8: 3, integer: 4)",
+        });
+    }
+    if header.encoding == Encoding::Integer && header.kind != ModelKind::Actor {
+        return Err(Error::Malformed {
+            what: "the integer encoding holds actors only",
         });
     }
     // Before any check that depends on the encoding: the rest of the crate may assume every
@@ -102,7 +110,9 @@ pub fn verify(bytes: &[u8]) -> Result<Verified<'_>, Error> {
 
 /// The header's payload length, after checking it is the one its kind, shape and encoding imply.
 fn checked_payload_len(header: &Header) -> Result<usize, Error> {
-    let expected = header.shape.payload_len_in(header.kind, header.encoding);
+    let expected = header
+        .shape
+        .payload_len_for(header.kind, header.encoding, header.activation);
     if expected.is_none() {
         return Err(Error::Malformed {
             what: "shape has no hidden layer or is too large",

@@ -19,7 +19,7 @@ impl Spec<'_> {
         })?;
         let payload_len = self
             .shape
-            .payload_len_in(self.kind, self.encoding)
+            .payload_len_for(self.kind, self.encoding, self.activation)
             .filter(|&n| n <= MAX_PAYLOAD_LEN)
             .and_then(|n| u32::try_from(n).ok())
             .ok_or(Error::Malformed {
@@ -75,23 +75,19 @@ pub fn encoded_len(spec: &Spec<'_>) -> Result<usize, Error> {
 /// assert_eq!(model.header().shape, shape);
 /// ```
 pub fn write(spec: &Spec<'_>, params: &mut Params<'_>, out: &mut [u8]) -> Result<usize, Error> {
-    let needed = encoded_len(spec)?;
-    let header = spec.header()?;
+    if spec.encoding == Encoding::Integer {
+        return Err(Error::Calibration {
+            what: "the integer encoding needs the activations' ranges: write it with blob::write_integer",
+            index: 0,
+        });
+    }
+    let (needed, header_len) = header_into(spec, out)?;
     let too_small = Error::BufferTooSmall {
         needed,
         found: out.len(),
     };
     let out = out.get_mut(..needed).ok_or(too_small)?;
-    let encoded = postcard::to_slice(&header, out)
-        .map_err(|_| Error::Malformed {
-            what: "header cannot be encoded",
-        })?
-        .len();
-    let header_len = padded_header_len(header.version, encoded);
     let (body, crc) = out.split_last_chunk_mut::<CRC_LEN>().ok_or(too_small)?;
-    body.get_mut(encoded..header_len)
-        .unwrap_or_default()
-        .fill(0);
     if spec.encoding != Encoding::F32 {
         quantise(spec, params, body.get_mut(header_len..).unwrap_or_default())?;
         *crc = crc32(body).to_le_bytes();
@@ -117,6 +113,25 @@ pub fn write(spec: &Spec<'_>, params: &mut Params<'_>, out: &mut [u8]) -> Result
     }
     *crc = crc32(body).to_le_bytes();
     Ok(needed)
+}
+
+/// Writes the header of `spec` and its zero padding at the start of `out`, after checking that
+/// `out` holds the whole blob; returns the blob's length and the payload's offset.
+pub(super) fn header_into(spec: &Spec<'_>, out: &mut [u8]) -> Result<(usize, usize), Error> {
+    let needed = encoded_len(spec)?;
+    let header = spec.header()?;
+    let found = out.len();
+    let out = out
+        .get_mut(..needed)
+        .ok_or(Error::BufferTooSmall { needed, found })?;
+    let encoded = postcard::to_slice(&header, out)
+        .map_err(|_| Error::Malformed {
+            what: "header cannot be encoded",
+        })?
+        .len();
+    let header_len = padded_header_len(header.version, encoded);
+    out.get_mut(encoded..header_len).unwrap_or_default().fill(0);
+    Ok((needed, header_len))
 }
 
 /// [`write()`] into a new vector (host side).

@@ -10,9 +10,12 @@
 //! - `activation.rs`: [`Activation`] and [`squash`], the one definition of each.
 //! - `kernels.rs`: `y = b + W x` for weights as f32 (words, bytes or a matrix), f16 or int8.
 //! - `dense.rs`: [`Dense`] and [`Trunk`], the layers with their sizes in their types.
+//! - [`integer`]: the integer encoding's layer (int8 codes, int32 accumulators, TFLite's
+//!   fixed-point requantisation) and its entry and exit maps.
 
 pub(crate) mod activation;
 mod dense;
+pub mod integer;
 mod kernels;
 
 pub use activation::{squash, Activation};

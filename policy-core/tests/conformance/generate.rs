@@ -9,13 +9,19 @@
 
 use std::collections::BTreeMap;
 
-use policy_core::blob::{self, Encoding, Header, LayerLayout, Spec};
+use policy_core::blob::{self, Encoding, Header, IntegerInput, IntegerLayer, LayerLayout, Spec};
 use policy_core::model::Model;
 use policy_core::slot::{self, SlotId, Status};
 use policy_core::{Activation, Error, ModelKind, Shape};
 
 use super::{class, hex_bits, Scratch64};
-use crate::support::{blob_of, reseal, runtime_params, tiny_policy, write_vec, SplitMix64};
+use crate::support::{
+    blob_of, calibration_observations, integer_vec, reseal, runtime_params, tiny_policy, write_vec,
+    SplitMix64,
+};
+
+/// The tiny actor's calibration observations for its integer encoding: normalised, -3 to 3.
+const TINY_CALIBRATION: [f32; 7] = [-1.0, -0.5, 0.0, 0.5, 1.0, 1.5, 2.0];
 
 /// The vectors: the manifest's lines and the files they name (path relative to the folder).
 #[derive(Default)]
@@ -74,10 +80,12 @@ fn valid(v: &mut Vectors) {
     v.lines
         .push("# Valid blobs: header fields, then outputs for observations.".into());
     let tiny = blob_of(&tiny_policy(), "tiny");
-    for encoding in Encoding::ALL {
+    for encoding in Encoding::WEIGHTS_ONLY {
         let bytes = reencode(&tiny, encoding);
         accept(v, &format!("tiny-{}", encoding), bytes);
     }
+    let tiny_integer = integer_vec(&tiny, &TINY_CALIBRATION).expect("the tiny integer actor");
+    accept(v, "tiny-integer", tiny_integer.clone());
     let shapes = [
         (
             "actor-3x16-relu",
@@ -112,7 +120,7 @@ fn valid(v: &mut Vectors) {
     ];
     for (i, (name, kind, shape, activation)) in shapes.into_iter().enumerate() {
         let params = runtime_params(kind, shape, &mut SplitMix64(0xC0F0 + i as u64));
-        for encoding in Encoding::ALL {
+        for encoding in Encoding::WEIGHTS_ONLY {
             let spec = Spec {
                 kind,
                 encoding,
@@ -121,6 +129,13 @@ fn valid(v: &mut Vectors) {
                 label: name,
             };
             let bytes = write_vec(&spec, &params).expect("valid spec");
+            if kind == ModelKind::Actor && encoding == Encoding::F32 {
+                // The integer encoding holds actors only, calibrated on observations around
+                // the normaliser's mean (runtime_params draws means within ±3).
+                let obs = calibration_observations(shape.observations.into(), 64, 5.0, 0xCA1);
+                let integer = integer_vec(&bytes, &obs).expect("calibrates");
+                accept(v, &format!("{name}-integer"), integer);
+            }
             accept(v, &format!("{name}-{encoding}"), bytes);
         }
     }
@@ -138,6 +153,12 @@ fn valid(v: &mut Vectors) {
     minus_128[at] = 0x80;
     reseal(&mut minus_128);
     accept(v, "int8-weight-minus-128", minus_128);
+    // The same for the integer encoding: its writer clamps weights to ±127 too.
+    let mut integer_minus_128 = tiny_integer;
+    let at = integer_at(&integer_minus_128).1[0].weights;
+    integer_minus_128[at] = 0x80;
+    reseal(&mut integer_minus_128);
+    accept(v, "integer-weight-minus-128", integer_minus_128);
     // The longest label (32 bytes), in UTF-8 of more than one byte per character.
     let label = format!("{}é", "€".repeat(10));
     assert_eq!(label.len(), 32);
@@ -479,7 +500,8 @@ fn invalid_header(v: &mut Vectors) {
         "WrongMagic",
     );
     reject(v, "version-0", edit(4, &[0]), "UnsupportedVersion");
-    reject(v, "version-4", edit(4, &[4]), "UnsupportedVersion");
+    reject(v, "version-5", edit(4, &[5]), "UnsupportedVersion");
+    reject(v, "version-4-f32", edit(4, &[4]), "Malformed");
     reject(
         v,
         "version-300",
@@ -502,12 +524,32 @@ fn invalid_header(v: &mut Vectors) {
         edit(5, &[0x80, 0x80, 0x80, 0x80, 0x00]),
         "Malformed",
     );
-    reject(v, "encoding-3", edit(6, &[3]), "Malformed");
+    reject(v, "encoding-4", edit(6, &[4]), "Malformed");
     reject(v, "version-2-f16", edit(6, &[1]), "Malformed");
     reject(
         v,
         "version-3-f32",
         with_header(&tiny_f16, &|h| h.encoding = Encoding::F32),
+        "Malformed",
+    );
+    let tiny_integer = integer_vec(&tiny, &TINY_CALIBRATION).expect("the tiny integer actor");
+    reject(
+        v,
+        "version-3-integer",
+        with_header(&tiny_integer, &|h| h.version = 3),
+        "Malformed",
+    );
+    reject(
+        v,
+        "integer-critic",
+        with_header(&tiny_integer, &|h| h.kind = ModelKind::Critic),
+        "Malformed",
+    );
+    // A tanh actor's payload length written as the ReLU actor's (without the hidden table).
+    reject(
+        v,
+        "integer-payload-length-without-table",
+        with_header(&tiny_integer, &|h| h.payload_len -= 256),
         "Malformed",
     );
     reject(
@@ -763,6 +805,8 @@ fn invalid_parameters(v: &mut Vectors) {
     // The input layer's second bias: parameter 5 + 2 weights + 1 = 8 (scales are not counted).
     reject(v, "int8-bias-nan", int8_bias, "NonFiniteParameter index=8");
 
+    invalid_integer(v);
+
     // A discrete policy whose action table leaves the bounds in row 3.
     let shape = shape(2, 2, 8, 2, 5);
     let mut params = runtime_params(ModelKind::Discrete, shape, &mut SplitMix64(9));
@@ -781,6 +825,126 @@ fn invalid_parameters(v: &mut Vectors) {
         "table-row-outside-bounds",
         bytes,
         "InvalidParameter index=3",
+    );
+}
+
+/// The integer encoding's rules (step 14 for version 4), one edit of the tiny integer actor
+/// each, in the order the reader checks them.
+fn invalid_integer(v: &mut Vectors) {
+    let tiny = blob_of(&tiny_policy(), "tiny");
+    let base = integer_vec(&tiny, &TINY_CALIBRATION).expect("the tiny integer actor");
+    let (input, layers) = integer_at(&base);
+    let edit = |at: usize, bytes: &[u8]| {
+        let mut out = base.clone();
+        out[at..at + bytes.len()].copy_from_slice(bytes);
+        reseal(&mut out);
+        out
+    };
+    let word = |at: usize, value: i32| edit(at, &value.to_le_bytes());
+    let float = |at: usize, value: f32| edit(at, &value.to_le_bytes());
+    // The prefix stays f32 and is checked first, as in every quantised encoding.
+    reject(
+        v,
+        "integer-mean-nan",
+        float(20, f32::NAN),
+        "NonFiniteParameter index=0",
+    );
+    for (name, value) in [
+        ("zero", 0.0),
+        ("negative", -25.5),
+        ("subnormal", 1.0e-40),
+        ("nan", f32::NAN),
+        ("infinite", f32::INFINITY),
+    ] {
+        reject(
+            v,
+            &format!("integer-input-scale-{name}"),
+            float(input.scales, value),
+            "InvalidParameter index=0",
+        );
+    }
+    reject(
+        v,
+        "integer-input-offset-infinite",
+        float(input.offsets, f32::NEG_INFINITY),
+        "InvalidParameter index=0",
+    );
+    reject(
+        v,
+        "integer-input-zero-128",
+        word(input.zero, 128),
+        "InvalidParameter index=0",
+    );
+    // The output layer (layer 1): its zero point's index is the layer's.
+    reject(
+        v,
+        "integer-output-zero-minus-129",
+        word(layers[1].zero, -129),
+        "InvalidParameter index=1",
+    );
+    reject(
+        v,
+        "integer-multiplier-below-half",
+        word(layers[0].multipliers + 4, (1 << 30) - 1),
+        "InvalidParameter index=1",
+    );
+    reject(
+        v,
+        "integer-multiplier-negative",
+        word(layers[0].multipliers, i32::MIN),
+        "InvalidParameter index=0",
+    );
+    reject(
+        v,
+        "integer-shift-positive",
+        edit(layers[0].shifts + 1, &[1]),
+        "InvalidParameter index=1",
+    );
+    reject(
+        v,
+        "integer-shift-minus-32",
+        edit(layers[1].shifts, &[(-32i8) as u8]),
+        "InvalidParameter index=0",
+    );
+    assert!(layers[0].shift_padding < layers[0].weights);
+    reject(
+        v,
+        "integer-shift-padding-not-zero",
+        edit(layers[0].shift_padding, &[1]),
+        "Malformed",
+    );
+    assert!(layers[1].weight_padding < layers[1].bias);
+    reject(
+        v,
+        "integer-weight-padding-not-zero",
+        edit(layers[1].weight_padding + 1, &[0x80]),
+        "Malformed",
+    );
+    reject(
+        v,
+        "integer-bias-beyond-2-30",
+        word(layers[0].bias + 4, (1 << 30) + 1),
+        "InvalidParameter index=1",
+    );
+    reject(
+        v,
+        "integer-bias-below-minus-2-30",
+        word(layers[1].bias, -(1 << 30) - 1),
+        "InvalidParameter index=0",
+    );
+    let hidden_table = layers[0].table.expect("a tanh layer has a table");
+    reject(
+        v,
+        "integer-table-minus-128",
+        edit(hidden_table, &[0x80]),
+        "InvalidParameter index=0",
+    );
+    let output_table = layers[1].table.expect("the output layer has a table");
+    reject(
+        v,
+        "integer-table-decreasing",
+        edit(output_table + 200, &[(-5i8) as u8]),
+        "InvalidParameter index=200",
     );
 }
 
@@ -980,4 +1144,38 @@ fn layer_at(bytes: &[u8], l: usize) -> LayerLayout {
         *x += start;
     }
     layer
+}
+
+/// An integer blob's input block and layers, in bytes from the blob's start.
+fn integer_at(bytes: &[u8]) -> (IntegerInput, Vec<IntegerLayer>) {
+    let verified = blob::verify(bytes).expect("valid");
+    let h = &verified.header;
+    let start = bytes.len() - 4 - verified.payload.len();
+    let mut layers = Vec::new();
+    let (mut input, _) = blob::integer_layers(h.kind, h.shape, h.activation, |_, mut l| {
+        for x in [
+            &mut l.zero,
+            &mut l.multipliers,
+            &mut l.shifts,
+            &mut l.shift_padding,
+            &mut l.weights,
+            &mut l.weight_padding,
+            &mut l.bias,
+            &mut l.end,
+        ] {
+            *x += start;
+        }
+        l.table = l.table.map(|t| t + start);
+        layers.push(l);
+    })
+    .expect("an integer actor");
+    for x in [
+        &mut input.scales,
+        &mut input.offsets,
+        &mut input.zero,
+        &mut input.end,
+    ] {
+        *x += start;
+    }
+    (input, layers)
 }

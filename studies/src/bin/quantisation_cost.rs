@@ -36,7 +36,7 @@ fn run_one(dir: &Path) -> Result<RunResults, String> {
     let scenario = run_folder::scenario(dir)?;
     let config = run_folder::test_protocol();
     let mut out = Vec::new();
-    for encoding in Encoding::ALL {
+    for encoding in Encoding::WEIGHTS_ONLY {
         let bytes = encode(&f32, encoding).map_err(|e| format!("{name}: {e}"))?;
         let report = evaluate(&bytes, &scenario, &config).map_err(|e| format!("{name}: {e}"))?;
         if let Some(e) = report.boot_error {

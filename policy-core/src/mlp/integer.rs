@@ -1,0 +1,190 @@
+//! The integer forward pass of [`Encoding::Integer`](crate::Encoding::Integer): int8 codes in,
+//! int32 accumulators, requantisation by a fixed-point multiplier and a right shift, int8 codes
+//! out. Every step is integer arithmetic, so a chip without an FPU runs it as it is and the
+//! host computes the chip's bits by construction.
+//!
+//! The requantisation is TensorFlow Lite Micro's `MultiplyByQuantizedMultiplier`
+//! (tensorflow/lite/kernels/internal/common.h) for a multiplier below 1, built from gemmlowp's
+//! `SaturatingRoundingDoublingHighMul` and `RoundingDivideByPOT`
+//! (gemmlowp/fixedpoint/fixedpoint.h), transcribed operation for operation below.
+//!
+//! The accumulation is exact: the loader bounds every bias by 2³⁰ and a layer has at most 1024
+//! inputs, so `|acc| ≤ 2³⁰ + 1024 · 128 · 255 < 2³¹` and no sum ever wraps. An exact integer sum
+//! does not depend on its order, so a kernel that pairs inputs (the Armv7E-M `SMLAD`, two
+//! 16 × 16 multiplies added to a 32-bit accumulator: `q` sign-extended and `x − zero` both fit
+//! in 16 bits) computes the same integers as the column order used here.
+
+/// gemmlowp's `SaturatingRoundingDoublingHighMul`: the high 32 bits of `2 · a · b`, rounded to
+/// nearest with ties toward +∞ (its nudge of `2^30` or `1 − 2^30`, then a division that
+/// truncates), saturating the one overflowing case `a = b = i32::MIN`.
+///
+/// ```
+/// use policy_core::mlp::integer::saturating_rounding_doubling_high_mul as srdhm;
+/// assert_eq!(srdhm(1 << 30, 1 << 30), 1 << 29); // 0.5 × 0.5 = 0.25 in Q31
+/// assert_eq!(srdhm(i32::MIN, i32::MIN), i32::MAX);
+/// assert_eq!(srdhm(-3, 1 << 30), -1); // -1.5: ties go toward +∞
+/// assert_eq!(srdhm(3, 1 << 30), 2);
+/// ```
+#[inline]
+pub fn saturating_rounding_doubling_high_mul(a: i32, b: i32) -> i32 {
+    if a == b && a == i32::MIN {
+        return i32::MAX;
+    }
+    let ab = i64::from(a) * i64::from(b);
+    let nudge: i64 = if ab >= 0 { 1 << 30 } else { 1 - (1 << 30) };
+    // Division truncates toward zero, as C's does; the quotient fits in i32 (|ab| < 2^62).
+    ((ab + nudge) / (1i64 << 31)) as i32
+}
+
+/// gemmlowp's `RoundingDivideByPOT`: `x / 2^exponent` rounded to nearest, ties away from zero,
+/// for `exponent` in `0..=31` (a larger one is taken as 31; the loader allows no larger).
+///
+/// ```
+/// use policy_core::mlp::integer::rounding_divide_by_pot as rdbpot;
+/// assert_eq!((rdbpot(5, 1), rdbpot(-5, 1), rdbpot(7, 2), rdbpot(-6, 2)), (3, -3, 2, -2));
+/// assert_eq!(rdbpot(i32::MIN, 31), -1);
+/// ```
+#[inline]
+pub fn rounding_divide_by_pot(x: i32, exponent: u32) -> i32 {
+    let exponent = exponent.min(31);
+    let mask = ((1i64 << exponent) - 1) as i32;
+    let remainder = x & mask;
+    let threshold = (mask >> 1) + i32::from(x < 0);
+    (x >> exponent) + i32::from(remainder > threshold)
+}
+
+/// TFLite Micro's `MultiplyByQuantizedMultiplier(x, multiplier, shift)` for `shift ≤ 0` (a
+/// real multiplier below 1, the only kind the format stores): `x · multiplier · 2^(shift − 31)`,
+/// rounded as the two gemmlowp functions round.
+///
+/// ```
+/// use policy_core::mlp::integer::multiply_by_quantized_multiplier as requantise;
+/// // 0.75 = (3 << 29) · 2^-31 · 2^0; 0.1875 = the same multiplier, shift -2
+/// assert_eq!(requantise(1000, 3 << 29, 0), 750);
+/// assert_eq!(requantise(1000, 3 << 29, -2), 188);
+/// assert_eq!(requantise(-1000, 3 << 29, -2), -188);
+/// ```
+#[inline]
+pub fn multiply_by_quantized_multiplier(x: i32, multiplier: i32, shift: i32) -> i32 {
+    let right = shift.unsigned_abs().min(31);
+    rounding_divide_by_pot(saturating_rounding_doubling_high_mul(x, multiplier), right)
+}
+
+/// One integer layer, as the payload stores it (docs/blob-format.md, "The integer forward
+/// pass"): the parts of an [`IntegerLayer`](crate::blob::IntegerLayer), as bytes.
+#[derive(Clone, Copy, Debug)]
+pub struct IntegerDense<'a> {
+    /// `outputs` little-endian i32 multipliers.
+    pub multipliers: &'a [u8],
+    /// `outputs` i8 shifts.
+    pub shifts: &'a [u8],
+    /// `inputs × outputs` i8 weights, column-major.
+    pub weights: &'a [u8],
+    /// `outputs` little-endian i32 biases.
+    pub bias: &'a [u8],
+    /// The zero point of the layer's output codes.
+    pub output_zero: i32,
+    /// The smallest output code: the output zero point for a fused ReLU, else -128.
+    pub lower: i32,
+    /// The tanh table (`table[code + 128]`), if the layer has one.
+    pub table: Option<&'a [u8]>,
+}
+
+impl IntegerDense<'_> {
+    /// `y = requantise(bias + Σ_j q[:, j] · (x[j] − x_zero))`, clamped to `lower..=127`, then
+    /// through the table if there is one: codes in `y[..outputs]` (as i32 in `-128..=127`).
+    /// `x` holds the input codes. Lengths that do not fit leave the missing terms out rather
+    /// than panic (a verified blob always fits).
+    ///
+    /// ```
+    /// use policy_core::mlp::integer::IntegerDense;
+    /// let words = |v: &[i32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    /// // 2 outputs, 2 inputs: W = [[2, -1], [1, 1]], biases (10, -4), multiplier 0.5
+    /// let (m, b) = (words(&[1 << 30, 1 << 30]), words(&[10, -4]));
+    /// let layer = IntegerDense {
+    ///     multipliers: &m, shifts: &[0, 0], weights: &[2, 1, 0xff, 1], bias: &b,
+    ///     output_zero: -5, lower: -5, table: None,
+    /// };
+    /// let mut y = [0i32; 2];
+    /// layer.run(&[7, 3], 1, &mut y); // x - zero = (6, 2)
+    /// // acc = (10 + 12 - 2, -4 + 6 + 2) = (20, 4); halved (10, 2); plus the zero point -5
+    /// assert_eq!(y, [5, -3]);
+    /// ```
+    // Not inlined, for the reason the f32 kernels give (kernels.rs, `accumulate`).
+    #[inline(never)]
+    pub fn run(&self, x: &[i32], x_zero: i32, y: &mut [i32]) {
+        let outputs = y.len();
+        for (acc, b) in y.iter_mut().zip(self.bias.chunks_exact(4)) {
+            *acc = i32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        }
+        if outputs == 0 {
+            return;
+        }
+        for (column, &xj) in self.weights.chunks_exact(outputs).zip(x) {
+            let centred = xj.wrapping_sub(x_zero);
+            for (acc, &q) in y.iter_mut().zip(column) {
+                // Exact (see the module docs); wrapping only so that no input can panic.
+                *acc = acc.wrapping_add(i32::from(q as i8).wrapping_mul(centred));
+            }
+        }
+        let parts = self.multipliers.chunks_exact(4).zip(self.shifts);
+        for (acc, (m, &shift)) in y.iter_mut().zip(parts) {
+            let multiplier = i32::from_le_bytes([m[0], m[1], m[2], m[3]]);
+            let scaled = multiply_by_quantized_multiplier(*acc, multiplier, i32::from(shift as i8));
+            let code = scaled
+                .saturating_add(self.output_zero)
+                .clamp(self.lower, 127);
+            *acc = match self.table {
+                Some(table) => lookup(table, code),
+                None => code,
+            };
+        }
+    }
+}
+
+/// `table[code + 128]` as an i8 code (0 past the end, which verified tables never reach).
+#[inline]
+pub fn lookup(table: &[u8], code: i32) -> i32 {
+    let at = usize::try_from(code.saturating_add(128)).unwrap_or(0);
+    table.get(at).map_or(0, |&t| i32::from(t as i8))
+}
+
+/// The float entry's input quantisation of one observation component: the normaliser and the
+/// first layer's input quantisation folded into one affine map, `t = x · scale + offset` (a
+/// multiply, then an add: no fused multiply-add), clamped to `[-128, 127]` and rounded half away
+/// from zero (`roundf`). A non-finite `x` carries no information: it becomes `zero`, the code of
+/// a normalised 0, as the other encodings read it as the mean.
+///
+/// ```
+/// use policy_core::mlp::integer::observation_code;
+/// assert_eq!(observation_code(1.0, 25.5, -3.0, -3), 23); // 22.5 rounds away from zero
+/// assert_eq!(observation_code(1e30, 25.5, -3.0, -3), 127);
+/// assert_eq!(observation_code(f32::NAN, 25.5, -3.0, -3), -3);
+/// ```
+#[inline]
+pub fn observation_code(x: f32, scale: f32, offset: f32, zero: i32) -> i32 {
+    if !x.is_finite() {
+        return zero;
+    }
+    let t = x * scale + offset;
+    if t.is_nan() {
+        return zero; // not reachable for a verified blob (finite scale and offset)
+    }
+    crate::clamp::clamp(
+        libm::roundf(crate::clamp::clamp(t, -128.0, 127.0)),
+        -128.0,
+        127.0,
+    ) as i32
+}
+
+/// The float entry's output: a unit code `u` (the output table's value, in `-127..=127`) as the
+/// unit action `u / 127` (one f32 division, exact for `u = 0, ±127`).
+///
+/// ```
+/// use policy_core::mlp::integer::unit_of_code;
+/// assert_eq!((unit_of_code(127), unit_of_code(-127), unit_of_code(0)), (1.0, -1.0, 0.0));
+/// ```
+#[inline]
+pub fn unit_of_code(code: i32) -> f32 {
+    code as f32 / 127.0
+}
