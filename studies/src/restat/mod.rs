@@ -18,6 +18,7 @@ pub mod compare_step;
 pub mod dcp_variants;
 pub mod dcp_vs_ddpg;
 pub mod four_agents;
+pub mod learning_check;
 pub mod per_seed;
 pub mod quantisation_cost;
 pub mod text;
@@ -58,13 +59,14 @@ impl Page {
 }
 
 /// Every page `restat` rebuilds.
-pub const PAGES: [Page; 6] = [
+pub const PAGES: [Page; 7] = [
     dcp_vs_ddpg::PAGE,
     four_agents::PAGE,
     dcp_variants::PAGE,
     badminton_teams::PAGE,
     quantisation_cost::PAGE,
     compare_step::PAGE,
+    learning_check::PAGE,
 ];
 
 /// The page called `name`.
