@@ -217,7 +217,7 @@ impl fmt::Display for Error {
                 write!(f, "invalid parameter in dimension {index}: {what}")
             }
             Error::Calibration { what, index } => {
-                write!(f, "cannot calibrate the integer encoding (at {index}): {what}")
+                write!(f, "cannot calibrate (at {index}): {what}")
             }
             Error::ShapeBeyondLimits {
                 what,

@@ -391,7 +391,8 @@ impl Shape {
 
 impl Shape {
     /// Bytes of the payload of a blob of this kind, encoding and hidden activation, or `None`
-    /// if it does not fit in `usize` (or, for [`Encoding::Integer`], the kind is not an actor).
+    /// if it does not fit in `usize` (or, for [`Encoding::Integer`], the kind is not an actor or
+    /// the build lacks the `integer` feature).
     /// The one length rule [`verify`](crate::blob::verify) and the writers apply.
     ///
     /// ```
@@ -408,7 +409,12 @@ impl Shape {
         activation: Activation,
     ) -> Option<usize> {
         match encoding {
-            Encoding::Integer => crate::integer_layout::payload_len(kind, *self, activation),
+            // A build without the integer encoding refuses such blobs before their length
+            // (`EncodingNotCompiled`), so its layout code can go.
+            Encoding::Integer if cfg!(feature = "integer") => {
+                crate::integer_layout::payload_len(kind, *self, activation)
+            }
+            Encoding::Integer => None,
             Encoding::F32 | Encoding::F16 | Encoding::Int8 => self.payload_len_in(kind, encoding),
         }
     }

@@ -190,6 +190,9 @@ impl<'a> Model<'a> {
     /// );
     /// assert!(matches!(Model::for_policy_within(ACTOR, 8, 8, 16), Err(Error::ScratchTooSmall { .. })));
     /// ```
+    // Not inlined: the example firmware calls it for each slot, and one copy of the whole
+    // verification is 300 to 1,000 B smaller at opt-level "s" and "z" (docs/performance.md).
+    #[inline(never)]
     pub fn for_policy_within(
         bytes: &'a [u8],
         max_observations: usize,
@@ -373,7 +376,9 @@ impl<'a> Model<'a> {
         if self.header.kind != ModelKind::Actor {
             return Err(self.wrong_kind(ModelKind::Actor));
         }
-        if self.header.encoding == Encoding::Integer {
+        // The `cfg!` guard lets a build without the integer encoding drop its forward pass (no
+        // such model loads there).
+        if cfg!(feature = "integer") && self.header.encoding == Encoding::Integer {
             return self.act_unit_integer(obs, scratch, unit);
         }
         let (x, y) = self.split_checked(obs.len(), unit.len(), scratch)?;
