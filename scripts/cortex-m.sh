@@ -20,11 +20,11 @@
 # m4f-4x48-relu-int8-size, the same firmware optimised for size (profile release-size in
 # firmware/Cargo.toml, opt-level "z"; SIZE_OPT_LEVEL=s builds it at "s"), so that the report has
 # the int8 4x48 at both: the fewest instructions (3) and the least flash (z). Every firmware runs
-# all four weight encodings (it reads the encoding from the blob) except the
+# all three float-computing weight encodings (it reads the encoding from the blob) except the
 # m4f-4x48-relu-int8-only* variants: the int8-only firmware (`--no-default-features --features
 # int8`, which links neither the f32 nor the f16 kernels), at opt-levels 3, "s" (profile
 # release-s) and "z" (release-size), the one that must fit 32 KiB with its blob, and the
-# *-integer-only variants (below).
+# *-integer* variants (below).
 # The c-* variants run the example C firmware (firmware-c/, C11 built with Debian's GNU Arm
 # toolchain) on the same blobs: policy-core's C API (policy-core-ffi) built as a static library
 # for the target (release profile, fat LTO, -Zbuild-std=core) and linked into a C program that
@@ -48,7 +48,8 @@
 # .postcard (models/nav-walls__dcp-paper__0-integer.postcard, made from the trained blob by
 # host-trainer's integer_error example, which calibrates as `export --encoding integer` does:
 # on firmware-sim's test episodes, which host-check does not link, so it is committed rather
-# than generated here). The *-trained-integer-only variants build the Rust firmware with that
+# than generated here). The Rust firmware's feature `integer` is opt-in: m4f-, m3- and
+# rv32-trained-integer build it with all four encodings. The *-trained-integer-only variants build the Rust firmware with that
 # encoding alone (`--no-default-features --features integer`: no f32, f16 or int8 kernels) on
 # the M3 and the RV32, chips without an FPU.
 #
@@ -126,7 +127,7 @@ QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
 # firmware/Cargo.toml, default release. refine T: the firmware's feature `refine` with
 # REFINE_T=T, --refine-run's critic in its CRITIC region. encodings: the weight encodings the
 # firmware is built to run, comma-separated (`--no-default-features --features LIST`); default
-# all four. firmware: rust (firmware/, the default) or c (firmware-c/ linked with
+# all three (f32, f16, int8; `integer` is opt-in). firmware: rust (firmware/, the default) or c (firmware-c/ linked with
 # policy-core-ffi's static library built with the profile).
 M4F=thumbv7em-none-eabihf:mps2-an386:cortex-m4
 M3=thumbv7m-none-eabi:mps2-an385:cortex-m3
@@ -164,8 +165,8 @@ ALL_VARIANTS=(
   m4f-4x48-relu-int8-only:$M4F:4x48-relu-int8:release::int8
   m4f-4x48-relu-int8-only-s:$M4F:4x48-relu-int8:release-s::int8
   m4f-4x48-relu-int8-only-size:$M4F:4x48-relu-int8:release-size::int8
-  m4f-trained-integer:$M4F:trained-integer
-  m3-trained-integer:$M3:trained-integer
+  m4f-trained-integer:$M4F:trained-integer:release::f32,f16,int8,integer
+  m3-trained-integer:$M3:trained-integer:release::f32,f16,int8,integer
   m3-trained-integer-only:$M3:trained-integer:release::integer
   m4f-refine-actor:$M4F:refine-actor
   m4f-refine4:$M4F:refine-actor:release:4
@@ -183,7 +184,7 @@ ALL_VARIANTS=(
   rv32-4x48:$RV32:4x48-tanh
   rv32-4x48-relu-f16:$RV32:4x48-relu-f16
   rv32-4x48-relu-int8:$RV32:4x48-relu-int8
-  rv32-trained-integer:$RV32:trained-integer
+  rv32-trained-integer:$RV32:trained-integer:release::f32,f16,int8,integer
   rv32-trained-integer-only:$RV32:trained-integer:release::integer
 )
 # The opt-level of each profile the variants use (firmware/Cargo.toml; release-size's is set
@@ -718,7 +719,7 @@ for spec in "${ALL_VARIANTS[@]}"; do
     calls_args=(--calls-log "$dir/calls/firmware.log")
   fi
   if ! "$HC" measure --variant "$name" --target "$target" --machine "$machine" --cpu "$cpu" --blob "$blob" --image "$dir/slot-a.bin" \
-        --profile "$profile" --opt-level "${OPT_LEVEL[$profile]}" --encodings "${encodings:-f32,f16,int8,integer}" --sizes "$dir/sizes.txt" --fw-log "$dir/firmware.log" "${main_plugin_log[@]}" "${critic_args[@]}" "${calls_args[@]}" --out "$dir/resources.json"; then
+        --profile "$profile" --opt-level "${OPT_LEVEL[$profile]}" --encodings "${encodings:-f32,f16,int8}" --sizes "$dir/sizes.txt" --fw-log "$dir/firmware.log" "${main_plugin_log[@]}" "${critic_args[@]}" "${calls_args[@]}" --out "$dir/resources.json"; then
     FAILED+=("$name: measurement"); continue
   fi
   if [ "${firmware:-rust}" = c ]; then
@@ -818,7 +819,7 @@ set +e
   --meta "rustc=$("$RUSTC_X" -V) (rustc-web $RUST_WEB_VERSION, LLVM $RUSTC_LLVM)" --meta "cargo=$(cargo -V)" \
   --meta "qemu=$(qemu-system-arm --version | head -1) (qemu-system-arm; qemu-system-riscv32: $(qemu-system-riscv32 --version | head -1 | sed 's/.*version //'))" \
   --meta "profile=release: opt-level 3, fat LTO, codegen-units 1, panic abort, -Zbuild-std=core; release-s: the same at opt-level s; release-size: the same at opt-level $SIZE_OPT_LEVEL (per variant: the profile column)" \
-  --meta "encodings=every firmware runs f32, f16, int8 and integer blobs except the *-int8-only* variants (int8 only) and the *-integer-only* ones (integer only; per variant: firmware_encodings)" \
+  --meta "encodings=every firmware runs f32, f16 and int8 blobs except the *-int8-only* variants (int8 only), the *-trained-integer ones (integer too) and the *-integer-only* ones (integer only; per variant: firmware_encodings)" \
   --meta "c firmware=the c-* variants: firmware-c/ (arm-none-eabi-gcc $(arm-none-eabi-gcc -dumpversion), ${C_FLAGS[*]}) linked with policy-core-ffi built with the release profile" \
   --meta "instructions=exact counts from a TCG plugin between fw_mark calls (mark cost subtracted)" \
   --meta "stack=painted: peak stack = main's frame + the largest of its phases below it (boot, act); stack_per_call (c-* variants) = each C API call alone, below the frame of the function that makes it, not in the peak" \
