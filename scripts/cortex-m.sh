@@ -20,10 +20,11 @@
 # m4f-4x48-relu-int8-size, the same firmware optimised for size (profile release-size in
 # firmware/Cargo.toml, opt-level "z"; SIZE_OPT_LEVEL=s builds it at "s"), so that the report has
 # the int8 4x48 at both: the fewest instructions (3) and the least flash (z). Every firmware runs
-# all three weight encodings (it reads the encoding from the blob) except the
+# all three float-computing weight encodings (it reads the encoding from the blob) except the
 # m4f-4x48-relu-int8-only* variants: the int8-only firmware (`--no-default-features --features
 # int8`, which links neither the f32 nor the f16 kernels), at opt-levels 3, "s" (profile
-# release-s) and "z" (release-size), the one that must fit 32 KiB with its blob.
+# release-s) and "z" (release-size), the one that must fit 32 KiB with its blob, and the
+# *-integer* variants (below).
 # The c-* variants run the example C firmware (firmware-c/, C11 built with Debian's GNU Arm
 # toolchain) on the same blobs: policy-core's C API (policy-core-ffi) built as a static library
 # for the target (release profile, fat LTO, -Zbuild-std=core) and linked into a C program that
@@ -41,11 +42,24 @@
 # semihosting through `ebreak` for its output and exit, checked and measured like the Cortex-M
 # ones: the trained blob in each encoding, a generated f32 tanh 4x48, f16 and int8 ReLU 4x48.
 # Another RISC-V variant is one line in ALL_VARIANTS below.
+# The *-trained-integer* variants (M4F, M3, RV32, and c-m0-integer on the M0) run the trained
+# actor in the integer encoding (int8 weights and activations, int32 accumulators; policy-core's
+# feature `integer`): --integer-blob, by default the file beside --blob with -integer before
+# .postcard (models/nav-walls__dcp-paper__0-integer.postcard, made from the trained blob by
+# host-trainer's integer_error example, which calibrates as `export --encoding integer` does:
+# on firmware-sim's test episodes, which host-check does not link, so it is committed rather
+# than generated here). The Rust firmware's feature `integer` is opt-in: m4f-, m3- and
+# rv32-trained-integer build it with all four encodings. The *-trained-integer-only variants build the Rust firmware with that
+# encoding alone (`--no-default-features --features integer`: no f32, f16 or int8 kernels) on
+# the M3 and the RV32, chips without an FPU.
 #
 # Usage: bash scripts/cortex-m.sh [--blob FILE] [--out FILE] [--install-only]
 #   --blob FILE     a trained policy blob (e.g. from host-trainer; any shape up to 64 wide, up to
 #                   8 observations and 8 actions: the firmware runs the blob's sizes), run by the
 #                   *-trained* variants (skipped without it).
+#   --integer-blob FILE the trained actor in the integer encoding, run by the *-trained-integer*
+#                   variants (default: --blob's file with -integer before .postcard, if it
+#                   exists; else they are skipped).
 #   --out FILE      JSON report path (default: <target dir>/cortex-m-report.json).
 #   --install-only  install the toolchain and QEMU, then stop.
 #   --no-slot-cases skip the A/B slot cases (they run by default).
@@ -98,6 +112,7 @@ BASE=$(realpath -m "${CARGO_TARGET_DIR:-$ROOT/target}")
 WORK=$BASE/cortex-m
 OUT=$BASE/cortex-m-report.json
 BLOB=
+INTEGER_BLOB=
 INSTALL_ONLY=0
 SLOT_CASES=1
 HIL=1; HIL_ONLY=0; FAILED=()
@@ -107,11 +122,12 @@ QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
 # picks the emulator (qemu_for: sifive_e runs on qemu-system-riscv32). blob: trained
 # (= --blob) or DEPTHxWIDTH-ACTIVATION (host-check gen), either with an optional -f16 or -int8
 # (re-encoded; default f32), the generated ones with an optional _OxA (O observations, A
-# actions; default 2x2), or refine-actor (--refine-run's policy). profile: a cargo profile of
+# actions; default 2x2), trained-integer (--integer-blob) or refine-actor (--refine-run's
+# policy). profile: a cargo profile of
 # firmware/Cargo.toml, default release. refine T: the firmware's feature `refine` with
 # REFINE_T=T, --refine-run's critic in its CRITIC region. encodings: the weight encodings the
 # firmware is built to run, comma-separated (`--no-default-features --features LIST`); default
-# all three. firmware: rust (firmware/, the default) or c (firmware-c/ linked with
+# all three (f32, f16, int8; `integer` is opt-in). firmware: rust (firmware/, the default) or c (firmware-c/ linked with
 # policy-core-ffi's static library built with the profile).
 M4F=thumbv7em-none-eabihf:mps2-an386:cortex-m4
 M3=thumbv7m-none-eabi:mps2-an385:cortex-m3
@@ -149,6 +165,9 @@ ALL_VARIANTS=(
   m4f-4x48-relu-int8-only:$M4F:4x48-relu-int8:release::int8
   m4f-4x48-relu-int8-only-s:$M4F:4x48-relu-int8:release-s::int8
   m4f-4x48-relu-int8-only-size:$M4F:4x48-relu-int8:release-size::int8
+  m4f-trained-integer:$M4F:trained-integer:release::f32,f16,int8,integer
+  m3-trained-integer:$M3:trained-integer:release::f32,f16,int8,integer
+  m3-trained-integer-only:$M3:trained-integer:release::integer
   m4f-refine-actor:$M4F:refine-actor
   m4f-refine4:$M4F:refine-actor:release:4
   m4f-refine16:$M4F:refine-actor:release:16
@@ -158,12 +177,15 @@ ALL_VARIANTS=(
   c-m0-trained:$M0:trained:release:::c
   c-m0-4x48:$M0:4x48-tanh:release:::c
   c-m0-4x48-relu-int8:$M0:4x48-relu-int8:release:::c
+  c-m0-integer:$M0:trained-integer:release:::c
   rv32-trained:$RV32:trained
   rv32-trained-f16:$RV32:trained-f16
   rv32-trained-int8:$RV32:trained-int8
   rv32-4x48:$RV32:4x48-tanh
   rv32-4x48-relu-f16:$RV32:4x48-relu-f16
   rv32-4x48-relu-int8:$RV32:4x48-relu-int8
+  rv32-trained-integer:$RV32:trained-integer:release::f32,f16,int8,integer
+  rv32-trained-integer-only:$RV32:trained-integer:release::integer
 )
 # The opt-level of each profile the variants use (firmware/Cargo.toml; release-size's is set
 # here, through cargo's CARGO_PROFILE_RELEASE_SIZE_OPT_LEVEL), for the report.
@@ -183,6 +205,7 @@ die() { echo "cortex-m.sh: error: $*" >&2; exit 1; }
 while [ $# -gt 0 ]; do
   case $1 in
     --blob) [ $# -ge 2 ] || die "--blob needs a file"; BLOB=$(realpath "$2"); shift 2 ;;
+    --integer-blob) [ $# -ge 2 ] || die "--integer-blob needs a file"; INTEGER_BLOB=$(realpath "$2"); shift 2 ;;
     --out) [ $# -ge 2 ] || die "--out needs a file"; OUT=$(realpath -m "$2"); shift 2 ;;
     --install-only) INSTALL_ONLY=1; shift ;;
     --no-slot-cases) SLOT_CASES=0; shift ;;
@@ -194,6 +217,10 @@ while [ $# -gt 0 ]; do
   esac
 done
 [ -z "$BLOB" ] || [ -f "$BLOB" ] || die "--blob $BLOB: no such file"
+[ -z "$INTEGER_BLOB" ] || [ -f "$INTEGER_BLOB" ] || die "--integer-blob $INTEGER_BLOB: no such file"
+if [ -z "$INTEGER_BLOB" ] && [ -n "$BLOB" ] && [ -f "${BLOB%.postcard}-integer.postcard" ]; then
+  INTEGER_BLOB=${BLOB%.postcard}-integer.postcard
+fi
 CRITIC_BLOB=
 if [ -n "$REFINE_RUN" ]; then
   for f in policy critic; do [ -f "$REFINE_RUN/$f.postcard" ] || die "--refine-run $REFINE_RUN: no $f.postcard"; done
@@ -320,6 +347,10 @@ if [ -n "$BLOB" ]; then
   BLOB_INFO=$("$HC" info "$BLOB") || die "--blob $BLOB is not a blob the firmware can run"
   echo "--blob $BLOB holds a $BLOB_INFO: run by the *-trained* variants"
 fi
+if [ -n "$INTEGER_BLOB" ]; then
+  INTEGER_INFO=$("$HC" info "$INTEGER_BLOB") || die "--integer-blob $INTEGER_BLOB is not a blob the firmware can run"
+  echo "--integer-blob $INTEGER_BLOB holds a $INTEGER_INFO: run by the *-trained-integer* variants"
+fi
 mkdir -p "$WORK/blobs"
 blob_for() { # trained[-ENC] | DEPTHxWIDTH-ACTIVATION[-ENC][_OxA] -> blob path (given, re-encoded or generated)
   local which=$1 enc=f32 sizes=() tag=
@@ -327,6 +358,7 @@ blob_for() { # trained[-ENC] | DEPTHxWIDTH-ACTIVATION[-ENC][_OxA] -> blob path (
   case $which in *-f16|*-int8) enc=${which##*-}; which=${which%-*} ;; esac
   local out=$WORK/blobs/actor_$which-$enc$tag.postcard
   [ "$which" = refine-actor ] && { echo "$REFINE_RUN/policy.postcard"; return; }
+  [ "$which" = trained-integer ] && { echo "$INTEGER_BLOB"; return; }
   if [ "$which" = trained ]; then
     [ "$enc" = f32 ] && { echo "$BLOB"; return; }
     "$HC" encode "$BLOB" "$out" --encoding "$enc" >&2
@@ -622,6 +654,7 @@ for spec in "${ALL_VARIANTS[@]}"; do
   profile=${profile:-release}
   printf '%s\n' "${SELECTED[@]}" | grep -qx "$name" || continue
   case $which in trained|trained-*) [ -n "$BLOB" ] || { echo "=== $name: skipped (no --blob)"; continue; } ;; esac
+  case $which in trained-integer) [ -n "$INTEGER_BLOB" ] || { echo "=== $name: skipped (no --integer-blob)"; continue; } ;; esac
   case $which in refine-actor) [ -n "$REFINE_RUN" ] || { echo "=== $name: skipped (no --refine-run)"; continue; } ;; esac
   features=${EXTRA_FEATURES:-}; refine_env=()
   if [ -n "$refine" ]; then features=${features:+$features,}refine; refine_env=(REFINE_T="$refine"); fi
@@ -786,7 +819,7 @@ set +e
   --meta "rustc=$("$RUSTC_X" -V) (rustc-web $RUST_WEB_VERSION, LLVM $RUSTC_LLVM)" --meta "cargo=$(cargo -V)" \
   --meta "qemu=$(qemu-system-arm --version | head -1) (qemu-system-arm; qemu-system-riscv32: $(qemu-system-riscv32 --version | head -1 | sed 's/.*version //'))" \
   --meta "profile=release: opt-level 3, fat LTO, codegen-units 1, panic abort, -Zbuild-std=core; release-s: the same at opt-level s; release-size: the same at opt-level $SIZE_OPT_LEVEL (per variant: the profile column)" \
-  --meta "encodings=every firmware runs f32, f16 and int8 blobs except the *-int8-only* variants (int8 only; per variant: firmware_encodings)" \
+  --meta "encodings=every firmware runs f32, f16 and int8 blobs except the *-int8-only* variants (int8 only), the *-trained-integer ones (integer too) and the *-integer-only* ones (integer only; per variant: firmware_encodings)" \
   --meta "c firmware=the c-* variants: firmware-c/ (arm-none-eabi-gcc $(arm-none-eabi-gcc -dumpversion), ${C_FLAGS[*]}) linked with policy-core-ffi built with the release profile" \
   --meta "instructions=exact counts from a TCG plugin between fw_mark calls (mark cost subtracted)" \
   --meta "stack=painted: peak stack = main's frame + the largest of its phases below it (boot, act); stack_per_call (c-* variants) = each C API call alone, below the frame of the function that makes it, not in the peak" \

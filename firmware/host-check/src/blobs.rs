@@ -79,8 +79,11 @@ impl BlobInfo {
     }
 
     /// `tanhf` calls in one `act`: every hidden unit of a tanh network, and an actor's output
-    /// squashing.
+    /// squashing; none in the integer encoding, whose tanh is a table.
     pub fn tanh_calls(&self) -> u64 {
+        if self.encoding == Encoding::Integer {
+            return 0;
+        }
         let hidden = match self.activation {
             Activation::Tanh => u64::from(self.shape.width) * u64::from(self.shape.depth),
             Activation::Relu => 0,
@@ -93,12 +96,12 @@ impl BlobInfo {
     }
 }
 
-/// Parses an encoding name as policy-core prints it: `f32`, `f16` or `int8`.
+/// Parses an encoding name as policy-core prints it: `f32`, `f16`, `int8` or `integer`.
 pub fn parse_encoding(text: &str) -> Result<Encoding> {
     Encoding::ALL
         .into_iter()
         .find(|e| e.to_string() == text)
-        .with_context(|| format!("encoding {text:?}: expected f32, f16 or int8"))
+        .with_context(|| format!("encoding {text:?}: expected f32, f16, int8 or integer"))
 }
 
 /// Re-encodes an f32 blob (any format version policy-core reads) into `encoding`, as

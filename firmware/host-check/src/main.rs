@@ -13,7 +13,7 @@
 //!                                          step if it ran one); bit-exact or exit 1
 //! host-check measure --variant NAME --target T --machine M --cpu C --blob BLOB --image SLOT_BIN
 //!                    --profile PROFILE --opt-level LEVEL --sizes SIZE_A_TXT --fw-log LOG
-//!                    [--encodings f32,f16,int8] [--plugin-log LOG] [--calls-log LOG] --out JSON
+//!                    [--encodings f32,f16,int8,integer] [--plugin-log LOG] [--calls-log LOG] --out JSON
 //!                                          one variant's figures; --calls-log: the log of the
 //!                                          same C firmware built to measure the stack of each
 //!                                          call (its STACK_PHASE dcp_* lines)
