@@ -30,6 +30,7 @@
 #![no_std]
 #![no_main]
 
+mod board;
 mod console;
 #[cfg(feature = "hil")]
 mod hil;
@@ -41,8 +42,6 @@ mod refine;
 mod sizes;
 mod slots;
 mod stack;
-#[cfg(feature = "hil")]
-mod uart;
 
 use core::hint::black_box;
 
@@ -121,6 +120,9 @@ fn main() -> ! {
 
     let sp = cortex_m::register::msp::read() as usize;
     stack::paint(sp);
+    // Clocks and the console's serial port before anything prints; after the paint, so that
+    // its stack counts in the boot phase's.
+    board::init();
     let Some(mut core) = cortex_m::Peripherals::take() else {
         fail("core peripherals already taken")
     };
