@@ -5,7 +5,7 @@
 //!
 //! **The vendor HAL (stm32f4xx-hal) sets up the clocks and the pins and enables USART1's clock;
 //! the USART's own registers are written through the HAL's PAC** (`stm32f4xx_hal::pac`). The
-//! HAL's `Serial::new` pulses USART1's reset bit in the RCC, and QEMU 10.0's model of the
+//! HAL's `Serial::new` pulses USART1's reset bit in the RCC, and QEMU 10.0.2's model of the
 //! F405's RCC crashes (a segmentation fault) when that reset is released, so CI could not run
 //! it. After a power-on reset the USART is in its reset state anyway; four registers (BRR, CR1,
 //! SR, DR) are the whole driver.
