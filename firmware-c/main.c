@@ -2,7 +2,7 @@
  * (policy-core-ffi/include/policy_core.h, libpolicy_core_ffi.a), straight from flash.
  *
  * The part a user copies is short: boot() and control_step(). The firmware holds no blob: a
- * policy lives in one of two flash slots (firmware/memory.x); dcp_slot_choose picks the newer
+ * policy lives in one of two flash slots (firmware/mps2/memory.x); dcp_slot_choose picks the newer
  * slot whose blob verifies as a policy with this firmware's sizes and scratch width, falls back
  * to the other, and fills a dcp_model that reads its weights from the slot on every dcp_act.
  * The only RAM the policy uses is a scratch of 2 x W floats. Without a policy the firmware runs
@@ -45,7 +45,7 @@ static const uint32_t OBSERVATIONS[CASES][OBS] = {
     {0x7f7fffff, 0xff7fffff}, /* f32 max, -max */
 };
 
-/* The slots, from the linker script (firmware/memory.x). */
+/* The slots, from the linker script (firmware/mps2/memory.x). */
 extern const uint8_t _slot_a[], _slot_b[];
 extern const uint8_t _slot_size[];
 /* The stack: painted from _stack_limit (end of .bss) up to the stack pointer. */

@@ -252,7 +252,7 @@ for core in cortex-m4f cortex-m4 cortex-m33; do
 done
 # With pkg-config's flags for the M3 and the M0 (the M0 with the microbit's nRF51822 layout: 256 KiB
 # of flash, 16 KiB of RAM).
-for spec in "cortex-m3:-mcpu=cortex-m3:firmware" "cortex-m0:-mcpu=cortex-m0:firmware-c/nrf51"; do
+for spec in "cortex-m3:-mcpu=cortex-m3:firmware/mps2" "cortex-m0:-mcpu=cortex-m0:firmware-c/nrf51"; do
   IFS=: read -r core cpu layout <<<"$spec"
   echo "=== $core: the example C firmware with pkg-config --cflags --libs policy_core-$core"
   mkdir -p "$EX/$core"

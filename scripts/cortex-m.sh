@@ -6,7 +6,7 @@
 # the C API's stack per call); then boot the M4F firmware on the A/B slot cases (which slot runs,
 # fallback, safe state).
 #
-# The firmware holds no blob: policies live in two flash slots after it (firmware/memory.x), and
+# The firmware holds no blob: policies live in two flash slots after it (firmware/mps2/memory.x), and
 # each run loads a slot image (policy-core's slot record: a 16-byte header with a sequence number,
 # then the blob) with QEMU's `-device loader,file=IMAGE,addr=ADDR`, as a flasher would write it.
 # So each target and profile is built once, and every blob runs on the same firmware bytes.
@@ -52,6 +52,13 @@
 # rv32-trained-integer build it with all four encodings. The *-trained-integer-only variants build the Rust firmware with that
 # encoding alone (`--no-default-features --features integer`: no f32, f16 or int8 kernels) on
 # the M3 and the RV32, chips without an FPU.
+# The f405-* variants run the same Rust firmware ported to a real board, an STM32F405RG
+# (feature stm32f405: the Olimex STM32-H405's memory map, firmware/stm32f405/memory.x, and its
+# board module, clocks and USART1 set up with the vendor HAL), under QEMU's model of that board
+# (olimex-stm32-h405). Its console is USART1, not semihosting: QEMU writes it to the variant's
+# log and is stopped at the firmware's last line (DONE or FAIL), which stands for the exit
+# status. Its slot images go in as Intel HEX at the board's flash addresses (0x08040000), as
+# probe-rs writes them. The HIL checks include it through a pty, the board's serial path.
 #
 # Usage: bash scripts/cortex-m.sh [--blob FILE] [--out FILE] [--install-only]
 #   --blob FILE     a trained policy blob (e.g. from host-trainer; any shape up to 64 wide, up to
@@ -64,9 +71,9 @@
 #   --install-only  install the toolchain and QEMU, then stop.
 #   --no-slot-cases skip the A/B slot cases (they run by default).
 #   --no-hil        skip the hardware-in-the-loop checks (they run by default, last): the HIL
-#                   firmware (feature hil) for both chips, `firmware-sim run --hil` equal to the
-#                   host loop on --blob (default models/nav-walls__dcp-paper__0.postcard), its
-#                   failure cases.
+#                   firmware (feature hil) for both chips and the STM32F405 board,
+#                   `firmware-sim run --hil` equal to the host loop on --blob (default
+#                   models/nav-walls__dcp-paper__0.postcard), its failure cases.
 #   --hil-only      build the HIL firmware and run the HIL checks alone (firmware-sim --hil finds
 #                   it at <target dir>/cortex-m/hil/m4f|m3/firmware.elf).
 #   --refine-run DIR a run folder with policy.postcard and critic.postcard: the *-refine*
@@ -127,12 +134,15 @@ QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
 # firmware/Cargo.toml, default release. refine T: the firmware's feature `refine` with
 # REFINE_T=T, --refine-run's critic in its CRITIC region. encodings: the weight encodings the
 # firmware is built to run, comma-separated (`--no-default-features --features LIST`); default
-# all three (f32, f16, int8; `integer` is opt-in). firmware: rust (firmware/, the default) or c (firmware-c/ linked with
+# all three (f32, f16, int8; `integer` is opt-in). firmware: rust (firmware/, the default),
+# stm32f405 (firmware/ with feature stm32f405: the board's memory map and USART1 console) or c
+# (firmware-c/ linked with
 # policy-core-ffi's static library built with the profile).
 M4F=thumbv7em-none-eabihf:mps2-an386:cortex-m4
 M3=thumbv7m-none-eabi:mps2-an385:cortex-m3
 M0=thumbv6m-none-eabi:microbit:cortex-m0
 RV32=riscv32imac-unknown-none-elf:sifive_e:sifive-e31
+F405=thumbv7em-none-eabihf:olimex-stm32-h405:cortex-m4
 ALL_VARIANTS=(
   m4f-trained:$M4F:trained
   m4f-trained-f16:$M4F:trained-f16
@@ -186,6 +196,8 @@ ALL_VARIANTS=(
   rv32-4x48-relu-int8:$RV32:4x48-relu-int8
   rv32-trained-integer:$RV32:trained-integer:release::f32,f16,int8,integer
   rv32-trained-integer-only:$RV32:trained-integer:release::integer
+  f405-trained:$F405:trained:release:::stm32f405
+  f405-4x48-relu-int8:$F405:4x48-relu-int8:release:::stm32f405
 )
 # The opt-level of each profile the variants use (firmware/Cargo.toml; release-size's is set
 # here, through cargo's CARGO_PROFILE_RELEASE_SIZE_OPT_LEVEL), for the report.
@@ -382,8 +394,10 @@ slot_addr() { # ELF a|b|critic|probe_critic|probe_discrete -> _slot_a, _slot_b, 
   local sym=_slot_$2; case $2 in critic|probe_*) sym=_$2 ;; esac
   local a; a=$(nm "$1" | awk -v s="$sym" '$3==s{print $1}'); [ -n "$a" ] || die "no $sym symbol in $1"; echo "0x$a"; }
 # run_qemu DIR MACHINE CPU [ADDR IMAGE]...: boots DIR/firmware.elf with each IMAGE loaded at its
-# ADDR (a flasher's job on a board); the firmware's output goes to DIR/firmware.log and the
-# plugin's counts to DIR/plugin.log (plugin_log is set for host-check). Returns QEMU's status.
+# ADDR (a flasher's job on a board; ADDR "hex": an Intel HEX image, at the addresses inside it);
+# the firmware's output goes to DIR/firmware.log and the plugin's counts to DIR/plugin.log
+# (plugin_log is set for host-check). Returns QEMU's status; on the STM32F405 board, whose
+# console is its USART, 0 for a last line DONE, 1 for FAIL, 124 for neither within the timeout.
 # On sifive_e a raw IMAGE goes as Intel HEX at ADDR (IMAGE.hex): QEMU's loader takes a raw image
 # only up to the machine's RAM size, 16 KiB there.
 run_qemu() {
@@ -391,6 +405,9 @@ run_qemu() {
   local loaders=() plugin_args=() image
   while [ $# -ge 2 ]; do
     image=$2
+    if [ "$1" = hex ]; then
+      loaders+=(-device "loader,file=$image"); shift 2; continue
+    fi
     if [ "$machine" = sifive_e ] && [ "${image%.bin}" != "$image" ]; then
       image=${image%.bin}.hex; "$HC" hex "$2" "$image" --address "$1" >/dev/null
     fi
@@ -405,13 +422,34 @@ run_qemu() {
     plugin_args=(-plugin "$PLUGIN_SO,mark=$(printf '0x%x' $((0x$mark & ~1)))" -d plugin)
     plugin_log=(--plugin-log "$dir/plugin.log")
   fi
+  if [ "$machine" = olimex-stm32-h405 ]; then
+    run_qemu_serial "$dir" "$machine" "$cpu" "${plugin_args[@]}" "${loaders[@]}"; return
+  fi
   timeout "$QEMU_TIMEOUT" "$(qemu_for "$machine")" "${QEMU_ARGS[@]}" -M "$machine" -cpu "$cpu" "${plugin_args[@]}" "${loaders[@]}" \
     -kernel "$dir/firmware.elf" </dev/null >"$dir/firmware.log" 2>"$dir/plugin.log"
+}
+# The STM32F405 board (f405-* variants): no semihosting, so no exit status from the firmware.
+# Its USART1 goes to DIR/firmware.log; QEMU runs until the log's last line is DONE or FAIL (the
+# firmware then parks its core) and is stopped there.
+run_qemu_serial() {
+  local dir=$1 machine=$2 cpu=$3 pid last=; shift 3
+  rm -f "$dir/firmware.log"
+  qemu-system-arm -M "$machine" -cpu "$cpu" -nodefaults -display none -icount shift=0 "$@" \
+    -serial "file:$dir/firmware.log" -kernel "$dir/firmware.elf" </dev/null >/dev/null 2>"$dir/plugin.log" &
+  pid=$!
+  for _ in $(seq $((QEMU_TIMEOUT * 20))); do
+    last=$(grep -E '^(DONE|FAIL)' "$dir/firmware.log" 2>/dev/null | tail -1) || true
+    [ -n "$last" ] && break
+    kill -0 "$pid" 2>/dev/null || break
+    sleep 0.05
+  done
+  kill "$pid" 2>/dev/null; wait "$pid" 2>/dev/null || true
+  case $last in DONE) return 0 ;; FAIL*) return 1 ;; *) return 124 ;; esac
 }
 # The C firmware (c-* variants): policy-core-ffi as a static library for the target, built with
 # the Rust firmware's release settings (fat LTO, one codegen unit, panic = abort; `core` and
 # compiler_builtins' memcpy/memset from source), then firmware-c/ compiled and linked against it
-# with firmware/memory.x's layout. Each target's library is built once.
+# with firmware/mps2/memory.x's layout. Each target's library is built once.
 # Built from the root workspace, so with policy-core's features as policy-core-ffi asks for them
 # (`package`): a caller's CARGO_RESOLVER_FEATURE_UNIFICATION=workspace would add the host's `std`.
 FFI_ENV=(env -u RUSTFLAGS -u CARGO_ENCODED_RUSTFLAGS -u CARGO_BUILD_RUSTFLAGS RUSTC="$RUSTC_X" RUSTC_BOOTSTRAP=1 CARGO_TARGET_DIR="$WORK/ffi"
@@ -419,7 +457,7 @@ FFI_ENV=(env -u RUSTFLAGS -u CARGO_ENCODED_RUSTFLAGS -u CARGO_BUILD_RUSTFLAGS RU
   CARGO_PROFILE_RELEASE_LTO=fat CARGO_PROFILE_RELEASE_CODEGEN_UNITS=1 CARGO_PROFILE_RELEASE_PANIC=abort CARGO_PROFILE_RELEASE_DEBUG=true)
 C_FLAGS=(-std=c11 -O2 -g -Wall -Wextra -Werror -ffreestanding -ffunction-sections -fdata-sections)
 build_c_firmware() { # TARGET OUT.elf [CFLAG...]
-  local target=$1 out=$2 cpu layout=$ROOT/firmware; shift 2
+  local target=$1 out=$2 cpu layout=$ROOT/firmware/mps2; shift 2
   case $target in
     thumbv7em-none-eabihf) cpu=(-mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16) ;;
     thumbv7m-none-eabi) cpu=(-mcpu=cortex-m3 -mthumb -mfloat-abi=soft) ;;
@@ -452,8 +490,10 @@ C_CALLS="dcp_abi_version dcp_abi_check dcp_slot_choose dcp_slot_read dcp_verify 
 # serves `act` over UART0) for both chips, then `firmware-sim run --hil` against the host loop:
 # the same report and trajectories bit for bit (JSON without its timing and chip fields, and
 # the SVG), on the M4F with f32 and int8 weights and on the M3 with f32; through QEMU's UART on
-# a socket and through a pty (the board path, `--hil serial:PATH`); then the failure cases, each
-# one line on stderr, a non-zero exit and no QEMU left behind.
+# a socket and through a pty (the board path, `--hil serial:PATH`); the STM32F405 board's HIL
+# firmware (features hil and stm32f405, USART1) on QEMU's olimex-stm32-h405 through a pty, as
+# a real board on its USB-serial adapter; then the failure cases, each one line on stderr, a
+# non-zero exit and no QEMU left behind.
 HIL_BLOB=${BLOB:-$ROOT/models/nav-walls__dcp-paper__0.postcard}
 HIL_RUN=(--scenario nav-walls --episodes 5 --seed 0 --faults dropout-nan:0.05,stuck:0@50)
 hil_fail() { FAILED+=("HIL $1"); echo "HIL FAILED: $1" >&2; }
@@ -540,12 +580,30 @@ hil_pty_qemu() {
   done
   [ -n "$HIL_PTY" ] || { hil_fail "pty: QEMU printed no pty ($(tail -1 "$d/qemu.log"))"; kill "$HIL_QEMU_PID"; wait "$HIL_QEMU_PID" || true; return 1; }
 }
+# The STM32F405 board's HIL firmware on QEMU's olimex-stm32-h405 with USART1 on a pty and BLOB
+# in slot A as Intel HEX at its flash address (as `probe-rs download --binary-format hex`
+# writes it); no semihosting, so nothing but the USART links the firmware to the host. Sets
+# HIL_PTY and HIL_QEMU_PID.
+hil_board_qemu() {
+  local elf=$WORK/hil/f405/firmware.elf d=$WORK/hil/runs/f405-qemu
+  mkdir -p "$d"; rm -f "$d/qemu.log"
+  "$HC" image "$1" "$d/slot-a.hex" --sequence 1 --address "$(slot_addr "$elf" a)" >/dev/null
+  qemu-system-arm -M olimex-stm32-h405 -cpu cortex-m4 -nodefaults -display none -icount shift=0 \
+    -serial pty -device "loader,file=$d/slot-a.hex" -kernel "$elf" >"$d/qemu.log" 2>&1 &
+  HIL_QEMU_PID=$!; HIL_PTY=
+  for _ in $(seq 100); do
+    HIL_PTY=$(sed -n 's/.*char device redirected to \(\/dev\/[^ ]*\) .*/\1/p' "$d/qemu.log")
+    [ -n "$HIL_PTY" ] && break; sleep 0.1
+  done
+  [ -n "$HIL_PTY" ] || { hil_fail "f405: QEMU printed no pty ($(tail -1 "$d/qemu.log"))"; kill "$HIL_QEMU_PID"; wait "$HIL_QEMU_PID" || true; return 1; }
+}
 hil_checks() {
   HIL_PASSED=0
-  for spec in "m4f:$M4F" "m3:$M3"; do
-    IFS=: read -r chip target _ _ <<<"$spec"
-    step "HIL firmware: build for $chip ($target, feature hil)"
-    if ! (cd "$ROOT/firmware" && "${FW_ENV[@]}" cargo build --release --locked -Zbuild-std=core --target "$target" --features hil 2>&1 \
+  # chip:target:features (the board's: its memory map and USART1)
+  for spec in "m4f:${M4F%%:*}:hil" "m3:${M3%%:*}:hil" "f405:${F405%%:*}:hil,stm32f405"; do
+    IFS=: read -r chip target features <<<"$spec"
+    step "HIL firmware: build for $chip ($target, features $features)"
+    if ! (cd "$ROOT/firmware" && "${FW_ENV[@]}" cargo build --release --locked -Zbuild-std=core --target "$target" --features "$features" 2>&1 \
           | { grep -vE '^ +(Compiling|Downloaded|Downloading|Locking|Adding|Updating|Finished)' || true; }); then
       hil_fail "$chip: build"; return
     fi
@@ -573,6 +631,11 @@ hil_checks() {
     set +e; "$HIL_FS" run --blob "$HIL_BLOB" --episodes 1 --hil "serial:$HIL_PTY" >"$d/out.txt" 2>&1; HIL_RC=$?; set -e
     hil_expect "serial port busy" 2 "is busy" "$d/out.txt" || true
     wait "$first" || true
+    kill "$HIL_QEMU_PID"; wait "$HIL_QEMU_PID" 2>/dev/null || true
+  fi
+  # The STM32F405 board: the same run against its USART1, bit for bit.
+  if hil_board_qemu "$HIL_BLOB"; then
+    hil_equal f405-usart "serial:$HIL_PTY" "$HIL_BLOB"
     kill "$HIL_QEMU_PID"; wait "$HIL_QEMU_PID" 2>/dev/null || true
   fi
 
@@ -660,6 +723,7 @@ for spec in "${ALL_VARIANTS[@]}"; do
   if [ -n "$refine" ]; then features=${features:+$features,}refine; refine_env=(REFINE_T="$refine"); fi
   encoding_args=()
   if [ -n "$encodings" ]; then features=${features:+$features,}$encodings; encoding_args=(--no-default-features); fi
+  [ "${firmware:-rust}" = stm32f405 ] && features=${features:+$features,}stm32f405
   dir=$WORK/variants/$name; mkdir -p "$dir"; rm -f "$dir"/*.log "$dir/resources.json"
   blob=$(blob_for "$which")
 
@@ -671,7 +735,7 @@ for spec in "${ALL_VARIANTS[@]}"; do
     mkdir -p "$dir/calls"; rm -f "$dir/calls"/*.log
     if ! build_c_firmware "$target" "$dir/calls/firmware.elf" -DMEASURE_CALLS; then FAILED+=("$name: build (-DMEASURE_CALLS)"); continue; fi
   else
-  step "$name: build ($target, profile $profile${encodings:+, encodings $encodings only}; no blob inside)"
+  step "$name: build ($target, profile $profile${encodings:+, encodings $encodings only}${refine:+, refine}$([ "${firmware:-rust}" = stm32f405 ] && echo ', board stm32f405'); no blob inside)"
   if ! (cd "$ROOT/firmware" && "${FW_ENV[@]}" "${refine_env[@]}" cargo build --profile "$profile" --locked -Zbuild-std=core \
         --target "$target" "${encoding_args[@]}" ${features:+--features "$features"} 2>&1 \
         | { grep -vE '^ +(Compiling|Downloaded|Downloading|Locking|Adding|Updating|Finished)' || true; } ); then
@@ -686,6 +750,11 @@ for spec in "${ALL_VARIANTS[@]}"; do
   step "$name: run under QEMU ($machine, $cpu; $(basename "$blob") in slot A; timeout ${QEMU_TIMEOUT}s)"
   "$HC" image "$blob" "$dir/slot-a.bin" --sequence 1 >/dev/null
   loads=("$(slot_addr "$dir/firmware.elf" a)" "$dir/slot-a.bin"); critic_args=()
+  if [ "${firmware:-rust}" = stm32f405 ]; then
+    # The board's slot as a probe flashes it: Intel HEX at slot A's flash address.
+    "$HC" image "$blob" "$dir/slot-a.hex" --sequence 1 --address "$(slot_addr "$dir/firmware.elf" a)" >/dev/null
+    loads=(hex "$dir/slot-a.hex")
+  fi
   if [ -n "$refine" ]; then
     "$HC" image "$CRITIC_BLOB" "$dir/critic.bin" --sequence 1 >/dev/null
     loads+=("$(slot_addr "$dir/firmware.elf" critic)" "$dir/critic.bin"); critic_args=(--critic "$CRITIC_BLOB")

@@ -525,7 +525,7 @@ fn hil_flags_the_link_would_ignore_are_refused() {
     }
 }
 
-/// A 32-bit little-endian ARM ELF by hand: the slot symbols of firmware/memory.x and build
+/// A 32-bit little-endian ARM ELF by hand: the slot symbols of firmware/mps2/memory.x and build
 /// attributes naming `cpu`, its Tag_CPU_arch and its Tag_CPU_arch_profile.
 fn arm_elf(cpu: &str, arch: u8, profile: u8) -> Vec<u8> {
     let u16le = |v: u16| v.to_le_bytes().to_vec();

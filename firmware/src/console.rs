@@ -1,19 +1,12 @@
-//! Line output over semihosting, and the two ways the firmware ends.
+//! Line output, and the two ways the firmware ends. Where a line goes and what ending means are
+//! the board's ([`crate::board`]): semihosting and QEMU's exit status on the MPS2 boards and the
+//! FE310, USART1 and a parked core on the STM32F405.
 //!
 //! Lines are assembled by hand (hex and decimal integers, text) rather than with `core::fmt`, so
 //! the success path does not link the formatting machinery: the flash figures then show the
 //! policy, not `Display`. Only the failure paths use `core::fmt`.
 
-// The two crates have the same API: semihosting through `bkpt` on the Cortex-M, through the
-// `slli x0; ebreak; srai x0` sequence on RISC-V (QEMU's -semihosting-config for both).
-#[cfg(target_arch = "arm")]
-use cortex_m::asm::wfi;
-#[cfg(target_arch = "arm")]
-use cortex_m_semihosting::{debug, hio};
-#[cfg(target_arch = "riscv32")]
-use riscv::asm::wfi;
-#[cfg(target_arch = "riscv32")]
-use riscv_semihosting::{debug, hio};
+use crate::board;
 
 /// One output line of at most 256 bytes; longer text is cut (the newline is always kept).
 pub struct Line {
@@ -68,14 +61,11 @@ impl Line {
         self.push(core::str::from_utf8(&digits[at..]).unwrap_or("?"))
     }
 
-    /// Writes the line and a newline to the host's stdout.
+    /// Writes the line and a newline to the board's console.
     pub fn emit(&mut self) {
         self.len = self.len.min(self.buf.len() - 1);
         self.push("\n");
-        if let Ok(mut out) = hio::hstdout() {
-            // Nothing better to do if the host stops listening: the exit status still reports.
-            let _ = out.write_all(&self.buf[..self.len]);
-        }
+        board::write(&self.buf[..self.len]);
     }
 }
 
@@ -86,16 +76,13 @@ impl core::fmt::Write for Line {
     }
 }
 
-/// Ends the run successfully (QEMU exits with status 0).
+/// Ends the run successfully (under QEMU's MPS2 boards: exit status 0).
 pub fn exit_ok() -> ! {
-    debug::exit(debug::EXIT_SUCCESS);
-    // Reached only on a board without a debugger attached: stop here.
-    loop {
-        wfi();
-    }
+    board::exit(true)
 }
 
-/// Prints `FAIL <what>` and ends the run with a failure status (QEMU exits with status 1).
+/// Prints `FAIL <what>` and ends the run with a failure status (under QEMU's MPS2 boards: exit
+/// status 1).
 pub fn fail(what: &str) -> ! {
     Line::new("FAIL ").push(what).emit();
     exit_failure()
@@ -103,8 +90,5 @@ pub fn fail(what: &str) -> ! {
 
 /// Ends the run with a failure status.
 pub fn exit_failure() -> ! {
-    debug::exit(debug::EXIT_FAILURE);
-    loop {
-        wfi();
-    }
+    board::exit(false)
 }

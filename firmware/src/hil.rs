@@ -1,7 +1,7 @@
-//! Hardware in the loop (feature `hil`): the firmware serves `act` over UART0 to firmware-sim,
-//! which runs the plant, the sensor and the actuator models on the host (firmware-sim's
-//! `run --hil`). The messages and their frames are hil-protocol's, the crate the host compiles
-//! too.
+//! Hardware in the loop (feature `hil`): the firmware serves `act` over the board's serial link
+//! (UART0 on the MPS2 boards, USART1 on the STM32F405; [`crate::board`]) to firmware-sim, which
+//! runs the plant, the sensor and the actuator models on the host (firmware-sim's `run --hil`).
+//! The messages and their frames are hil-protocol's, the crate the host compiles too.
 //!
 //! At boot it sends a hello (which slot runs, or the safe state and both slots' reasons; the
 //! blob's sequence, CRC, shape and encoding; the SysTick calibration), then answers each
@@ -23,8 +23,9 @@ use hil_protocol::{
 use policy_core::model::{Model, Scratch};
 use policy_core::slot::{self, Boot, SlotId, Status};
 
+use crate::board::Link;
 use crate::chip::{elapsed, ticks};
-use crate::uart::Uart0;
+use crate::console::fail;
 use crate::{control_step, first, fw_mark, sizes, MAX_ACT, MAX_OBS, W};
 
 /// Always true: `main` serves the host instead of running the fixed observations.
@@ -37,7 +38,9 @@ pub fn serve(
     calibration: (u32, u32),
     scratch: &mut Scratch<W>,
 ) -> ! {
-    let mut uart = Uart0::take();
+    let Some(mut uart) = Link::take() else {
+        fail("no serial link to the host (the board's set-up did not finish)")
+    };
     let hello = FromChip::Hello(hello(booted, slots, calibration));
     // A delimiter first: whatever half frame the host holds from before a reset ends here, so
     // the hello arrives whole and reads as the reset it is.
@@ -90,7 +93,7 @@ fn refused(tick: u32, why: core::fmt::Arguments<'_>) -> FromChip {
     FromChip::Refused { tick, reason }
 }
 
-fn send(uart: &mut Uart0, message: &FromChip) {
+fn send(uart: &mut Link, message: &FromChip) {
     let mut buf = [0u8; MAX_FRAME];
     // Every message this firmware sends fits MAX_FRAME (reasons are capped); nothing to send
     // otherwise, and the host's tick timeout reports the silence.

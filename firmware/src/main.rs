@@ -31,6 +31,7 @@
 #![no_std]
 #![no_main]
 
+mod board;
 mod chip;
 mod console;
 #[cfg(feature = "hil")]
@@ -43,8 +44,6 @@ mod refine;
 mod sizes;
 mod slots;
 mod stack;
-#[cfg(feature = "hil")]
-mod uart;
 
 use core::hint::black_box;
 
@@ -117,6 +116,9 @@ pub(crate) fn first(buffer: &mut [f32], n: usize) -> &mut [f32] {
 fn run(scratch: &'static mut Scratch<W>) -> ! {
     let sp = chip::stack_pointer();
     stack::paint(sp);
+    // Clocks and the console's serial port before anything prints; after the paint, so that
+    // its stack counts in the boot phase's.
+    board::init();
     start_clock();
     let (cal_insns, cal_ticks) = calibrate();
 

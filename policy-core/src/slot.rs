@@ -52,11 +52,11 @@ pub const MAGIC: [u8; 4] = *b"DCPS";
 /// Bytes of a slot record's header; the blob starts here.
 pub const HEADER_LEN: usize = 16;
 
-/// The example firmware's slot A address (`firmware/memory.x`, QEMU's mps2-an386 layout).
+/// The example firmware's slot A address (`firmware/mps2/memory.x`, QEMU's mps2-an386 layout).
 pub const EXAMPLE_SLOT_A: u32 = 0x0004_0000;
-/// The example firmware's slot B address (`firmware/memory.x`).
+/// The example firmware's slot B address (`firmware/mps2/memory.x`).
 pub const EXAMPLE_SLOT_B: u32 = 0x0006_0000;
-/// The example firmware's slot size in bytes (`firmware/memory.x`): 128 KiB each, one erase
+/// The example firmware's slot size in bytes (`firmware/mps2/memory.x`): 128 KiB each, one erase
 /// sector on parts like the STM32F4's upper flash.
 pub const EXAMPLE_SLOT_SIZE: usize = 128 * 1024;
 

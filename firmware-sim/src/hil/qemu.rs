@@ -92,7 +92,7 @@ pub fn slot_addresses(elf: &Path) -> Result<SlotAddresses, Error> {
             .map(|s| s.address())
             .ok_or_else(|| {
                 bad(format!(
-                    "no {name} symbol: not a firmware linked with firmware/memory.x"
+                    "no {name} symbol: not a firmware linked with a board's memory.x (firmware/mps2/memory.x)"
                 ))
             })
     };

@@ -53,7 +53,7 @@ pub(crate) struct ExportArgs {
     #[arg(long, requires = "image")]
     sequence: Option<u32>,
     /// The slot's flash address, decimal or 0x hex [default: the example firmware's
-    /// (firmware/memory.x): 0x40000 for a, 0x60000 for b].
+    /// (firmware/mps2/memory.x): 0x40000 for a, 0x60000 for b].
     #[arg(long, value_parser = parse_address, requires = "image")]
     address: Option<u32>,
     /// The slot's size in bytes; a record that does not fit is refused [default: 131072, the

@@ -4,8 +4,8 @@
 //!
 //! Registers (ARM CMSDK APB UART, as QEMU's `cmsdk-apb-uart` models it): DATA +0x0, STATE +0x4
 //! (bit 0 TX buffer full, bit 1 RX buffer full), CTRL +0x8 (bit 0 TX enable, bit 1 RX enable,
-//! bit 3 RX interrupt enable), INTCLEAR +0xC, BAUDDIV +0x10. On a board with another UART, this
-//! file is the one to replace.
+//! bit 3 RX interrupt enable), INTCLEAR +0xC, BAUDDIV +0x10. Another board brings its own link
+//! in its board module (the STM32F405's USART1: `board/stm32f405.rs`).
 //!
 //! Waiting for a byte sleeps (WFI) rather than spins: the receive interrupt is enabled in the
 //! UART and the NVIC but masked by PRIMASK, so it wakes the core without running a handler.
@@ -39,8 +39,9 @@ pub struct Uart0 {
 }
 
 impl Uart0 {
-    /// Sets the divider and enables the transmitter and receiver.
-    pub fn take() -> Self {
+    /// Sets the divider and enables the transmitter and receiver. Always `Some`: UART0 is
+    /// there on every MPS2 board (the `Option` is the board modules' common form).
+    pub fn take() -> Option<Self> {
         let uart = Uart0 { _only: () };
         // Masked: the receive interrupt only wakes WFI, no handler ever runs.
         cortex_m::interrupt::disable();
@@ -53,7 +54,7 @@ impl Uart0 {
         // SysTick wrap, hundreds of millions of instructions away under -icount). On a board
         // it reads an empty buffer, which changes nothing.
         let _ = uart.read_reg(DATA);
-        uart
+        Some(uart)
     }
 
     /// Sends one byte, waiting while the transmit buffer is full.
