@@ -4,7 +4,7 @@ use super::params::{check_parameters, values};
 use super::read::verify;
 use super::write::to_vec_with;
 use crate::error::Error;
-use crate::format::{Encoding, Spec};
+use crate::format::{Encoding, Header, Spec};
 
 /// The blob `bytes` (f32 weights) with its weights stored in `encoding` instead (host side): the
 /// same kind, shape, activation, label, normaliser, bounds, action table and biases; [`write()`](super::write())
@@ -24,19 +24,9 @@ use crate::format::{Encoding, Spec};
 /// assert!(blob::encode(&int8, Encoding::F16).is_err());
 /// ```
 pub fn encode(bytes: &[u8], encoding: Encoding) -> Result<std::vec::Vec<u8>, Error> {
-    let verified = verify(bytes)?;
-    check_parameters(&verified.header, verified.payload)?;
-    let h = &verified.header;
-    if h.encoding != Encoding::F32 {
-        return Err(Error::WrongEncoding {
-            expected: Encoding::F32,
-            found: h.encoding,
-        });
-    }
-    let params: std::vec::Vec<f32> = values(h, verified.payload).collect();
-    let out = to_vec_with(&Spec::like(h, encoding), &mut |sink| sink(&params))?;
-    let written = verify(&out)?;
-    check_parameters(&written.header, written.payload)?;
+    let (h, params) = f32_source(bytes)?;
+    let out = to_vec_with(&Spec::like(&h, encoding), &mut |sink| sink(&params))?;
+    check_written(&out)?;
     Ok(out)
 }
 
@@ -54,22 +44,34 @@ pub fn encode(bytes: &[u8], encoding: Encoding) -> Result<std::vec::Vec<u8>, Err
 /// assert!(int.len() < F32.len() / 2); // 10,252 bytes beside 29,272 (tanh: five tables)
 /// ```
 pub fn encode_integer(bytes: &[u8], observations: &[f32]) -> Result<std::vec::Vec<u8>, Error> {
+    let (h, params) = f32_source(bytes)?;
+    let ranges = super::calibrate(bytes, observations)?;
+    let spec = Spec::like(&h, Encoding::Integer);
+    let mut out = std::vec![0u8; super::write::encoded_len(&spec)?];
+    let n = super::write_integer(&spec, &ranges, &mut |sink| sink(&params), &mut out)?;
+    out.truncate(n);
+    check_written(&out)?;
+    Ok(out)
+}
+
+/// The header and parameters of `bytes`, verified, which must be an f32 blob: what both
+/// re-encodings start from.
+fn f32_source(bytes: &[u8]) -> Result<(Header, std::vec::Vec<f32>), Error> {
     let verified = verify(bytes)?;
     check_parameters(&verified.header, verified.payload)?;
-    let h = &verified.header;
+    let h = verified.header;
     if h.encoding != Encoding::F32 {
         return Err(Error::WrongEncoding {
             expected: Encoding::F32,
             found: h.encoding,
         });
     }
-    let ranges = super::calibrate(bytes, observations)?;
-    let params: std::vec::Vec<f32> = values(h, verified.payload).collect();
-    let spec = Spec::like(h, Encoding::Integer);
-    let mut out = std::vec![0u8; super::write::encoded_len(&spec)?];
-    let n = super::write_integer(&spec, &ranges, &mut |sink| sink(&params), &mut out)?;
-    out.truncate(n);
-    let written = verify(&out)?;
-    check_parameters(&written.header, written.payload)?;
-    Ok(out)
+    let params = values(&h, verified.payload).collect();
+    Ok((h, params))
+}
+
+/// Loads a re-encoded blob as a chip would: a writer's mistake is an error, never a bad blob.
+fn check_written(out: &[u8]) -> Result<(), Error> {
+    let written = verify(out)?;
+    check_parameters(&written.header, written.payload)
 }
