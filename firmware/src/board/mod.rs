@@ -14,10 +14,13 @@ mod mps2;
 #[cfg(all(target_arch = "arm", not(feature = "stm32f405")))]
 pub use mps2::*;
 
+// The FE310 (QEMU's sifive_e) is a semihosting console and nothing else; no HIL link (chip.rs
+// refuses feature `hil` on a RISC-V at compile time).
 #[cfg(target_arch = "riscv32")]
-mod fe310;
-#[cfg(target_arch = "riscv32")]
-pub use fe310::*;
+pub use semihosting::*;
+
+#[cfg(not(feature = "stm32f405"))]
+mod semihosting;
 
 #[cfg(feature = "stm32f405")]
 mod stm32f405;

@@ -7,32 +7,7 @@
 #[cfg(feature = "hil")]
 mod uart;
 
-use cortex_m_semihosting::{debug, hio};
+pub use super::semihosting::{exit, init, write};
 
 #[cfg(feature = "hil")]
 pub use uart::Uart0 as Link;
-
-/// Nothing to set up: QEMU starts the MPS2 boards at their clock, and semihosting needs no
-/// peripheral.
-pub fn init() {}
-
-/// Writes bytes to the host's stdout.
-pub fn write(bytes: &[u8]) {
-    if let Ok(mut out) = hio::hstdout() {
-        // Nothing better to do if the host stops listening: the exit status still reports.
-        let _ = out.write_all(bytes);
-    }
-}
-
-/// Ends the run: QEMU exits with status 0 (`success`) or 1.
-pub fn exit(success: bool) -> ! {
-    debug::exit(if success {
-        debug::EXIT_SUCCESS
-    } else {
-        debug::EXIT_FAILURE
-    });
-    // Reached only on a board without a debugger attached: stop here.
-    loop {
-        cortex_m::asm::wfi();
-    }
-}
