@@ -103,6 +103,8 @@ pub(crate) fn race_command(
     let race_dir = RunDir::create(&out, &name)?;
     let lock = lock::acquire(race_dir.path())?;
     let racers_out = race_dir.file(folder::RACERS);
+    // Made here, once, before the racers' threads each create their run inside it.
+    folder::create_output_folder(&racers_out)?;
     let mut entrants = Vec::with_capacity(k);
     let mut record = RaceRecord {
         base_seed: base,

@@ -171,15 +171,19 @@ pub fn check_kept_checkpoints(run: &Path) -> Result<(), Error> {
 /// machine does not have, while a mistyped parent (`/tmp/rnus/exp1`) is still refused rather
 /// than a tree of folders made where nobody will look. Writes nothing.
 pub fn check_output_folder(out: &Path) -> Result<(), Error> {
-    if out.is_dir() {
-        return Ok(());
-    }
-    if out.exists() {
-        return Err(io_error(
-            out,
-            std::io::ErrorKind::NotADirectory,
-            "not a folder: --out names a file (give the folder the runs go in)",
-        ));
+    // One look at the file system, not `is_dir` then `exists`: the racers of one race create
+    // their shared `racers/` folder from several threads, and a folder made between two looks
+    // read as "exists, not a folder".
+    match fs::metadata(out) {
+        Ok(meta) if meta.is_dir() => return Ok(()),
+        Ok(_) => {
+            return Err(io_error(
+                out,
+                std::io::ErrorKind::NotADirectory,
+                "not a folder: --out names a file (give the folder the runs go in)",
+            ))
+        }
+        Err(_) => {}
     }
     let parent = match out.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
@@ -316,6 +320,36 @@ mod tests {
         let _ = fs::remove_dir_all(&dir);
         fs::create_dir_all(&dir).expect("scratch dir");
         dir
+    }
+
+    #[test]
+    fn runs_created_at_once_from_several_threads_in_a_missing_folder_all_succeed() {
+        // A race's racers create their runs in one `racers/` folder from their own threads;
+        // whichever makes the folder, none may read it as "not a folder".
+        let dir = scratch("threads");
+        for round in 0..200 {
+            let out = dir.join(format!("racers-{round}"));
+            let start = std::sync::Barrier::new(8);
+            let made: Vec<Result<RunDir, Error>> = std::thread::scope(|s| {
+                let handles: Vec<_> = (0..8)
+                    .map(|i| {
+                        let (out, start) = (&out, &start);
+                        s.spawn(move || {
+                            start.wait();
+                            RunDir::create(out, &format!("x__y__{i}"))
+                        })
+                    })
+                    .collect();
+                handles
+                    .into_iter()
+                    .map(|h| h.join().expect("thread"))
+                    .collect()
+            });
+            for (i, r) in made.iter().enumerate() {
+                assert!(r.is_ok(), "round {round}, run {i}: {:?}", r.as_ref().err());
+            }
+        }
+        let _ = fs::remove_dir_all(&dir);
     }
 
     #[test]
