@@ -8,6 +8,7 @@ fn no_arguments_is_a_usage_error() {
         (env!("CARGO_BIN_EXE_margin-diagnosis"), "margin-diagnosis"),
         (env!("CARGO_BIN_EXE_stuck-critic"), "stuck-critic"),
         (env!("CARGO_BIN_EXE_quantisation-cost"), "quantisation-cost"),
+        (env!("CARGO_BIN_EXE_integer-cost"), "integer-cost"),
         (env!("CARGO_BIN_EXE_compare-in-loop"), "compare-in-loop"),
         (env!("CARGO_BIN_EXE_restat"), "restat"),
     ] {
@@ -23,6 +24,7 @@ fn no_arguments_is_a_usage_error() {
 fn a_missing_run_folder_is_named() {
     for (binary, name) in [
         (env!("CARGO_BIN_EXE_quantisation-cost"), "quantisation-cost"),
+        (env!("CARGO_BIN_EXE_integer-cost"), "integer-cost"),
         (env!("CARGO_BIN_EXE_compare-in-loop"), "compare-in-loop"),
         (env!("CARGO_BIN_EXE_stuck-critic"), "stuck-critic"),
     ] {
