@@ -514,6 +514,52 @@ int32_t dcp_verify(const uint8_t *blob,
                    struct dcp_error *err);
 
 /**
+ * An integer actor's input codes for an observation: each component's int8 code in the blob's
+ * input quantisation (the normaliser and the first layer's input scale folded into one
+ * `round(x * scale + offset)`, clamped to int8; a NaN or infinite component gets the code of a
+ * normalised 0), into `codes`. `obs_len` and `codes_len` must both be the blob's observation
+ * size (`DCP_ERR_SIZE_MISMATCH`). On a model of another encoding: `DCP_ERR_WRONG_ENCODING`;
+ * on a critic or discrete policy: `DCP_ERR_WRONG_KIND`. `codes` is written only on success.
+ *
+ * # Safety
+ * `model` is NULL or a zeroed or loaded `dcp_model` whose blob is still in place; `obs` is NULL
+ * or `obs_len` readable floats; `codes` is NULL or `codes_len` writable bytes; `err` is NULL or
+ * a writable `dcp_error`.
+ */
+int32_t dcp_observation_codes(const struct dcp_model *model,
+                              const float *obs,
+                              size_t obs_len,
+                              int8_t *codes,
+                              size_t codes_len,
+                              struct dcp_error *err);
+
+/**
+ * The integer forward pass of an integer actor: input `codes` (from `dcp_observation_codes`,
+ * or a pipeline that produces them directly) to one unit code per action dimension in
+ * `unit_codes`, each in -127..=127: the actuator's command `code / 127` of the unit box, which
+ * `dcp_act` maps onto the blob's bounds. The same integers `dcp_act` computes.
+ *
+ * `scratch` holds `scratch_len` `int32_t`, at least `dcp_scratch_floats` of them (the same
+ * count as `dcp_act`'s floats; `DCP_ERR_SCRATCH_TOO_SMALL`). `codes_len` and `action_len`
+ * must be the blob's sizes (`DCP_ERR_SIZE_MISMATCH`). On a model of another encoding:
+ * `DCP_ERR_WRONG_ENCODING`; on a critic or discrete policy: `DCP_ERR_WRONG_KIND`. The buffers
+ * must not overlap (`DCP_ERR_OVERLAP`); `unit_codes` is written only on success.
+ *
+ * # Safety
+ * `model` as `dcp_observation_codes`; `codes` is NULL or `codes_len` readable bytes; `scratch`
+ * is NULL or `scratch_len` writable `int32_t`; `unit_codes` is NULL or `action_len` writable
+ * bytes; `err` is NULL or a writable `dcp_error`.
+ */
+int32_t dcp_act_codes(const struct dcp_model *model,
+                      const int8_t *codes,
+                      size_t codes_len,
+                      int32_t *scratch,
+                      size_t scratch_len,
+                      int8_t *unit_codes,
+                      size_t action_len,
+                      struct dcp_error *err);
+
+/**
  * Verifies the `len` bytes at `blob` (as `dcp_verify`) and fills `*model` with a model that
  * reads its weights from those bytes. Any kind loads (actor, critic, discrete policy).
  *

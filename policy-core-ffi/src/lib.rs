@@ -9,6 +9,8 @@
 //!   [`DcpModel`] (opaque storage) with a model that reads its weights from the blob's bytes.
 //! - [`dcp_act`], [`dcp_q`], [`dcp_choose`], [`dcp_choice_q`]: run it with a caller's scratch of
 //!   [`dcp_scratch_floats`] floats.
+//! - [`dcp_observation_codes`], [`dcp_act_codes`]: an integer-encoded actor run in integers
+//!   only (observation codes in, unit codes out), for a chip without an FPU.
 //! - [`dcp_slot_choose`]: the A/B flash slot rule, as the Rust example firmware boots.
 //! - [`dcp_abi_check`]: refuses a header of another ABI version ([`DCP_ABI_VERSION`]) than the
 //!   library's.
@@ -41,6 +43,7 @@ extern crate std;
 mod abi;
 mod buffers;
 mod header;
+mod integer;
 mod model;
 mod slot;
 mod status;
@@ -48,6 +51,7 @@ mod status;
 pub use abi::{dcp_abi_check, dcp_abi_version, DCP_ABI_VERSION, DCP_MAX_SCRATCH_WIDTH};
 pub use header::{dcp_verify, DcpHeader};
 pub use header::{DCP_ACTIVATION_RELU, DCP_ACTIVATION_TANH, DCP_LABEL_LEN};
+pub use integer::{dcp_act_codes, dcp_observation_codes};
 pub use model::{
     dcp_act, dcp_action_bounds, dcp_choice_q, dcp_choose, dcp_model_for_policy, dcp_model_header,
     dcp_model_load, dcp_q, dcp_scratch_floats, DcpModel, DCP_MODEL_BYTES,

@@ -149,7 +149,7 @@ unsafe fn put(model: *mut DcpModel, blob: &'static [u8], loaded: Model<'static>)
 /// # Safety
 /// `model` is NULL or points to a readable `dcp_model` that was zeroed or loaded, and that
 /// nothing writes while the returned references live.
-unsafe fn loaded<'a>(
+pub(crate) unsafe fn loaded<'a>(
     model: *const DcpModel,
 ) -> Result<(&'a Model<'static>, &'static [u8], Raw<DcpModel>), Failure> {
     let storage = one(model, "model")?;

@@ -501,6 +501,48 @@ fn null_for_every_pointer_argument_is_an_error_code() {
             dcp_slot_read(r, rn, &mut seq, &mut blob_at, null_mut(), &mut e),
             &e,
         );
+        // The integer entry (on the f32 model: NULL is checked before the encoding).
+        let (mut codes, mut unit_codes, mut ints) = ([0i8; 2], [0i8; 2], [0i32; 128]);
+        let (c, uc, is) = (
+            codes.as_mut_ptr(),
+            unit_codes.as_mut_ptr(),
+            ints.as_mut_ptr(),
+        );
+        check(
+            "model",
+            dcp_observation_codes(null(), o, 2, c, 2, &mut e),
+            &e,
+        );
+        check(
+            "obs",
+            dcp_observation_codes(&model, null(), 2, c, 2, &mut e),
+            &e,
+        );
+        check(
+            "codes",
+            dcp_observation_codes(&model, o, 2, null_mut(), 2, &mut e),
+            &e,
+        );
+        check(
+            "model",
+            dcp_act_codes(null(), c, 2, is, 128, uc, 2, &mut e),
+            &e,
+        );
+        check(
+            "codes",
+            dcp_act_codes(&model, null(), 2, is, 128, uc, 2, &mut e),
+            &e,
+        );
+        check(
+            "scratch",
+            dcp_act_codes(&model, c, 2, null_mut(), 128, uc, 2, &mut e),
+            &e,
+        );
+        check(
+            "unit_codes",
+            dcp_act_codes(&model, c, 2, is, 128, null_mut(), 2, &mut e),
+            &e,
+        );
         // `err` may always be NULL: the code still comes back.
         assert_eq!(
             dcp_verify(null(), n, &mut header, null_mut()),
@@ -1246,4 +1288,167 @@ fn the_slot_rule_matches_policy_core() {
             None => assert_eq!(header_code, DCP_ERR_NOT_LOADED),
         }
     }
+}
+
+/// The integer entry: codes from `dcp_observation_codes`, then `dcp_act_codes`, give the unit
+/// codes whose `code / 127` is exactly the unit action the float entry computes (policy-core's
+/// `act_unit`), for observations with NaN, infinities, −0, a subnormal and f32's extremes.
+#[test]
+fn the_integer_entry_gives_the_float_entrys_unit_action_in_integers() {
+    let blob = golden("actor_4x48_integer.postcard");
+    let m = load(&blob);
+    let model = Model::from_blob(&blob).expect("loads");
+    let specials = [
+        0.0,
+        -0.0,
+        1.0e-40,
+        f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::MAX,
+        f32::MIN,
+        4.0,
+        -2.5,
+    ];
+    let mut scratch = [0i32; 96];
+    for &a in &specials {
+        for &b in &specials {
+            let obs = [a, b];
+            let (mut codes, mut unit) = ([0i8; 2], [0i8; 2]);
+            // SAFETY: every buffer is valid for its length and distinct.
+            let code = unsafe {
+                dcp_observation_codes(&m, obs.as_ptr(), 2, codes.as_mut_ptr(), 2, null_mut())
+            };
+            assert_eq!(code, DCP_OK, "{obs:?}: {}", name(code));
+            let mut expected_codes = [0i8; 2];
+            model
+                .observation_codes(&obs, &mut expected_codes)
+                .expect("codes");
+            assert_eq!(codes, expected_codes, "{obs:?}");
+            // SAFETY: as above.
+            let code = unsafe {
+                dcp_act_codes(
+                    &m,
+                    codes.as_ptr(),
+                    2,
+                    scratch.as_mut_ptr(),
+                    scratch.len(),
+                    unit.as_mut_ptr(),
+                    2,
+                    null_mut(),
+                )
+            };
+            assert_eq!(code, DCP_OK, "{obs:?}: {}", name(code));
+            let mut float_unit = [0.0f32; 2];
+            model
+                .act_unit(&obs, &mut Scratch::<48>::new(), &mut float_unit)
+                .expect("acts");
+            let from_codes = unit.map(|c| f32::from(c) / 127.0);
+            assert_eq!(
+                from_codes.map(f32::to_bits),
+                float_unit.map(f32::to_bits),
+                "{obs:?}"
+            );
+        }
+    }
+}
+
+/// Misuse of the integer entry: each gives its code and writes nothing.
+#[test]
+fn the_integer_entry_refuses_misuse_by_code() {
+    let integer = golden("actor_4x48_integer.postcard");
+    let f32_actor = golden("actor_4x48.postcard");
+    let critic = golden("critic_2x32.postcard");
+    let (m, f, c) = (load(&integer), load(&f32_actor), load(&critic));
+    let zeroed = new_model();
+    let obs = [0.5f32, -0.5];
+    let codes = [3i8, -4];
+    let mut scratch = [0i32; 96];
+    let mut e = new_error();
+    let act = |model: &DcpModel, codes_len, scratch: &mut [i32], unit: *mut i8, len, e| {
+        // SAFETY: every non-NULL pointer is valid for its length.
+        unsafe {
+            dcp_act_codes(
+                model,
+                codes.as_ptr(),
+                codes_len,
+                scratch.as_mut_ptr(),
+                scratch.len(),
+                unit,
+                len,
+                e,
+            )
+        }
+    };
+    let mut unit = [99i8; 2];
+    let u = unit.as_mut_ptr();
+    let cases = [
+        (
+            "f32 blob",
+            act(&f, 2, &mut scratch, u, 2, &mut e),
+            DCP_ERR_WRONG_ENCODING,
+        ),
+        (
+            "critic",
+            act(&c, 2, &mut scratch, u, 2, &mut e),
+            DCP_ERR_WRONG_KIND,
+        ),
+        (
+            "not loaded",
+            act(&zeroed, 2, &mut scratch, u, 2, &mut e),
+            DCP_ERR_NOT_LOADED,
+        ),
+        (
+            "codes 1",
+            act(&m, 1, &mut scratch, u, 2, &mut e),
+            DCP_ERR_SIZE_MISMATCH,
+        ),
+        (
+            "actions 1",
+            act(&m, 2, &mut scratch, u, 1, &mut e),
+            DCP_ERR_SIZE_MISMATCH,
+        ),
+        (
+            "scratch",
+            act(&m, 2, &mut scratch[..16], u, 2, &mut e),
+            DCP_ERR_SCRATCH_TOO_SMALL,
+        ),
+        (
+            "unit NULL",
+            act(&m, 2, &mut scratch, null_mut(), 2, &mut e),
+            DCP_ERR_NULL_POINTER,
+        ),
+    ];
+    for (what, code, expected) in cases {
+        assert_eq!(name(code), name(expected), "{what}");
+    }
+    assert_eq!(unit, [99, 99], "nothing written on failure");
+    // The unit codes written over the scratch: an overlap, refused before any work.
+    let inside = scratch.as_mut_ptr().cast::<i8>();
+    assert_eq!(
+        name(act(&m, 2, &mut scratch, inside, 2, &mut e)),
+        name(DCP_ERR_OVERLAP)
+    );
+    assert_eq!(text(&e.what), "scratch and unit_codes");
+    // Observation codes: the wrong encoding, a size mismatch, codes written over the
+    // observation.
+    let mut out = [0i8; 2];
+    // SAFETY: every pointer is valid for its length.
+    unsafe {
+        let code = dcp_observation_codes(&f, obs.as_ptr(), 2, out.as_mut_ptr(), 2, &mut e);
+        assert_eq!(name(code), name(DCP_ERR_WRONG_ENCODING));
+        let code = dcp_observation_codes(&m, obs.as_ptr(), 2, out.as_mut_ptr(), 1, &mut e);
+        assert_eq!(name(code), name(DCP_ERR_SIZE_MISMATCH));
+        let code = dcp_observation_codes(
+            &m,
+            obs.as_ptr(),
+            2,
+            obs.as_ptr().cast_mut().cast(),
+            2,
+            &mut e,
+        );
+        assert_eq!(name(code), name(DCP_ERR_OVERLAP));
+        assert_eq!(text(&e.what), "codes and obs");
+    }
+    assert_eq!(out, [0, 0], "nothing written on failure");
 }
