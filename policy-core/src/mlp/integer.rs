@@ -120,13 +120,7 @@ impl IntegerDense<'_> {
         if outputs == 0 {
             return;
         }
-        for (column, &xj) in self.weights.chunks_exact(outputs).zip(x) {
-            let centred = xj.wrapping_sub(x_zero);
-            for (acc, &q) in y.iter_mut().zip(column) {
-                // Exact (see the module docs); wrapping only so that no input can panic.
-                *acc = acc.wrapping_add(i32::from(q as i8).wrapping_mul(centred));
-            }
-        }
+        accumulate(self.weights, x, x_zero, y);
         let parts = self.multipliers.chunks_exact(4).zip(self.shifts);
         for (acc, (m, &shift)) in y.iter_mut().zip(parts) {
             let multiplier = i32::from_le_bytes([m[0], m[1], m[2], m[3]]);
@@ -138,6 +132,67 @@ impl IntegerDense<'_> {
                 Some(table) => lookup(table, code),
                 None => code,
             };
+        }
+    }
+}
+
+/// Whether the core is Thumb-1 only (the Cortex-M0/M0+: eight low registers, no immediate
+/// offset on a sign-extending byte load), where [`accumulate`] goes column by column instead.
+/// Told by the missing 32-bit compare-and-swap: every Thumb-2 core has `LDREX`/`STREX`,
+/// ARMv6-M has not, and that `cfg` is stable where the Arm target features (`thumb2`) are
+/// visible to `cfg` on nightly only.
+const THUMB1: bool = cfg!(target_arch = "arm") && !cfg!(target_has_atomic = "32");
+
+/// `y[o] += Σ_j q[j][o] · (x[j] − x_zero)` over the column-major int8 weights (`q[j]` is the
+/// run of `y.len()` bytes for input `j`), four outputs at a time: their accumulators stay in
+/// registers for the whole pass over the inputs, and each input's four weights are adjacent
+/// bytes. Measured on the integer 4×48 actor under QEMU (docs/cortex-m.md): 6.1 instructions
+/// per MAC on the Cortex-M4F and M3 and 7.2 on RV32IMAC, against 7.5, 8.0 and 10.8 one output
+/// at a time (which loads and stores an accumulator for every product). On a Thumb-1 core
+/// ([`THUMB1`]) four accumulators spill to the stack (12.5 against 12.2) and two or one at a
+/// time cost more still (15.3, 15.1), so there the outputs go one at a time, column by column.
+/// The outputs left over (fewer than four) go one at a time. The sums are exact (see the
+/// module docs), so the order changes no bit; wrapping only so that no input can panic.
+#[inline(always)]
+fn accumulate(weights: &[u8], x: &[i32], x_zero: i32, y: &mut [i32]) {
+    let outputs = y.len();
+    if outputs == 0 {
+        return;
+    }
+    let columns = weights.chunks_exact(outputs).zip(x);
+    let product = |q: u8, centred: i32| i32::from(q as i8).wrapping_mul(centred);
+    if THUMB1 {
+        for (column, &xj) in columns {
+            let centred = xj.wrapping_sub(x_zero);
+            for (acc, &q) in y.iter_mut().zip(column) {
+                *acc = acc.wrapping_add(product(q, centred));
+            }
+        }
+        return;
+    }
+    let mut blocks = y.chunks_exact_mut(4);
+    let mut first = 0;
+    for block in &mut blocks {
+        if let [y0, y1, y2, y3] = block {
+            let mut acc = [*y0, *y1, *y2, *y3];
+            for (column, &xj) in columns.clone() {
+                let centred = xj.wrapping_sub(x_zero);
+                if let Some(&[q0, q1, q2, q3]) = column.get(first..first + 4) {
+                    acc[0] = acc[0].wrapping_add(product(q0, centred));
+                    acc[1] = acc[1].wrapping_add(product(q1, centred));
+                    acc[2] = acc[2].wrapping_add(product(q2, centred));
+                    acc[3] = acc[3].wrapping_add(product(q3, centred));
+                }
+            }
+            [*y0, *y1, *y2, *y3] = acc;
+        }
+        first += 4;
+    }
+    for (k, acc) in blocks.into_remainder().iter_mut().enumerate() {
+        for (column, &xj) in columns.clone() {
+            if let Some(&q) = column.get(first + k) {
+                *acc = acc.wrapping_add(product(q, xj.wrapping_sub(x_zero)));
+            }
         }
     }
 }
@@ -187,4 +242,40 @@ pub fn observation_code(x: f32, scale: f32, offset: f32, zero: i32) -> i32 {
 #[inline]
 pub fn unit_of_code(code: i32) -> f32 {
     code as f32 / 127.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::accumulate;
+
+    /// The blocked kernel against the sum written out, output by output, on every output count
+    /// from 0 to 11 (whole blocks of four, remainders of one to three) and input counts 0 to 6,
+    /// with weights and inputs across their whole ranges (a small LCG: no dependency).
+    #[test]
+    fn the_blocked_sums_are_the_plain_sums() {
+        let mut state = 0x2545_f491_u32;
+        let mut next = move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            state >> 8
+        };
+        for outputs in 0..12usize {
+            for inputs in 0..7usize {
+                let weights: Vec<u8> = (0..outputs * inputs).map(|_| next() as u8).collect();
+                let x: Vec<i32> = (0..inputs).map(|_| (next() % 256) as i32 - 128).collect();
+                let x_zero = (next() % 256) as i32 - 128;
+                let bias: Vec<i32> = (0..outputs)
+                    .map(|_| (next() % 2001) as i32 - 1000)
+                    .collect();
+                let mut y = bias.clone();
+                accumulate(&weights, &x, x_zero, &mut y);
+                for (o, (&got, &b)) in y.iter().zip(&bias).enumerate() {
+                    let plain: i32 = (0..inputs)
+                        .map(|j| i32::from(weights[j * outputs + o] as i8) * (x[j] - x_zero))
+                        .sum::<i32>()
+                        + b;
+                    assert_eq!(got, plain, "{outputs} outputs, {inputs} inputs, output {o}");
+                }
+            }
+        }
+    }
 }
