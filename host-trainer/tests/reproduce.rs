@@ -109,6 +109,69 @@ fn two_slices_merge_into_the_page_and_a_rerun_skips_what_finished() {
 }
 
 #[test]
+fn the_added_seeds_train_into_the_grids_cells_and_join_the_page() {
+    let out = scratch("reproduce-added");
+    let added = GRID.added_runs().len();
+    assert_eq!(added, 36);
+    // Before the grid: the added runs alone, recorded as their own part; the page says the
+    // grid's runs are missing (exit 1) and the section counts the added ones in.
+    let first = reproduce(&out, &["--added-seeds", "--jobs", "2"]);
+    assert_eq!(first.status.code(), Some(1), "{}", stdout(&first));
+    assert!(
+        stdout(&first).contains(&format!(
+            "the added seeds of exp1 --seeds 1 --quick: {added} runs, {added} trained"
+        )),
+        "{}",
+        stdout(&first)
+    );
+    assert!(out.join("parts/added.json").is_file());
+    // The cell folders hold them beside the grid's seed 0, which the grid then trains.
+    assert!(out
+        .join("runs/walls-4x48-lr-ddpg/nav-walls__ddpg__4")
+        .is_dir());
+    assert_ok(&reproduce(&out, &["--jobs", "2"]));
+    let page = std::fs::read_to_string(out.join("exp1.md")).expect("page");
+    for needle in [
+        "## Claims 2 and 3 with the added seeds",
+        "claim 3's with seeds 0–5",
+        "36 of them in",
+        "| added | ",
+        "## Missing runs\n\nNone.",
+    ] {
+        assert!(page.contains(needle), "{needle:?} not in the page:\n{page}");
+    }
+    // Again: nothing to train.
+    let again = reproduce(&out, &["--added-seeds"]);
+    assert_ok(&again);
+    assert!(
+        stdout(&again).contains(&format!(
+            "{added} runs, 0 trained, {added} already finished"
+        )),
+        "{}",
+        stdout(&again)
+    );
+    // Experiment 2 has no added seeds; a merge or a slice does not go with them.
+    let exp2 = command(&[
+        "reproduce",
+        "exp2",
+        "--quick",
+        "--seeds",
+        "1",
+        "--out",
+        s(&out),
+        "--added-seeds",
+    ])
+    .output()
+    .expect("runs");
+    assert_one_line_error(&exp2, &["exp2 has no added seeds"]);
+    for other in [&["--merge"][..], &["--slice", "0/2"]] {
+        let o = reproduce(&out, &[&["--added-seeds"][..], other].concat());
+        assert_eq!(o.status.code(), Some(2), "{other:?}");
+    }
+    std::fs::remove_dir_all(&out).expect("cleanup");
+}
+
+#[test]
 fn a_failed_run_counts_as_failed_in_the_tables() {
     let out = scratch("reproduce-failed");
     // A file where a run's folder goes: that run cannot start.

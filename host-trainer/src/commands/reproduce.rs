@@ -47,6 +47,11 @@ pub(crate) struct ReproduceArgs {
     /// are missing (exit 1 if any).
     #[arg(long)]
     merge: bool,
+    /// Train the runs claims 2 and 3 gained after the grid instead of the grid's own
+    /// (docs/results/reproduction.md, "Added seeds for claims 2 and 3": more seeds of their
+    /// cells, into the same cell folders), then build the page; experiment 1 only.
+    #[arg(long, conflicts_with_all = ["merge", "slice"])]
+    added_seeds: bool,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
@@ -72,6 +77,9 @@ pub(crate) fn reproduce_command(args: ReproduceArgs) -> Result<ExitCode> {
     if args.merge {
         reproduce::folder::check(&args.out, &grid)?;
         return merge(&args.out, &grid);
+    }
+    if args.added_seeds {
+        return added_seeds(&args, &grid);
     }
     let slice = args.slice.unwrap_or(Slice::WHOLE);
     if let Some(found) = reproduce::folder::recorded(&args.out)? {
@@ -117,7 +125,7 @@ pub(crate) fn reproduce_command(args: ReproduceArgs) -> Result<ExitCode> {
         wall_seconds: started.elapsed().as_secs_f64(),
         total_wall_seconds: 0.0,
     }
-    .write(&args.out, slice)?;
+    .write(reproduce::Part::path(&args.out, slice))?;
     if INTERRUPTS.load(Ordering::SeqCst) > 0 {
         eprintln!("host-trainer: reproduce interrupted; the stopped runs kept a checkpoint. Re-run the same command to continue (finished runs are skipped)");
         return Ok(ExitCode::from(INTERRUPTED));
@@ -144,6 +152,74 @@ pub(crate) fn reproduce_command(args: ReproduceArgs) -> Result<ExitCode> {
         });
     }
     let code = merge(&args.out, &grid)?;
+    Ok(if part.failed > 0 {
+        ExitCode::FAILURE
+    } else {
+        code
+    })
+}
+
+/// `--added-seeds`: the grid recorded in the folder (or claimed for it), then the added runs
+/// through the same planner, lock and supervisor as a part of the grid, under the part name
+/// `added`; then the page.
+fn added_seeds(args: &ReproduceArgs, grid: &Grid) -> Result<ExitCode> {
+    let runs = grid.added_runs();
+    if runs.is_empty() {
+        anyhow::bail!(
+            "--added-seeds: {} has no added seeds (they are claims 2 and 3's, of exp1)",
+            grid.experiment
+        );
+    }
+    if let Some(found) = reproduce::folder::recorded(&args.out)? {
+        if found != *grid {
+            reproduce::folder::check(&args.out, grid)?;
+        }
+    }
+    reproduce::folder::plan_runs(&args.out, grid, &runs)?;
+    reproduce::folder::claim(&args.out, grid)?;
+    let record = reproduce::Part::added_path(&args.out);
+    let part_dir = record.with_extension("");
+    std::fs::create_dir_all(&part_dir)
+        .with_context(|| format!("cannot create {}", part_dir.display()))?;
+    let _lock = lock::acquire(&part_dir).map_err(|e| match e {
+        host_trainer::Error::Locked { holder, .. } => host_trainer::Error::PartRunning {
+            path: args.out.clone(),
+            running: format!("the added seeds are already running there ({holder})"),
+        },
+        e => e,
+    })?;
+    let plan = reproduce::folder::plan_runs(&args.out, grid, &runs)?;
+    reproduce::folder::create_cells(&plan)?;
+    let runner = runner(&plan, args.jobs, args.quiet, true)?;
+    let started = Instant::now();
+    let records = supervise::execute(&plan, &runner)?;
+    reproduce::folder::mark(&plan, &records)?;
+    let count = |s: Status| records.iter().filter(|r| r.status == s).count();
+    let part = reproduce::Part {
+        slice: reproduce::ADDED.into(),
+        commit: reproduce::COMMIT.into(),
+        runs: plan.len(),
+        finished: count(Status::Finished),
+        skipped: count(Status::Skipped),
+        failed: count(Status::Failed),
+        wall_seconds: started.elapsed().as_secs_f64(),
+        total_wall_seconds: 0.0,
+    }
+    .write(record)?;
+    if INTERRUPTS.load(Ordering::SeqCst) > 0 {
+        eprintln!("host-trainer: reproduce interrupted; the stopped runs kept a checkpoint. Re-run the same command to continue (finished runs are skipped)");
+        return Ok(ExitCode::from(INTERRUPTED));
+    }
+    outln!(
+        "the added seeds of {}: {} runs, {} trained, {} already finished, {} failed, {:.0} s",
+        grid.describe(),
+        part.runs,
+        part.finished,
+        part.skipped,
+        part.failed,
+        part.wall_seconds
+    );
+    let code = merge(&args.out, grid)?;
     Ok(if part.failed > 0 {
         ExitCode::FAILURE
     } else {

@@ -81,7 +81,11 @@ pub fn check(out: &Path, grid: &Grid) -> Result<(), Error> {
 /// other settings is refused). Writes nothing: a cell whose folder does not exist yet has
 /// only fresh runs ([`create_cells`] makes the folders once everything is checked).
 pub fn plan(out: &Path, grid: &Grid, slice: Slice) -> Result<Vec<PlannedRun>, Error> {
-    let runs = grid.slice(slice);
+    plan_runs(out, grid, &grid.slice(slice))
+}
+
+/// [`plan`] for any runs of the grid's cells (a slice, or [`Grid::added_runs`]).
+pub fn plan_runs(out: &Path, grid: &Grid, runs: &[GridRun]) -> Result<Vec<PlannedRun>, Error> {
     let mut planned = Vec::new();
     for cell in grid.cells() {
         let seeds: Vec<u64> = runs
@@ -169,7 +173,7 @@ pub fn mark(plan: &[PlannedRun], records: &[RunRecord]) -> Result<(), Error> {
 }
 
 /// What a run's folder says became of it.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub enum Outcome {
     /// Finished: its evaluation (firmware-sim's report on the exported blob) and its config.
     Finished(Box<Finished>),
@@ -180,7 +184,7 @@ pub enum Outcome {
 }
 
 /// A finished run.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct Finished {
     /// The run's folder.
     pub dir: PathBuf,
@@ -297,8 +301,16 @@ fn overlap(a: Slice, b: Slice) -> bool {
 
 /// Every run's outcome, in grid order.
 pub fn outcomes(out: &Path, grid: &Grid) -> Result<Vec<(GridRun, Outcome)>, Error> {
-    grid.runs()
-        .into_iter()
+    outcomes_of(out, grid, grid.runs())
+}
+
+/// The outcome of each of `runs` (of the grid's cells), in their order.
+pub fn outcomes_of(
+    out: &Path,
+    grid: &Grid,
+    runs: Vec<GridRun>,
+) -> Result<Vec<(GridRun, Outcome)>, Error> {
+    runs.into_iter()
         .map(|run| outcome(out, grid, &run).map(|o| (run, o)))
         .collect()
 }

@@ -283,6 +283,48 @@ impl Grid {
             .collect()
     }
 
+    /// The runs claims 2 and 3 gained after the grid (docs/results/reproduction.md, "Added
+    /// seeds for claims 2 and 3"): seeds `seeds..seeds + 4` of claim 2's cells (the paper's DCP
+    /// and DDPG under LR and GR) and `seeds..seeds + 5` of claim 3's (the same agents at each
+    /// large σ), cell by cell; none for experiment 2. Seeds only: every run has its cell's
+    /// settings, and goes in its cell's folder beside the grid's own runs.
+    ///
+    /// ```
+    /// use host_trainer::reproduce::grid::{Experiment, Grid};
+    /// let grid = Grid { experiment: Experiment::Exp1, seeds: 5, quick: false };
+    /// let added = grid.added_runs();
+    /// assert_eq!(added.len(), 4 * 4 + 4 * 5);
+    /// assert!(added.iter().all(|r| (5..10).contains(&r.seed)));
+    /// assert!(Grid { experiment: Experiment::Exp2, ..grid }.added_runs().is_empty());
+    /// ```
+    pub fn added_runs(&self) -> Vec<GridRun> {
+        if self.experiment != Experiment::Exp1 {
+            return Vec::new();
+        }
+        let mut runs = Vec::new();
+        for agent in CLAIM_AGENTS {
+            let claim2 = [
+                Cell::headline(agent),
+                Cell {
+                    reward: RewardKind::Lr,
+                    ..Cell::headline(agent)
+                },
+            ];
+            let claim3 = LARGE_SIGMAS.map(|sigma| Cell {
+                sigma: Some(sigma),
+                ..Cell::headline(agent)
+            });
+            for (cells, added) in [(&claim2, CLAIM2_ADDED), (&claim3, CLAIM3_ADDED)] {
+                for &cell in cells {
+                    runs.extend(
+                        (self.seeds..self.seeds + added).map(|seed| GridRun { cell, seed }),
+                    );
+                }
+            }
+        }
+        runs
+    }
+
     /// The folder of a cell's runs.
     pub fn cell_dir(out: &Path, cell: &Cell) -> std::path::PathBuf {
         out.join(RUNS).join(cell.name())
@@ -294,6 +336,13 @@ impl Grid {
         format!("{} --seeds {}{quick}", self.experiment, self.seeds)
     }
 }
+
+/// The agents claims 2 and 3 compare: the paper's DCP and DDPG.
+pub const CLAIM_AGENTS: [Agent; 2] = [AGENTS[1], AGENTS[2]];
+/// Seeds claim 2's cells gained after the grid: 9 pairs per agent with the grid's 5.
+pub const CLAIM2_ADDED: u64 = 4;
+/// Seeds claim 3's cells gained after the grid: 20 runs per agent with the grid's 5 per σ.
+pub const CLAIM3_ADDED: u64 = 5;
 
 /// The folder under `--out` holding one folder per cell.
 pub const RUNS: &str = "runs";
@@ -364,6 +413,40 @@ mod tests {
             experiment: Experiment::Exp1,
             seeds,
             quick: true,
+        }
+    }
+
+    #[test]
+    fn the_added_runs_are_the_claims_cells_at_new_seeds_only() {
+        assert_eq!(CLAIM_AGENTS.map(|a| a.name), ["dcp-paper", "ddpg"]);
+        let g = grid(5);
+        let grid_runs = g.runs();
+        let added = g.added_runs();
+        let names: std::collections::BTreeSet<String> =
+            added.iter().map(|r| r.cell.name()).collect();
+        let expected: std::collections::BTreeSet<String> = [
+            "walls-4x48-gr-dcp-paper",
+            "walls-4x48-lr-dcp-paper",
+            "walls-4x48-gr-sigma0.5-dcp-paper",
+            "walls-4x48-gr-sigma1-dcp-paper",
+            "walls-4x48-gr-ddpg",
+            "walls-4x48-lr-ddpg",
+            "walls-4x48-gr-sigma0.5-ddpg",
+            "walls-4x48-gr-sigma1-ddpg",
+        ]
+        .map(String::from)
+        .into();
+        assert_eq!(names, expected);
+        for run in &added {
+            assert!(g.cells().contains(&run.cell), "{}", run.cell.name());
+            assert!(
+                !grid_runs.contains(run),
+                "{} seed {}",
+                run.cell.name(),
+                run.seed
+            );
+            let last = if run.cell.sigma.is_some() { 10 } else { 9 };
+            assert!((5..last).contains(&run.seed));
         }
     }
 

@@ -37,6 +37,8 @@ pub const COMMIT: &str = env!("HOST_TRAINER_COMMIT");
 
 /// The folder of the parts' records under `--out`.
 pub const PARTS: &str = "parts";
+/// The name of the added seeds' part, in its record and file name.
+pub const ADDED: &str = "added";
 /// The folder of the figures under `--out`.
 pub const FIGURES: &str = "figures";
 
@@ -69,9 +71,14 @@ impl Part {
             .join(format!("{}-of-{}.json", slice.index, slice.count))
     }
 
-    /// Writes the record, adding the earlier invocations' wall time.
-    pub fn write(mut self, out: &Path, slice: Slice) -> Result<Part, Error> {
-        let path = Part::path(out, slice);
+    /// The record file of the added seeds' part (`reproduce --added-seeds`).
+    pub fn added_path(out: &Path) -> std::path::PathBuf {
+        out.join(PARTS).join(format!("{ADDED}.json"))
+    }
+
+    /// Writes the record to `path` ([`Part::path`] or [`Part::added_path`]), adding the earlier
+    /// invocations' wall time.
+    pub fn write(mut self, path: std::path::PathBuf) -> Result<Part, Error> {
         let earlier: Option<Part> = fs::read_to_string(&path)
             .ok()
             .and_then(|t| serde_json::from_str(&t).ok());
@@ -139,7 +146,9 @@ pub fn build_page(out: &Path, grid: &Grid) -> Result<Built, Error> {
                 .iter()
                 .filter(|(_, o)| matches!(o, folder::Outcome::Failed(_)))
                 .count();
+            let added = folder::outcomes_of(out, grid, grid.added_runs())?;
             let mut body = page::body(grid, &outcomes);
+            body.push_str(&page::added_seeds(grid, &outcomes, &added));
             body.push_str("## Figures\n\n");
             for name in names {
                 let _ = writeln!(body, "![{name}]({FIGURES}/{name})\n");
