@@ -326,8 +326,24 @@ pub fn visited_observations(
     episodes: usize,
     seed: u64,
 ) -> Result<Vec<f32>, Error> {
+    let config = firmware_sim::nav::test_protocol::EvalConfig {
+        episodes,
+        seed,
+        ..Default::default()
+    };
+    visited_observations_in(policy, scenario, &config)
+}
+
+/// Every observation the `policy` blob is given in firmware-sim's test protocol run with
+/// `config` (its sensor, actuator and faults: a NaN dropout is recorded as the NaN the policy
+/// is given), flattened.
+pub fn visited_observations_in(
+    policy: &[u8],
+    scenario: &firmware_sim::nav::scenario::Scenario,
+    config: &firmware_sim::nav::test_protocol::EvalConfig,
+) -> Result<Vec<f32>, Error> {
     use firmware_sim::controller::BlobPolicy;
-    use firmware_sim::nav::test_protocol::{evaluate_controller, EvalConfig};
+    use firmware_sim::nav::test_protocol::evaluate_controller;
     let sim = |e: firmware_sim::Error| Error::Sim {
         context: "calibration episodes".into(),
         message: e.to_string(),
@@ -337,12 +353,7 @@ pub fn visited_observations(
         inner,
         seen: Vec::new(),
     };
-    let config = EvalConfig {
-        episodes,
-        seed,
-        ..EvalConfig::default()
-    };
-    evaluate_controller(&mut recording, scenario, &config).map_err(sim)?;
+    evaluate_controller(&mut recording, scenario, config).map_err(sim)?;
     Ok(recording.seen)
 }
 

@@ -5,8 +5,11 @@
 //! own recorded plant) clean and with the faults of the HIL checks.
 //!
 //! ```text
-//! cargo run --release -p studies --bin integer-cost -- RUN_DIR...
+//! cargo run --release -p studies --bin integer-cost -- [RUN_DIR...] [--group NAME RUN_DIR...]...
 //! ```
+//!
+//! The folders after `--group NAME` form the group NAME; folders before any `--group` are
+//! grouped by the folder that holds them (a sweep's output folder).
 //!
 //! Prints one markdown row per run and condition (both encodings' success, settled error and
 //! stuck rate, and the differences integer − f32), then per (task, algorithm) and condition
@@ -18,15 +21,21 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+use firmware_sim::controller::{BlobPolicy, Controller};
 use firmware_sim::nav::faults::Faults;
-use firmware_sim::nav::test_protocol::{evaluate, EvalConfig};
-use host_trainer::blob::export::{calibration_observations, encode_integer, CALIBRATION_EPISODES};
+use firmware_sim::nav::scenario::Scenario;
+use firmware_sim::nav::test_protocol::{evaluate, evaluate_controller, EvalConfig};
+use host_trainer::blob::export::{
+    calibration_observations, encode_integer, visited_observations_in, CALIBRATION_EPISODES,
+    CALIBRATION_SEED,
+};
 use host_trainer::run::folder;
 use host_trainer::stats::bootstrap::mean_ci;
 use host_trainer::stats::permutation::sign_flip_permutation;
 use host_trainer::stats::power::power_paired;
 use host_trainer::stats::sensitivity::sensitivity;
 use host_trainer::stats::{REPS, SEED};
+use policy_core::model::Model;
 use studies::paired::paired_text;
 use studies::run_folder;
 
@@ -45,6 +54,7 @@ struct Outcome {
 
 /// One run under one condition: the f32 blob's and the integer blob's outcomes.
 struct Pair {
+    group: String,
     run: String,
     condition: &'static str,
     f32: Outcome,
@@ -68,8 +78,164 @@ fn outcome(
     })
 }
 
-fn run_one(dir: &Path) -> Result<Vec<Pair>, String> {
+/// Why the integer blob loses with the faults on, per run: the share of observation components
+/// whose input code saturates (−128 or 127) on the states the f32 policy meets in the test
+/// episodes, clean and with the faults; and, with the faults on, the outcome of an integer blob
+/// calibrated on the states of clean *and* faulty episodes (the calibration seed's, not the
+/// test's) beside the f32 blob's.
+struct Diagnosis {
+    group: String,
+    saturated: [f64; 2],
+    f32_faults: [f64; 3],
+    wide: [f64; 3],
+    /// Integer − f32 (success, settled error) with each fault alone: [`ALONE`].
+    alone: [[f64; 2]; 2],
+    /// Mean |action 0| the stuck actuator holds: f32, integer.
+    held: [f64; 2],
+}
+
+/// The two faults of [`FAULTS`] one at a time, for the diagnosis.
+const ALONE: [&str; 2] = ["dropout-nan:0.05", "stuck:0@50"];
+
+/// The tick from which [`FAULTS`]'s stuck actuator holds action 0 (`stuck:0@50`).
+const STUCK_FROM: usize = 50;
+
+/// A blob in the loop that notes |action 0| at the tick before the actuator sticks: the value
+/// the actuator then holds for the rest of the episode.
+struct HeldAction<'a> {
+    inner: BlobPolicy<'a>,
+    tick: usize,
+    held: Vec<f64>,
+}
+
+impl Controller for HeldAction<'_> {
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+    fn observations(&self) -> usize {
+        self.inner.observations()
+    }
+    fn actions(&self) -> usize {
+        self.inner.actions()
+    }
+    fn reset(&mut self) {
+        self.inner.reset();
+        self.tick = 0;
+    }
+    fn act(&mut self, obs: &[f32], action: &mut [f32]) {
+        self.inner.act(obs, action);
+        if self.tick + 1 == STUCK_FROM {
+            self.held
+                .push(f64::from(action.first().copied().unwrap_or(0.0).abs()));
+        }
+        self.tick += 1;
+    }
+}
+
+/// The mean |action 0| each episode of the stuck-actuator test holds, for `blob`.
+fn mean_held(blob: &[u8], scenario: &Scenario, config: &EvalConfig) -> Result<f64, String> {
+    let inner = BlobPolicy::boot(blob).map_err(|e| e.to_string())?;
+    let mut c = HeldAction {
+        inner,
+        tick: 0,
+        held: Vec::new(),
+    };
+    evaluate_controller(&mut c, scenario, config).map_err(|e| e.to_string())?;
+    Ok(c.held.iter().sum::<f64>() / c.held.len().max(1) as f64)
+}
+
+/// The finite rows of `observations` (rows of `width`): a NaN dropout carries no range.
+fn finite_rows(observations: &[f32], width: usize) -> Vec<f32> {
+    observations
+        .chunks_exact(width.max(1))
+        .filter(|row| row.iter().all(|x| x.is_finite()))
+        .flatten()
+        .copied()
+        .collect()
+}
+
+/// The share of the components of `observations` whose input code is −128 or 127.
+fn saturated_share(integer: &[u8], observations: &[f32], width: usize) -> Result<f64, String> {
+    let model = Model::from_blob(integer).map_err(|e| e.to_string())?;
+    let (mut saturated, mut all) = (0usize, 0usize);
+    let mut codes = vec![0i8; width];
+    for row in observations.chunks_exact(width.max(1)) {
+        model
+            .observation_codes(row, &mut codes)
+            .map_err(|e| e.to_string())?;
+        saturated += codes.iter().filter(|&&c| c == -128 || c == 127).count();
+        all += width;
+    }
+    Ok(saturated as f64 / all.max(1) as f64)
+}
+
+fn diagnose(group: &str, dir: &Path, pairs: &[Pair]) -> Result<Diagnosis, String> {
     let name = run_folder::name(dir)?;
+    let f32 = run_folder::read(dir, folder::POLICY)?;
+    let scenario = run_folder::scenario(dir)?;
+    let width = Model::from_blob(&f32)
+        .map(|m| usize::from(m.header().shape.observations))
+        .map_err(|e| format!("{name}: {e}"))?;
+    let faults: Faults = FAULTS.parse().map_err(|e| format!("{FAULTS}: {e}"))?;
+    let clean = calibration_observations(&f32, &scenario, CALIBRATION_EPISODES as usize)
+        .map_err(|e| format!("{name}: calibration: {e}"))?;
+    let integer = encode_integer(&f32, &clean).map_err(|e| format!("{name}: {e}"))?;
+    let visited = |config: &EvalConfig| {
+        visited_observations_in(&f32, &scenario, config)
+            .map(|o| finite_rows(&o, width))
+            .map_err(|e| format!("{name}: {e}"))
+    };
+    let test_clean = run_folder::test_protocol();
+    let test_faults = EvalConfig {
+        faults: faults.clone(),
+        ..run_folder::test_protocol()
+    };
+    let saturated = [
+        saturated_share(&integer, &visited(&test_clean)?, width)?,
+        saturated_share(&integer, &visited(&test_faults)?, width)?,
+    ];
+    let faulty_calibration = visited(&EvalConfig {
+        episodes: CALIBRATION_EPISODES as usize,
+        seed: CALIBRATION_SEED,
+        faults,
+        ..EvalConfig::default()
+    })?;
+    let wide = encode_integer(&f32, &[clean, faulty_calibration].concat())
+        .map_err(|e| format!("{name}: {e}"))?;
+    let with_faults = pairs
+        .iter()
+        .find(|p| p.condition == "faults")
+        .ok_or_else(|| format!("{name}: no faults condition"))?;
+    let mut alone = [[0.0; 2]; 2];
+    let mut held = [0.0; 2];
+    for (d, fault) in alone.iter_mut().zip(ALONE) {
+        let config = EvalConfig {
+            faults: fault.parse().map_err(|e| format!("{fault}: {e}"))?,
+            ..run_folder::test_protocol()
+        };
+        if fault.starts_with("stuck") {
+            held = [
+                mean_held(&f32, &scenario, &config).map_err(|e| format!("{name}: {e}"))?,
+                mean_held(&integer, &scenario, &config).map_err(|e| format!("{name}: {e}"))?,
+            ];
+        }
+        let a = outcome(&f32, &name, "f32", &scenario, &config)?.measures;
+        let b = outcome(&integer, &name, "integer", &scenario, &config)?.measures;
+        *d = [b[0] - a[0], b[1] - a[1]];
+    }
+    Ok(Diagnosis {
+        group: group.to_string(),
+        saturated,
+        f32_faults: with_faults.f32.measures,
+        wide: outcome(&wide, &name, "widely calibrated", &scenario, &test_faults)?.measures,
+        alone,
+        held,
+    })
+}
+
+fn run_one(group: &str, dir: &Path) -> Result<Vec<Pair>, String> {
+    let holder = dir.parent().map_or(Ok(String::new()), run_folder::name)?;
+    let name = format!("{holder}/{}", run_folder::name(dir)?);
     let f32 = run_folder::read(dir, folder::POLICY)?;
     let scenario = run_folder::scenario(dir)?;
     // What `export --encoding integer` does: calibrate on the f32 policy's own visited states.
@@ -85,6 +251,11 @@ fn run_one(dir: &Path) -> Result<Vec<Pair>, String> {
             config.faults = faults.clone();
         }
         pairs.push(Pair {
+            group: if group.is_empty() {
+                holder.clone()
+            } else {
+                group.to_string()
+            },
             run: name.clone(),
             condition,
             f32: outcome(&f32, &name, "f32", &scenario, &config)?,
@@ -92,6 +263,25 @@ fn run_one(dir: &Path) -> Result<Vec<Pair>, String> {
         });
     }
     Ok(pairs)
+}
+
+/// The command line's run folders, each with its group (`--group NAME` before them, or empty:
+/// the folder that holds it); `None` for no folder, or a `--group` without a name or a folder.
+fn grouped(args: impl Iterator<Item = String>) -> Option<Vec<(String, PathBuf)>> {
+    let mut group = String::new();
+    let mut dirs = Vec::new();
+    let mut args = args.peekable();
+    while let Some(arg) = args.next() {
+        if arg == "--group" {
+            group = args.next()?;
+            if args.peek().is_none_or(|a| a == "--group") {
+                return None;
+            }
+        } else {
+            dirs.push((group.clone(), PathBuf::from(arg)));
+        }
+    }
+    (!dirs.is_empty()).then_some(dirs)
 }
 
 /// The protocol's verdict on one measure's paired differences: `better_up` says whether a
@@ -140,14 +330,19 @@ fn verdict_text(diffs: &[f64], better_up: bool) -> String {
 }
 
 fn main() -> ExitCode {
-    let dirs: Vec<PathBuf> = std::env::args().skip(1).map(PathBuf::from).collect();
-    if dirs.is_empty() {
-        eprintln!("usage: integer-cost RUN_DIR...");
+    let Some(dirs) = grouped(std::env::args().skip(1)) else {
+        eprintln!("usage: integer-cost [RUN_DIR...] [--group NAME RUN_DIR...]...");
         return ExitCode::from(2);
-    }
+    };
     let mut pairs = Vec::new();
-    for dir in &dirs {
-        match run_one(dir) {
+    let mut diagnoses = Vec::new();
+    for (group, dir) in &dirs {
+        let measured = run_one(group, dir).and_then(|p| {
+            let key = p.first().map(|p| p.group.clone()).unwrap_or_default();
+            diagnoses.push(diagnose(&key, dir, &p)?);
+            Ok(p)
+        });
+        match measured {
             Ok(mut p) => pairs.append(&mut p),
             Err(e) => {
                 eprintln!("integer-cost: {e}");
@@ -179,13 +374,10 @@ fn main() -> ExitCode {
             .iter()
             .position(|&c| c == p.condition)
             .unwrap_or(0);
-        groups
-            .entry((run_folder::group(&p.run).to_string(), c))
-            .or_default()
-            .push(p);
+        groups.entry((p.group.clone(), c)).or_default().push(p);
     }
     println!();
-    println!("| task, algorithm | condition | runs | Δ success | Δ settled error | Δ stuck at margin | starts lost / gained | success | settled error |");
+    println!("| group | condition | runs | Δ success | Δ settled error | Δ stuck at margin | starts lost / gained | success | settled error |");
     println!("|---|---|---:|---:|---:|---:|---:|---|---|");
     for ((group, c), runs) in &groups {
         let diffs = |k: usize| -> Vec<f64> {
@@ -211,12 +403,66 @@ fn main() -> ExitCode {
             verdict_text(&diffs(1), false),
         );
     }
+    println!();
+    println!("| group | runs | input codes saturated, clean | with the faults | Δ success with the faults, calibrated on clean and faulty episodes | Δ settled error, the same | Δ success, {} alone | Δ settled error, the same | Δ success, {} alone | Δ settled error, the same | mean held action 0, f32 → integer |", ALONE[0], ALONE[1]);
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let mut by_group: BTreeMap<&str, Vec<&Diagnosis>> = BTreeMap::new();
+    for d in &diagnoses {
+        by_group.entry(&d.group).or_default().push(d);
+    }
+    for (group, ds) in by_group {
+        let mean =
+            |f: &dyn Fn(&Diagnosis) -> f64| ds.iter().map(|d| f(d)).sum::<f64>() / ds.len() as f64;
+        let diffs =
+            |k: usize| -> Vec<f64> { ds.iter().map(|d| d.wide[k] - d.f32_faults[k]).collect() };
+        let alone = |f: usize, k: usize| -> String {
+            let d: Vec<f64> = ds.iter().map(|d| d.alone[f][k]).collect();
+            paired_text(&d, 3)
+        };
+        println!(
+            "| {group} | {} | {:.1} % | {:.1} % | {} | {} | {} | {} | {} | {} | {:.4} → {:.4} |",
+            ds.len(),
+            100.0 * mean(&|d| d.saturated[0]),
+            100.0 * mean(&|d| d.saturated[1]),
+            paired_text(&diffs(0), 3),
+            paired_text(&diffs(1), 3),
+            alone(0, 0),
+            alone(0, 1),
+            alone(1, 0),
+            alone(1, 1),
+            mean(&|d| d.held[0]),
+            mean(&|d| d.held[1]),
+        );
+    }
     ExitCode::SUCCESS
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn folders_take_the_group_named_before_them() {
+        let args = |v: &[&str]| {
+            v.iter()
+                .map(|s| s.to_string())
+                .collect::<Vec<_>>()
+                .into_iter()
+        };
+        let g = grouped(args(&[
+            "a", "--group", "G 1", "b", "c", "--group", "H", "d",
+        ]))
+        .unwrap();
+        let names: Vec<(&str, &str)> = g
+            .iter()
+            .map(|(g, d)| (g.as_str(), d.to_str().unwrap()))
+            .collect();
+        assert_eq!(names, [("", "a"), ("G 1", "b"), ("G 1", "c"), ("H", "d")]);
+        assert!(grouped(args(&[])).is_none());
+        assert!(grouped(args(&["--group"])).is_none());
+        assert!(grouped(args(&["--group", "G"])).is_none());
+        assert!(grouped(args(&["a", "--group", "G", "--group", "H", "b"])).is_none());
+    }
 
     #[test]
     fn the_rule_reads_the_interval_then_the_exact_test() {
