@@ -19,6 +19,7 @@ pub mod dcp_variants;
 pub mod dcp_vs_ddpg;
 pub mod four_agents;
 pub mod learning_check;
+pub mod margin_study;
 pub mod per_seed;
 pub mod quantisation_cost;
 pub mod text;
@@ -59,7 +60,7 @@ impl Page {
 }
 
 /// Every page `restat` rebuilds.
-pub const PAGES: [Page; 7] = [
+pub const PAGES: [Page; 8] = [
     dcp_vs_ddpg::PAGE,
     four_agents::PAGE,
     dcp_variants::PAGE,
@@ -67,6 +68,7 @@ pub const PAGES: [Page; 7] = [
     quantisation_cost::PAGE,
     compare_step::PAGE,
     learning_check::PAGE,
+    margin_study::PAGE,
 ];
 
 /// The page called `name`.
