@@ -36,6 +36,10 @@ const STUCK: &str = "stuck at margin";
 const FAILED: &str = "failed seed";
 /// Cases per arm and phase.
 const CASES: usize = 26;
+/// The sensitivity is searched up to this many runs at once (the other pages: three). Over 26
+/// pairs the sign-flip test draws its sign patterns, and every set of three of the 52 runs
+/// would redraw them about 180,000 times per comparison.
+const SENSITIVITY_RUNS: usize = 1;
 
 /// The candidates of the screening, in the page's order.
 const CANDIDATES: [&str; 4] = ["uniform-share", "sigma-schedule", "uniform-sigma", "heads"];
@@ -84,7 +88,7 @@ fn build(tables: &[PerSeed]) -> Result<String> {
     means(screen, confirm, &mut out)?;
     let pair = |t: &PerSeed, first: &str, column: &str| -> Result<PairedRow> {
         let failed = column == FAILED;
-        Ok(PairedRow::new(
+        Ok(PairedRow::within(
             format!(
                 "{first} − A0: {}",
                 if failed {
@@ -97,6 +101,7 @@ fn build(tables: &[PerSeed]) -> Result<String> {
             &arm(t, "A0", column)?,
             if failed { 2 } else { 3 },
             if failed { RATE } else { ANY },
+            SENSITIVITY_RUNS,
         ))
     };
     let mut screening = Vec::new();
@@ -106,7 +111,7 @@ fn build(tables: &[PerSeed]) -> Result<String> {
     }
     out.push_str(
         "\n**Screening, each candidate against `A0`, paired by case** (the 26 pairs of layout \
-         and seed). Step 2's rule is a ranking (the fewest failed seeds, then a mean settled \
+         and seed; sensitivity searched up to one run at once). Step 2's rule is a ranking (the fewest failed seeds, then a mean settled \
          error no worse than `A0`'s), not a test, so the t column stands for comparison only:\
          \n\n",
     );
@@ -120,7 +125,7 @@ fn build(tables: &[PerSeed]) -> Result<String> {
         confirmation.push(pair(confirm, b, ERROR)?);
     }
     out.push_str(
-        "\n**Confirmation, against `A0`, paired by case** (26 fresh pairs). Step 4's rule, fixed \
+        "\n**Confirmation, against `A0`, paired by case** (26 fresh pairs; sensitivity up to one run). Step 4's rule, fixed \
          before the runs, is the t column of `uniform-share`'s two rows (adopted only if both \
          intervals lie below 0): it is the pre-registered verdict. The baselines' rows decide \
          nothing (the page's \"which agent where\" reads them by layout):\n\n",

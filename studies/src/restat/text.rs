@@ -173,14 +173,19 @@ pub fn judge<V: PartialEq>(
     alternatives: &[Vec<f64>],
     rule: impl Fn(&[f64]) -> V,
 ) -> Judged<V> {
+    judge_within(runs, alternatives, rule, SENSITIVITY_RUNS)
+}
+
+/// [`judge`] with the sensitivity searched up to `max_runs` runs at once.
+pub fn judge_within<V: PartialEq>(
+    runs: &[f64],
+    alternatives: &[Vec<f64>],
+    rule: impl Fn(&[f64]) -> V,
+    max_runs: usize,
+) -> Judged<V> {
     Judged {
         word: rule(runs),
-        sensitivity: sensitivity(
-            runs,
-            |i, _| alternatives[i].clone(),
-            &rule,
-            SENSITIVITY_RUNS,
-        ),
+        sensitivity: sensitivity(runs, |i, _| alternatives[i].clone(), &rule, max_runs),
     }
 }
 
@@ -261,14 +266,31 @@ pub fn paired<W: PartialEq>(
     second: &[f64],
     word: impl Fn(Side) -> W + Copy,
 ) -> Paired<W> {
+    paired_within(first, second, word, SENSITIVITY_RUNS)
+}
+
+/// [`paired`] with the sensitivity searched up to `max_runs` runs at once: past 20 pairs the
+/// sign-flip test draws its patterns, and a search over every set of three of 52 runs would
+/// redraw them about 180,000 times.
+pub fn paired_within<W: PartialEq>(
+    first: &[f64],
+    second: &[f64],
+    word: impl Fn(Side) -> W + Copy,
+    max_runs: usize,
+) -> Paired<W> {
     let n = first.len();
     let runs: Vec<f64> = first.iter().chain(second).copied().collect();
     let alts = partner_extremes(&runs, n, |arm| 1 - arm);
     let split = move |r: &[f64]| diff(&r[..n], &r[n..]);
     Paired {
         diffs: diff(first, second),
-        t: judge(&runs, &alts, |r| word(t_side(&split(r)))),
-        exact: judge(&runs, &alts, |r| word(permutation_side(&split(r), ALPHA))),
+        t: judge_within(&runs, &alts, |r| word(t_side(&split(r))), max_runs),
+        exact: judge_within(
+            &runs,
+            &alts,
+            |r| word(permutation_side(&split(r), ALPHA)),
+            max_runs,
+        ),
     }
 }
 
@@ -384,9 +406,21 @@ impl PairedRow {
         decimals: usize,
         range: Range,
     ) -> Self {
+        PairedRow::within(label, first, second, decimals, range, SENSITIVITY_RUNS)
+    }
+
+    /// [`PairedRow::new`] with the sensitivity searched up to `max_runs` runs at once.
+    pub fn within(
+        label: String,
+        first: &[f64],
+        second: &[f64],
+        decimals: usize,
+        range: Range,
+        max_runs: usize,
+    ) -> Self {
         PairedRow {
             label,
-            paired: paired(first, second, |s| s),
+            paired: paired_within(first, second, |s| s, max_runs),
             decimals,
             range,
         }
