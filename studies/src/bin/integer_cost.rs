@@ -234,7 +234,12 @@ fn diagnose(group: &str, dir: &Path, pairs: &[Pair]) -> Result<Diagnosis, String
 }
 
 fn run_one(group: &str, dir: &Path) -> Result<Vec<Pair>, String> {
-    let holder = dir.parent().map_or(Ok(String::new()), run_folder::name)?;
+    // The folder that holds the run (a sweep's output folder), or nothing for a bare name.
+    let holder = dir
+        .parent()
+        .and_then(Path::file_name)
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let name = format!("{holder}/{}", run_folder::name(dir)?);
     let f32 = run_folder::read(dir, folder::POLICY)?;
     let scenario = run_folder::scenario(dir)?;
