@@ -84,7 +84,7 @@ pub fn plan(out: &Path, grid: &Grid, slice: Slice) -> Result<Vec<PlannedRun>, Er
     plan_runs(out, grid, &grid.slice(slice))
 }
 
-/// [`plan`] for any runs of the grid's cells (a slice, or [`Grid::added_runs`]).
+/// [`plan()`] for any runs of the grid's cells (a slice, or [`Grid::added_runs`]).
 pub fn plan_runs(out: &Path, grid: &Grid, runs: &[GridRun]) -> Result<Vec<PlannedRun>, Error> {
     let mut planned = Vec::new();
     for cell in grid.cells() {
