@@ -117,15 +117,16 @@ impl IntegerDense<'_> {
     // Not inlined, for the reason the f32 kernels give (kernels.rs, `accumulate`).
     #[inline(never)]
     pub fn run(&self, x: &[i32], x_zero: i32, y: &mut [i32]) {
-        self.load_bias(y);
         let outputs = y.len();
-        if outputs > 0 {
-            for (column, &xj) in self.weights.chunks_exact(outputs).zip(x) {
-                let centred = xj.wrapping_sub(x_zero);
-                for (acc, &q) in y.iter_mut().zip(column) {
-                    // Exact (see the module docs); wrapping only so that no input can panic.
-                    *acc = acc.wrapping_add(i32::from(q as i8).wrapping_mul(centred));
-                }
+        self.load_bias(y);
+        if outputs == 0 {
+            return;
+        }
+        for (column, &xj) in self.weights.chunks_exact(outputs).zip(x) {
+            let centred = xj.wrapping_sub(x_zero);
+            for (acc, &q) in y.iter_mut().zip(column) {
+                // Exact (see the module docs); wrapping only so that no input can panic.
+                *acc = acc.wrapping_add(i32::from(q as i8).wrapping_mul(centred));
             }
         }
         self.requantise(y);

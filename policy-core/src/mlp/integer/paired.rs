@@ -19,6 +19,8 @@
 //! [`Model::scratch_width`](crate::model::Model::scratch_width) already sizes. `x − zero` fits
 //! in 16 bits: codes and zero points are int8 (the loader checks every zero point).
 
+use core::cell::Cell;
+
 /// `acc[r] += Σ_k q[2k][r] · lo(pairs[k]) + q[2k + 1][r] · hi(pairs[k])` for each lane `r`,
 /// with `q[j][r] = w[j · stride + r]` as i8 and `lo`/`hi` the pair's low and high int16: what
 /// the `SMLAD` kernel computes, in portable code. It takes the outputs that do not fill a block
@@ -46,15 +48,16 @@ pub(super) fn accumulate_lanes(acc: &mut [i32], w: &[u8], stride: usize, pairs: 
 /// returns that count. In place and in order: word `k` reads `x[2k]` and `x[2k + 1]`, which no
 /// earlier word has overwritten (`k' < k ≤ 2k`); an odd last input stays where it was.
 pub(super) fn pack_pairs(x: &mut [i32], zero: i32) -> usize {
-    let count = x.len() / 2;
-    for k in 0..count {
-        let centred = |v: Option<&i32>| v.map_or(0, |&v| v.wrapping_sub(zero));
-        let (lo, hi) = (centred(x.get(2 * k)), centred(x.get(2 * k + 1)));
-        if let Some(word) = x.get_mut(k) {
-            *word = (lo & 0xffff) | (hi << 16);
+    // Cells, so that word `k` and the pair it reads are one slice's, read and written in one
+    // pass without an index to check.
+    let cells = Cell::from_mut(x).as_slice_of_cells();
+    for (word, pair) in cells.iter().zip(cells.chunks_exact(2)) {
+        if let [lo, hi] = pair {
+            let (lo, hi) = (lo.get().wrapping_sub(zero), hi.get().wrapping_sub(zero));
+            word.set((lo & 0xffff) | (hi << 16));
         }
     }
-    count
+    cells.len() / 2
 }
 
 /// `y[r] += Σ_j q[j][r] · (x[j] − zero)` with `q[j][r] = weights[j · y.len() + r]` as i8: the
@@ -130,7 +133,7 @@ pub(super) fn block4(acc: &mut [i32; 4], w: &[u8], stride: usize, pairs: &[i32])
         .checked_mul(stride)
         .and_then(|at| at.checked_add(4));
     if end.is_none_or(|end| end > w.len()) {
-        accumulate_lanes(acc, w, stride, pairs);
+        outside(acc, w, stride, pairs);
         return;
     }
     let [mut a0, mut a1, mut a2, mut a3] = *acc;
@@ -176,6 +179,15 @@ pub(super) fn block4(acc: &mut [i32; 4], w: &[u8], stride: usize, pairs: &[i32])
         );
     }
     *acc = [a0, a1, a2, a3];
+}
+
+/// [`block4`]'s way out for a call that would read past its slices: out of line, so that the
+/// kernel stays small enough to inline into the driver's loop.
+#[cfg(all(target_arch = "arm", target_feature = "dsp"))]
+#[cold]
+#[inline(never)]
+fn outside(acc: &mut [i32; 4], w: &[u8], stride: usize, pairs: &[i32]) {
+    accumulate_lanes(acc, w, stride, pairs);
 }
 
 #[cfg(test)]
