@@ -12,7 +12,8 @@
 //! inputs, so `|acc| ≤ 2³⁰ + 1024 · 128 · 255 < 2³¹` and no sum ever wraps. An exact integer sum
 //! does not depend on its order, so a kernel that pairs inputs (the Armv7E-M `SMLAD`, two
 //! 16 × 16 multiplies added to a 32-bit accumulator: `q` sign-extended and `x − zero` both fit
-//! in 16 bits) computes the same integers as the column order used here.
+//! in 16 bits) computes the same integers as the column order used here: the Armv7E-M build's
+//! [`IntegerDense::run_in_place`] does so (`paired.rs`).
 
 // The `SMLAD` kernel of the Armv7E-M, and its portable stand-in for the host's tests.
 #[cfg(any(test, all(target_arch = "arm", target_feature = "dsp")))]
