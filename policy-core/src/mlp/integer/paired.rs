@@ -225,8 +225,8 @@ mod tests {
             seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
             seed >> 8
         };
-        for inputs in 0..10 {
-            for outputs in 1..14 {
+        for inputs in 0..10usize {
+            for outputs in 1..14usize {
                 for zero in [-128, 0, 127, 3] {
                     let weights: Vec<u8> = (0..inputs * outputs)
                         .map(|i| match i % 7 {
