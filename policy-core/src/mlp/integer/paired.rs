@@ -8,8 +8,9 @@
 //! `j + 1`, become the four pairs `(q[r][j], q[r][j + 1])` with two `PKH`s (their low halves
 //! together, their high halves together) and four `SXTB16`s (bytes 0 and 2, then rotated by 8:
 //! bytes 1 and 3); each pair meets the activation pair `(x[j] − zero, x[j + 1] − zero)` in one
-//! `SMLAD`. That is 12 instructions for 8 multiply-accumulates, plus the activation load, the
-//! weight pointer's step and the loop's compare and branch: 16 in all, 2 per MAC. A row-major
+//! `SMLAD`. That is 12 instructions for 8 multiply-accumulates, plus the activation load and
+//! the weight pointer's step: 14, and the loop's compare and branch once for two such pairs:
+//! 15 for 8 MACs. A row-major
 //! layout (CMSIS-NN's) would need no `PKH` and could share the activation loads between two
 //! rows, but the blob format fixes the layout and the weights stay in flash where they are.
 //!
@@ -117,8 +118,8 @@ where
     }
 }
 
-/// [`accumulate_lanes`] on four lanes with `SMLAD`: the loop the module docs count, one input
-/// pair per turn. Stable `asm!`, as the `SMLAD` and `SXTB16` intrinsics are not. Its loads stay
+/// [`accumulate_lanes`] on four lanes with `SMLAD`: the loop the module docs count, two input
+/// pairs a turn. Stable `asm!`, as the `SMLAD` and `SXTB16` intrinsics are not. Its loads stay
 /// inside `w` and `pairs`: checked here, so a call that would read past them takes the portable
 /// code instead (the driver never makes one).
 #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
@@ -137,20 +138,42 @@ pub(super) fn block4(acc: &mut [i32; 4], w: &[u8], stride: usize, pairs: &[i32])
         return;
     }
     let [mut a0, mut a1, mut a2, mut a3] = *acc;
-    // SAFETY: the loop runs `pairs.len()` ≥ 1 times (the pointer `x` steps one word a turn
-    // from `pairs`' start to its end) and reads words `pairs[..]` and, at turn k, the 4 bytes at
+    // SAFETY: the loop takes exactly `pairs.len()` ≥ 1 pairs: `x` steps one word a pair from
+    // `pairs`' start, and the compare with the end comes after an odd count's first pair (the
+    // entry at the second half) and after every second pair from there, so `x` meets the end
+    // exactly. It reads words `pairs[..]` and, for pair k, the 4 bytes at
     // `w[2k · stride..]` and `w[(2k + 1) · stride..]`, all within `w` by the check above (the
     // highest ends at `(2 · last + 1) · stride + 4 ≤ w.len()`). Unaligned word loads are
     // allowed on Armv7-M (`LDR` only: no `LDRD` or `LDM` here). It writes only its registers
     // and the flags, and touches no stack.
     unsafe {
         core::arch::asm!(
+            // Two pairs a turn (one compare and branch for both); an odd count enters at the
+            // second, so the first turn takes one pair.
+            "sub {t}, {xend}, {x}",
+            "tst {t}, #4",
+            "bne 3f",
             "2:",
             "ldr {xp}, [{x}], #4",
             "ldr {lo}, [{p}]",
             "ldr {hi}, [{p}, {s}]",
             "add {p}, {p}, {s}, lsl #1",
             // bytes (q0j, q1j, q0j', q1j') and (q2j, q3j, q2j', q3j'), j' = j + 1
+            "pkhbt {t}, {lo}, {hi}, lsl #16",
+            "pkhtb {lo}, {hi}, {lo}, asr #16",
+            "sxtb16 {hi}, {t}",
+            "smlad {a0}, {hi}, {xp}, {a0}",
+            "sxtb16 {hi}, {t}, ror #8",
+            "smlad {a1}, {hi}, {xp}, {a1}",
+            "sxtb16 {hi}, {lo}",
+            "smlad {a2}, {hi}, {xp}, {a2}",
+            "sxtb16 {hi}, {lo}, ror #8",
+            "smlad {a3}, {hi}, {xp}, {a3}",
+            "3:",
+            "ldr {xp}, [{x}], #4",
+            "ldr {lo}, [{p}]",
+            "ldr {hi}, [{p}, {s}]",
+            "add {p}, {p}, {s}, lsl #1",
             "pkhbt {t}, {lo}, {hi}, lsl #16",
             "pkhtb {lo}, {hi}, {lo}, asr #16",
             "sxtb16 {hi}, {t}",
