@@ -52,6 +52,11 @@
 # rv32-trained-integer build it with all four encodings. The *-trained-integer-only variants build the Rust firmware with that
 # encoding alone (`--no-default-features --features integer`: no f32, f16 or int8 kernels) on
 # the M3 and the RV32, chips without an FPU.
+# The *-2x13-integer-3x5 variants (M4F, M3, RV32) run a generated integer actor whose every size
+# is odd or off a multiple of four (3 observations, 13 wide, 5 actions; host-check gen calibrates
+# it): each layer has an input left over after the pairs and outputs left over after the blocks
+# of four, the paths the trained 4x48 never takes, through the M4F's SMLAD kernel and the
+# portable four-output loop alike. They reuse the builds of the trained integer variants.
 # The f405-* variants run the same Rust firmware ported to a real board, an STM32F405RG
 # (feature stm32f405: the Olimex STM32-H405's memory map, firmware/stm32f405/memory.x, and its
 # board module, clocks and USART1 set up with the vendor HAL), under QEMU's model of that board
@@ -178,6 +183,8 @@ ALL_VARIANTS=(
   m4f-trained-integer:$M4F:trained-integer:release::f32,f16,int8,integer
   m3-trained-integer:$M3:trained-integer:release::f32,f16,int8,integer
   m3-trained-integer-only:$M3:trained-integer:release::integer
+  m4f-2x13-integer-3x5:$M4F:2x13-relu-integer_3x5:release::f32,f16,int8,integer
+  m3-2x13-integer-3x5:$M3:2x13-relu-integer_3x5:release::integer
   m4f-refine-actor:$M4F:refine-actor
   m4f-refine4:$M4F:refine-actor:release:4
   m4f-refine16:$M4F:refine-actor:release:16
@@ -196,6 +203,7 @@ ALL_VARIANTS=(
   rv32-4x48-relu-int8:$RV32:4x48-relu-int8
   rv32-trained-integer:$RV32:trained-integer:release::f32,f16,int8,integer
   rv32-trained-integer-only:$RV32:trained-integer:release::integer
+  rv32-2x13-integer-3x5:$RV32:2x13-relu-integer_3x5:release::integer
   f405-trained:$F405:trained:release:::stm32f405
   f405-4x48-relu-int8:$F405:4x48-relu-int8:release:::stm32f405
 )
@@ -367,7 +375,7 @@ mkdir -p "$WORK/blobs"
 blob_for() { # trained[-ENC] | DEPTHxWIDTH-ACTIVATION[-ENC][_OxA] -> blob path (given, re-encoded or generated)
   local which=$1 enc=f32 sizes=() tag=
   case $which in *_*x*) tag=_${which##*_}; sizes=(--observations "${tag%x*}" --actions "${tag##*x}"); sizes[1]=${sizes[1]#_}; which=${which%_*} ;; esac
-  case $which in *-f16|*-int8) enc=${which##*-}; which=${which%-*} ;; esac
+  case $which in trained-integer) ;; *-f16|*-int8|*-integer) enc=${which##*-}; which=${which%-*} ;; esac
   local out=$WORK/blobs/actor_$which-$enc$tag.postcard
   [ "$which" = refine-actor ] && { echo "$REFINE_RUN/policy.postcard"; return; }
   [ "$which" = trained-integer ] && { echo "$INTEGER_BLOB"; return; }
@@ -764,7 +772,7 @@ for spec in "${ALL_VARIANTS[@]}"; do
   rc=$?
   set -e
   if [ $rc != 0 ]; then
-    tail -5 "$dir/firmware.log" "$dir/plugin.log"
+    tail -n 5 "$dir/firmware.log" "$dir/plugin.log"
     FAILED+=("$name: QEMU exit status $rc$([ $rc = 124 ] && echo ' (timeout)')"); continue
   fi
 
@@ -782,7 +790,7 @@ for spec in "${ALL_VARIANTS[@]}"; do
     rc=$?
     set -e
     if [ $rc != 0 ]; then
-      tail -5 "$dir/calls/firmware.log"
+      tail -n 5 "$dir/calls/firmware.log"
       FAILED+=("$name: the -DMEASURE_CALLS build: QEMU exit status $rc$([ $rc = 124 ] && echo ' (timeout)')"); continue
     fi
     calls_args=(--calls-log "$dir/calls/firmware.log")
@@ -864,7 +872,7 @@ if [ "$SLOT_CASES" = 1 ]; then
     set -e
     want_rc=0; [ "$expect" = safe ] && want_rc=1
     if [ $rc != $want_rc ]; then
-      tail -5 "$dir/firmware.log"
+      tail -n 5 "$dir/firmware.log"
       FAILED+=("slot case $cname: QEMU exit status $rc, expected $want_rc"); continue
     fi
     args=(--name "$cname" --expect "$expect" --fw-log "$dir/firmware.log" "${plugin_log[@]}" --out "$dir/case.json")

@@ -11,7 +11,8 @@
 #   scripts/fuzz.sh blob 60 -jobs=2 # extra arguments go to libFuzzer
 #
 # Works on the stable toolchain: with `--sanitizer none` cargo-fuzz passes only stable codegen
-# flags (-Cpasses=sancov-module ...). Rust code is memory-safe here (`unsafe_code = "forbid"`),
+# flags (-Cpasses=sancov-module ...). Rust code is memory-safe here (no `unsafe` in a host build:
+# the workspace forbids it, and policy-core's one `asm!`, its SMLAD kernel, is Armv7E-M only),
 # so AddressSanitizer, which needs nightly, adds little; set FUZZ_TOOLCHAIN=nightly and
 # FUZZ_SANITIZER=address to use it anyway. Builds are optimised with debug assertions and
 # overflow checks on (cargo-fuzz's default without -O): an integer overflow is a finding.

@@ -201,7 +201,8 @@ pub fn refined_actions(
 /// one ChaCha8 stream per shape, derived from `seed`, so the same seed gives the same bytes on
 /// every machine. Written with policy-core's runtime writer: no compiled type is involved. The
 /// f32 weights are drawn first and then quantised by [`encode`], so the f16 and int8 blobs of a
-/// seed are the f32 blob re-encoded.
+/// seed are the f32 blob re-encoded; the integer blob is the f32 blob calibrated on observations
+/// drawn after the weights.
 ///
 /// The normaliser and bounds are those of a realistic navigation actor (positions in metres, mean
 /// off zero, clip 5; actions within ±0.25), so the observations exercise clipping both ways; a
@@ -255,10 +256,24 @@ pub fn generate(
     })?;
     match encoding {
         Encoding::F32 => Ok(f32_blob),
-        // The integer encoding needs calibration observations: `encode` refuses it by name.
-        Encoding::F16 | Encoding::Int8 | Encoding::Integer => encode(&f32_blob, encoding),
+        Encoding::F16 | Encoding::Int8 => encode(&f32_blob, encoding),
+        // The integer encoding is calibrated on observations: drawn after the weights (so the
+        // f32 blob of a seed stays the same), uniform within the normaliser's clip (5 standard
+        // deviations about the mean), so that the firmware's test inputs, which reach the clip,
+        // stay within the calibrated ranges.
+        Encoding::Integer => {
+            let (mean, std) = ([1.5, -0.7], [2.3, 1.7]);
+            let observations: Vec<f32> = (0..CALIBRATION_STATES * s)
+                .map(|i| mean[i % s % 2] + 5.0 * std[i % s % 2] * uniform(&mut rng))
+                .collect();
+            blob::encode_integer(&f32_blob, &observations)
+                .context("cannot encode the generated actor in the integer encoding")
+        }
     }
 }
+
+/// How many observations calibrate a generated integer actor.
+const CALIBRATION_STATES: usize = 256;
 
 /// Glorot-uniform weights (limit `sqrt(6 / (in + out))`, column-major: `inputs` columns of
 /// `outputs` values) and small biases in `[-0.1, 0.1)`, drawn in that order.
@@ -363,6 +378,24 @@ mod tests {
         }
         assert_eq!(parse_encoding("int8").unwrap(), Encoding::Int8);
         assert!(parse_encoding("f64").is_err());
+    }
+
+    #[test]
+    fn integer_blobs_are_calibrated_from_the_seed_and_close_to_f32() {
+        // Sizes off every multiple the kernels block by: 3 inputs, 13 wide, 5 actions.
+        let shape = parse_shape("2x13", (3, 5)).unwrap();
+        let f32_blob = generate(shape, 9, Activation::Relu, Encoding::F32).unwrap();
+        let q = generate(shape, 9, Activation::Relu, Encoding::Integer).unwrap();
+        assert_eq!(q, generate(shape, 9, Activation::Relu, Encoding::Integer).unwrap());
+        assert_ne!(q, generate(shape, 10, Activation::Relu, Encoding::Integer).unwrap());
+        let info = BlobInfo::of(&q).unwrap();
+        assert_eq!((info.encoding, info.version), (Encoding::Integer, 4));
+        let exact = actions(&f32_blob, &observations(&f32_blob).unwrap()).unwrap();
+        let acts = actions(&q, &observations(&q).unwrap()).unwrap();
+        // Within the 0.25 box, and each action within a few output codes (one is 0.25 / 127).
+        for (a, e) in acts.iter().flatten().zip(exact.iter().flatten()) {
+            assert!(a.abs() <= 0.25 && (a - e).abs() < 0.03, "{a} vs {e}");
+        }
     }
 
     // The runtime model and the compiled type must agree on a generated blob, bit for bit.

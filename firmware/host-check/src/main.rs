@@ -1,7 +1,7 @@
 //! host-check: the host half of scripts/cortex-m.sh (Cortex-M and RISC-V alike).
 //!
 //! ```text
-//! host-check gen DEPTHxWIDTH OUT [--seed N] [--activation tanh|relu] [--encoding f32|f16|int8]
+//! host-check gen DEPTHxWIDTH OUT [--seed N] [--activation tanh|relu] [--encoding f32|f16|int8|integer]
 //!                                [--observations N] [--actions N]
 //!                                          write a deterministic actor blob of any shape and
 //!                                          sizes (default 2 and 2, the navigation task's)

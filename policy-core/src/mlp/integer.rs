@@ -12,7 +12,12 @@
 //! inputs, so `|acc| ≤ 2³⁰ + 1024 · 128 · 255 < 2³¹` and no sum ever wraps. An exact integer sum
 //! does not depend on its order, so a kernel that pairs inputs (the Armv7E-M `SMLAD`, two
 //! 16 × 16 multiplies added to a 32-bit accumulator: `q` sign-extended and `x − zero` both fit
-//! in 16 bits) computes the same integers as the column order used here.
+//! in 16 bits) computes the same integers as the column order used here: the Armv7E-M build's
+//! [`IntegerDense::run_in_place`] does so (`paired.rs`).
+
+// The `SMLAD` kernel of the Armv7E-M, and its portable stand-in for the host's tests.
+#[cfg(any(test, all(target_arch = "arm", target_feature = "dsp")))]
+mod paired;
 
 /// gemmlowp's `SaturatingRoundingDoublingHighMul`: the high 32 bits of `2 · a · b`, rounded to
 /// nearest with ties toward +∞ (its nudge of `2^30` or `1 − 2^30`, then a division that
@@ -114,13 +119,61 @@ impl IntegerDense<'_> {
     #[inline(never)]
     pub fn run(&self, x: &[i32], x_zero: i32, y: &mut [i32]) {
         let outputs = y.len();
-        for (acc, b) in y.iter_mut().zip(self.bias.chunks_exact(4)) {
-            *acc = i32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-        }
+        self.load_bias(y);
         if outputs == 0 {
             return;
         }
         accumulate(self.weights, x, x_zero, y);
+        self.requantise(y);
+    }
+
+    /// [`IntegerDense::run`], the same integers, with `x` as working space: its contents
+    /// afterwards are unspecified (the model's forward pass gives the layer's input vector,
+    /// which the next layer overwrites). On an Armv7E-M (`target_feature = "dsp"`: the
+    /// Cortex-M4 and M7) the inputs are taken in pairs by an `SMLAD` kernel that packs them
+    /// into `x` (`paired.rs`); everywhere else, and for weights shorter than the layer's
+    /// sizes, this is [`IntegerDense::run`].
+    ///
+    /// ```
+    /// use policy_core::mlp::integer::IntegerDense;
+    /// let words = |v: &[i32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    /// let (m, b) = (words(&[1 << 30, 1 << 30]), words(&[10, -4]));
+    /// let layer = IntegerDense {
+    ///     multipliers: &m, shifts: &[0, 0], weights: &[2, 1, 0xff, 1], bias: &b,
+    ///     output_zero: -5, lower: -5, table: None,
+    /// };
+    /// let (mut y, mut z) = ([0i32; 2], [0i32; 2]);
+    /// layer.run(&[7, 3], 1, &mut y);
+    /// layer.run_in_place(&mut [7, 3], 1, &mut z);
+    /// assert_eq!(y, z);
+    /// ```
+    // Not inlined where it holds the `SMLAD` kernel (as `run`); elsewhere it is `run` itself,
+    // inlined so that the call costs no second frame.
+    #[cfg_attr(all(target_arch = "arm", target_feature = "dsp"), inline(never))]
+    #[cfg_attr(not(all(target_arch = "arm", target_feature = "dsp")), inline(always))]
+    pub fn run_in_place(&self, x: &mut [i32], x_zero: i32, y: &mut [i32]) {
+        #[cfg(all(target_arch = "arm", target_feature = "dsp"))]
+        if self.weights.len() >= x.len().saturating_mul(y.len()) {
+            self.load_bias(y);
+            paired::accumulate(self.weights, x, x_zero, y, paired::block4);
+            self.requantise(y);
+            return;
+        }
+        self.run(x, x_zero, y);
+    }
+
+    /// The accumulators' start: `y[i] = bias[i]`.
+    #[inline(always)]
+    fn load_bias(&self, y: &mut [i32]) {
+        for (acc, b) in y.iter_mut().zip(self.bias.chunks_exact(4)) {
+            *acc = i32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        }
+    }
+
+    /// The accumulators into output codes: requantised, offset by the output zero point,
+    /// clamped, then through the table if there is one.
+    #[inline(always)]
+    fn requantise(&self, y: &mut [i32]) {
         let parts = self.multipliers.chunks_exact(4).zip(self.shifts);
         for (acc, (m, &shift)) in y.iter_mut().zip(parts) {
             let multiplier = i32::from_le_bytes([m[0], m[1], m[2], m[3]]);

@@ -144,8 +144,10 @@ impl Model<'_> {
         let mut outputs = 0;
         blob::integer_layers(h.kind, h.shape, h.activation, |_, layer| {
             let dense = self.integer_dense(&layer, relu);
-            let xs = x.get(..layer.inputs).unwrap_or_default();
-            dense.run(xs, x_zero, y.get_mut(..layer.outputs).unwrap_or_default());
+            // The input vector is the working space of the pass's kernel (the next layer
+            // writes its outputs there anyway): no scratch beyond the two vectors.
+            let xs = x.get_mut(..layer.inputs).unwrap_or_default();
+            dense.run_in_place(xs, x_zero, y.get_mut(..layer.outputs).unwrap_or_default());
             x_zero = if layer.table.is_some() {
                 0
             } else {
