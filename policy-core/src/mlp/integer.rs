@@ -201,7 +201,8 @@ const THUMB1: bool = cfg!(target_arch = "arm") && !cfg!(target_has_atomic = "32"
 /// registers for the whole pass over the inputs, and each input's four weights are adjacent
 /// bytes. Measured on the integer 4×48 actor under QEMU (docs/cortex-m.md): 6.1 instructions
 /// per MAC on the Cortex-M4F and M3 and 7.2 on RV32IMAC, against 7.5, 8.0 and 10.8 one output
-/// at a time (which loads and stores an accumulator for every product). On a Thumb-1 core
+/// at a time (which loads and stores an accumulator for every product); the M4F's build runs
+/// the `SMLAD` kernel instead ([`IntegerDense::run_in_place`], 4.5). On a Thumb-1 core
 /// ([`THUMB1`]) four accumulators spill to the stack (12.5 against 12.2) and two or one at a
 /// time cost more still (15.3, 15.1), so there the outputs go one at a time, column by column.
 /// The outputs left over (fewer than four) go one at a time. The sums are exact (see the
