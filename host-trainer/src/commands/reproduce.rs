@@ -14,6 +14,7 @@ use host_trainer::reproduce::{
     grid::{self, Experiment, Grid, Slice},
 };
 use host_trainer::run::lock;
+use host_trainer::sweep::plan::PlannedRun;
 use host_trainer::sweep::record::Status;
 use host_trainer::sweep::supervise;
 
@@ -92,44 +93,19 @@ pub(crate) fn reproduce_command(args: ReproduceArgs) -> Result<ExitCode> {
     // on before the lock was ours.
     reproduce::plan(&args.out, &grid, slice)?;
     reproduce::folder::claim(&args.out, &grid)?;
-    let part_dir = reproduce::Part::path(&args.out, slice).with_extension("");
-    std::fs::create_dir_all(&part_dir)
-        .with_context(|| format!("cannot create {}", part_dir.display()))?;
-    // One process per part: a second one would run the same runs beside the first.
-    let _lock = lock::acquire(&part_dir).map_err(|e| match e {
-        host_trainer::Error::Locked { holder, .. } => host_trainer::Error::PartRunning {
-            path: args.out.clone(),
-            running: format!(
-                "part {}/{} of this grid is already running there ({holder})",
-                slice.index, slice.count
-            ),
-        },
-        e => e,
-    })?;
-    // Another part's runs may be this part's too (the whole grid beside `--slice 0/2`).
-    reproduce::folder::refuse_overlapping_parts(&args.out, slice)?;
-    let plan = reproduce::plan(&args.out, &grid, slice)?;
-    reproduce::folder::create_cells(&plan)?;
-    let runner = runner(&plan, args.jobs, args.quiet, true)?;
-    let started = Instant::now();
-    let records = supervise::execute(&plan, &runner)?;
-    reproduce::folder::mark(&plan, &records)?;
-    let count = |s: Status| records.iter().filter(|r| r.status == s).count();
-    let part = reproduce::Part {
-        slice: slice.to_string(),
-        commit: reproduce::COMMIT.into(),
-        runs: plan.len(),
-        finished: count(Status::Finished),
-        skipped: count(Status::Skipped),
-        failed: count(Status::Failed),
-        wall_seconds: started.elapsed().as_secs_f64(),
-        total_wall_seconds: 0.0,
-    }
-    .write(reproduce::Part::path(&args.out, slice))?;
-    if INTERRUPTS.load(Ordering::SeqCst) > 0 {
-        eprintln!("host-trainer: reproduce interrupted; the stopped runs kept a checkpoint. Re-run the same command to continue (finished runs are skipped)");
+    let busy = format!(
+        "part {}/{} of this grid is already running there",
+        slice.index, slice.count
+    );
+    let record = reproduce::Part::path(&args.out, slice);
+    let Some(part) = run_part(&args.out, &record, slice.to_string(), &busy, &args, || {
+        // Another part's runs may be this part's too (the whole grid beside `--slice 0/2`).
+        reproduce::folder::refuse_overlapping_parts(&args.out, slice)?;
+        reproduce::plan(&args.out, &grid, slice)
+    })?
+    else {
         return Ok(ExitCode::from(INTERRUPTED));
-    }
+    };
     outln!(
         "part {slice} of {}: {} runs, {} trained, {} already finished, {} failed, {:.0} s",
         grid.describe(),
@@ -178,38 +154,19 @@ fn added_seeds(args: &ReproduceArgs, grid: &Grid) -> Result<ExitCode> {
     reproduce::folder::plan_runs(&args.out, grid, &runs)?;
     reproduce::folder::claim(&args.out, grid)?;
     let record = reproduce::Part::added_path(&args.out);
-    let part_dir = record.with_extension("");
-    std::fs::create_dir_all(&part_dir)
-        .with_context(|| format!("cannot create {}", part_dir.display()))?;
-    let _lock = lock::acquire(&part_dir).map_err(|e| match e {
-        host_trainer::Error::Locked { holder, .. } => host_trainer::Error::PartRunning {
-            path: args.out.clone(),
-            running: format!("the added seeds are already running there ({holder})"),
-        },
-        e => e,
-    })?;
-    let plan = reproduce::folder::plan_runs(&args.out, grid, &runs)?;
-    reproduce::folder::create_cells(&plan)?;
-    let runner = runner(&plan, args.jobs, args.quiet, true)?;
-    let started = Instant::now();
-    let records = supervise::execute(&plan, &runner)?;
-    reproduce::folder::mark(&plan, &records)?;
-    let count = |s: Status| records.iter().filter(|r| r.status == s).count();
-    let part = reproduce::Part {
-        slice: reproduce::ADDED.into(),
-        commit: reproduce::COMMIT.into(),
-        runs: plan.len(),
-        finished: count(Status::Finished),
-        skipped: count(Status::Skipped),
-        failed: count(Status::Failed),
-        wall_seconds: started.elapsed().as_secs_f64(),
-        total_wall_seconds: 0.0,
-    }
-    .write(record)?;
-    if INTERRUPTS.load(Ordering::SeqCst) > 0 {
-        eprintln!("host-trainer: reproduce interrupted; the stopped runs kept a checkpoint. Re-run the same command to continue (finished runs are skipped)");
+    let busy = "the added seeds are already running there";
+    let plan = || reproduce::folder::plan_runs(&args.out, grid, &runs);
+    let Some(part) = run_part(
+        &args.out,
+        &record,
+        reproduce::ADDED.into(),
+        busy,
+        args,
+        plan,
+    )?
+    else {
         return Ok(ExitCode::from(INTERRUPTED));
-    }
+    };
     outln!(
         "the added seeds of {}: {} runs, {} trained, {} already finished, {} failed, {:.0} s",
         grid.describe(),
@@ -225,6 +182,55 @@ fn added_seeds(args: &ReproduceArgs, grid: &Grid) -> Result<ExitCode> {
     } else {
         code
     })
+}
+
+/// One part's runs: under the part's lock (one process per part: a second one would run the
+/// same runs beside the first; `busy` says so), planned again by `plan` once the lock is ours
+/// (another process of this part may have moved its runs on before), trained by the sweep's
+/// supervisor, marked in their cells, and recorded as the part `slice` in `record`. `None` when
+/// an interrupt stopped it (the stopped runs keep a checkpoint, and the message says how to go
+/// on).
+fn run_part(
+    out: &Path,
+    record: &Path,
+    slice: String,
+    busy: &str,
+    args: &ReproduceArgs,
+    plan: impl Fn() -> Result<Vec<PlannedRun>, host_trainer::Error>,
+) -> Result<Option<reproduce::Part>> {
+    let part_dir = record.with_extension("");
+    std::fs::create_dir_all(&part_dir)
+        .with_context(|| format!("cannot create {}", part_dir.display()))?;
+    let _lock = lock::acquire(&part_dir).map_err(|e| match e {
+        host_trainer::Error::Locked { holder, .. } => host_trainer::Error::PartRunning {
+            path: out.to_path_buf(),
+            running: format!("{busy} ({holder})"),
+        },
+        e => e,
+    })?;
+    let plan = plan()?;
+    reproduce::folder::create_cells(&plan)?;
+    let runner = runner(&plan, args.jobs, args.quiet, true)?;
+    let started = Instant::now();
+    let records = supervise::execute(&plan, &runner)?;
+    reproduce::folder::mark(&plan, &records)?;
+    let count = |s: Status| records.iter().filter(|r| r.status == s).count();
+    let part = reproduce::Part {
+        slice,
+        commit: reproduce::COMMIT.into(),
+        runs: plan.len(),
+        finished: count(Status::Finished),
+        skipped: count(Status::Skipped),
+        failed: count(Status::Failed),
+        wall_seconds: started.elapsed().as_secs_f64(),
+        total_wall_seconds: 0.0,
+    }
+    .write(record.to_path_buf())?;
+    if INTERRUPTS.load(Ordering::SeqCst) > 0 {
+        eprintln!("host-trainer: reproduce interrupted; the stopped runs kept a checkpoint. Re-run the same command to continue (finished runs are skipped)");
+        return Ok(None);
+    }
+    Ok(Some(part))
 }
 
 /// Builds the page; exit 1 when runs are missing.
