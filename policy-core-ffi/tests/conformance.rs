@@ -1,7 +1,8 @@
 //! policy-core's conformance vectors (`policy-core/conformance/vectors.txt`) through the C API:
 //! every blob accepted with the header the manifest lists or refused with its error class (and
-//! index), every `act`, `q` and `choose` line's bits, and every slot case's running slot and
-//! statuses. A C firmware calling these functions meets the same vectors as policy-core.
+//! index), every `act`, `q` and `choose` line's bits (and an integer actor's input codes and
+//! integer-entry unit codes), and every slot case's running slot and statuses. A C firmware
+//! calling these functions meets the same vectors as policy-core.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -103,6 +104,47 @@ fn status(s: &DcpSlotStatus) -> String {
         DCP_SLOT_STANDBY => format!("standby:{}", s.sequence),
         _ => format!("failed:{}", name(s.error.code)),
     }
+}
+
+/// Integers in decimal, comma-separated, as the manifest writes codes.
+fn decimal(values: &[i8]) -> String {
+    let words: Vec<String> = values.iter().map(i8::to_string).collect();
+    words.join(",")
+}
+
+/// An integer actor's input codes for `obs` (`dcp_observation_codes`) and the unit codes the
+/// integer entry returns for them (`dcp_act_codes`), both in decimal.
+fn integer_entry(m: &DcpModel, obs: &[f32], actions: usize) -> (String, String) {
+    let mut codes = vec![0i8; obs.len()];
+    // SAFETY: every buffer is valid for its length and distinct.
+    let code = unsafe {
+        dcp_observation_codes(
+            m,
+            obs.as_ptr(),
+            obs.len(),
+            codes.as_mut_ptr(),
+            codes.len(),
+            null_mut(),
+        )
+    };
+    assert_eq!(code, DCP_OK, "{}", name(code));
+    let mut scratch = vec![0i32; 4096];
+    let mut units = vec![0i8; actions];
+    // SAFETY: every buffer is valid for its length and distinct.
+    let code = unsafe {
+        dcp_act_codes(
+            m,
+            codes.as_ptr(),
+            codes.len(),
+            scratch.as_mut_ptr(),
+            scratch.len(),
+            units.as_mut_ptr(),
+            units.len(),
+            null_mut(),
+        )
+    };
+    assert_eq!(code, DCP_OK, "{}", name(code));
+    (decimal(&codes), decimal(&units))
 }
 
 #[test]
@@ -220,6 +262,11 @@ fn every_conformance_vector_passes_through_the_c_api() {
                 assert_eq!(code, DCP_OK, "{line}: {}", name(code));
                 let got: Vec<u32> = action.iter().map(|a| a.to_bits()).collect();
                 assert_eq!(got, want, "{line}");
+                if let Some(codes) = f.get("codes") {
+                    let (found, units) = integer_entry(m, &obs, want.len());
+                    assert_eq!(found, *codes, "{line}: codes");
+                    assert_eq!(units, f["units"], "{line}: units");
+                }
                 if what == "choose" {
                     let mut index = u32::MAX;
                     // SAFETY: every buffer is valid for its length and distinct.

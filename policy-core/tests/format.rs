@@ -277,6 +277,12 @@ fn integer_worked_example_is_what_the_writer_writes() {
         bytes,
         "docs/blob-format.md's integer dump is out of date"
     );
+    // The conformance vector `tiny-integer` is this blob.
+    let vector = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/conformance/blobs/tiny-integer.blob"
+    );
+    assert_eq!(std::fs::read(vector).expect("the vector"), bytes);
     let model = Model::from_blob(&bytes).expect("loads");
     let mut codes = [0i8];
     model.observation_codes(&[1.0], &mut codes).expect("codes");

@@ -20,8 +20,27 @@ use crate::support::{
     SplitMix64,
 };
 
-/// The tiny actor's calibration observations for its integer encoding: normalised, -3 to 3.
-const TINY_CALIBRATION: [f32; 7] = [-1.0, -0.5, 0.0, 0.5, 1.0, 1.5, 2.0];
+/// The ranges of docs/blob-format.md's integer worked example: normalised observations, hidden
+/// pre-activations, output pre-activation.
+const WORKED_EXAMPLE_RANGES: [(f32, f32); 3] = [(-3.0, 3.0), (-3.0, 3.5), (-1.0, 1.0)];
+
+/// The tiny actor in the integer encoding, written with the worked example's ranges: the bytes
+/// of the page's integer dump.
+fn tiny_integer(tiny: &[u8]) -> Vec<u8> {
+    let verified = blob::verify(tiny).expect("valid");
+    let values: Vec<f32> = blob::values(&verified.header, verified.payload).collect();
+    let spec = Spec::like(&verified.header, Encoding::Integer);
+    let mut out = vec![0u8; blob::encoded_len(&spec).expect("length")];
+    let n = blob::write_integer(
+        &spec,
+        &WORKED_EXAMPLE_RANGES,
+        &mut |sink| sink(&values),
+        &mut out,
+    )
+    .expect("the tiny integer actor");
+    out.truncate(n);
+    out
+}
 
 /// The vectors: the manifest's lines and the files they name (path relative to the folder).
 #[derive(Default)]
@@ -68,6 +87,7 @@ pub fn generate() -> Vectors {
     valid(&mut v);
     invalid_header(&mut v);
     invalid_parameters(&mut v);
+    super::integer_cases::vectors(&mut v);
     slots(&mut v);
     v
 }
@@ -84,7 +104,7 @@ fn valid(v: &mut Vectors) {
         let bytes = reencode(&tiny, encoding);
         accept(v, &format!("tiny-{}", encoding), bytes);
     }
-    let tiny_integer = integer_vec(&tiny, &TINY_CALIBRATION).expect("the tiny integer actor");
+    let tiny_integer = tiny_integer(&tiny);
     accept(v, "tiny-integer", tiny_integer.clone());
     let shapes = [
         (
@@ -359,7 +379,7 @@ fn accept(v: &mut Vectors, name: &str, bytes: Vec<u8>) {
 
 /// Records a valid blob: its header, then its outputs for every probe and for `extra`
 /// observations.
-fn accept_with(v: &mut Vectors, name: &str, bytes: Vec<u8>, extra: &[Vec<f32>]) {
+pub fn accept_with(v: &mut Vectors, name: &str, bytes: Vec<u8>, extra: &[Vec<f32>]) {
     let model = Model::from_blob(&bytes).unwrap_or_else(|e| panic!("{name} must load: {e}"));
     let h = model.header().clone();
     let crc = u32::from_le_bytes(*bytes.last_chunk::<4>().expect("crc"));
@@ -391,9 +411,10 @@ fn accept_with(v: &mut Vectors, name: &str, bytes: Vec<u8>, extra: &[Vec<f32>]) 
                 let mut action = vec![0.0; a];
                 model.act(&obs, scratch, &mut action).expect("act");
                 v.lines.push(format!(
-                    "act {name} obs={} action={}",
+                    "act {name} obs={} action={}{}",
                     hex_bits(&obs),
-                    hex_bits(&action)
+                    hex_bits(&action),
+                    integer_entry(&model, &obs)
                 ));
             }
             ModelKind::Discrete => {
@@ -428,12 +449,36 @@ fn accept_with(v: &mut Vectors, name: &str, bytes: Vec<u8>, extra: &[Vec<f32>]) 
     v.files.insert(format!("blobs/{name}.blob"), bytes);
 }
 
+/// For an integer actor, ` codes=… units=…`: the input codes of the observation (the float
+/// entry's first step) and the unit codes the integer entry returns for them, in decimal; for
+/// any other blob nothing.
+fn integer_entry(model: &Model<'_>, obs: &[f32]) -> String {
+    let h = model.header();
+    if h.encoding != Encoding::Integer {
+        return String::new();
+    }
+    let mut codes = vec![0i8; obs.len()];
+    model.observation_codes(obs, &mut codes).expect("codes");
+    let mut units = vec![0i8; usize::from(h.shape.actions)];
+    let scratch = &mut vec![0i32; model.scratch_floats()];
+    model
+        .act_codes_in(&codes, scratch, &mut units)
+        .expect("integer entry");
+    format!(" codes={} units={}", decimal(&codes), decimal(&units))
+}
+
+/// Integers in decimal, comma-separated.
+pub fn decimal(values: &[i8]) -> String {
+    let words: Vec<String> = values.iter().map(i8::to_string).collect();
+    words.join(",")
+}
+
 // ------------------------------------------------------------------------------------------
 // Invalid blobs: one broken rule each.
 
 /// Records an invalid blob after checking that policy-core refuses it with `expected` (the
 /// error class, and the index for parameter errors).
-fn reject(v: &mut Vectors, name: &str, bytes: Vec<u8>, expected: &str) {
+pub fn reject(v: &mut Vectors, name: &str, bytes: Vec<u8>, expected: &str) {
     let err = Model::from_blob(&bytes).expect_err(name);
     let found = reject_fields(&err);
     assert_eq!(
@@ -532,7 +577,7 @@ fn invalid_header(v: &mut Vectors) {
         with_header(&tiny_f16, &|h| h.encoding = Encoding::F32),
         "Malformed",
     );
-    let tiny_integer = integer_vec(&tiny, &TINY_CALIBRATION).expect("the tiny integer actor");
+    let tiny_integer = tiny_integer(&tiny);
     reject(
         v,
         "version-3-integer",
@@ -832,7 +877,7 @@ fn invalid_parameters(v: &mut Vectors) {
 /// each, in the order the reader checks them.
 fn invalid_integer(v: &mut Vectors) {
     let tiny = blob_of(&tiny_policy(), "tiny");
-    let base = integer_vec(&tiny, &TINY_CALIBRATION).expect("the tiny integer actor");
+    let base = tiny_integer(&tiny);
     let (input, layers) = integer_at(&base);
     let edit = |at: usize, bytes: &[u8]| {
         let mut out = base.clone();
@@ -920,6 +965,18 @@ fn invalid_integer(v: &mut Vectors) {
         edit(layers[1].weight_padding + 1, &[0x80]),
         "Malformed",
     );
+    // Both paddings are checked (14.8) before any bias (14.9), although the weights lie
+    // between them: a layer with bad padding and a bad bias is Malformed.
+    let mut padding_and_bias = edit(layers[0].weight_padding, &[1]);
+    padding_and_bias[layers[0].bias..layers[0].bias + 4]
+        .copy_from_slice(&((1 << 30) + 1i32).to_le_bytes());
+    reseal(&mut padding_and_bias);
+    reject(
+        v,
+        "integer-two-edits-weight-padding-bias-0",
+        padding_and_bias,
+        "Malformed",
+    );
     reject(
         v,
         "integer-bias-beyond-2-30",
@@ -975,6 +1032,14 @@ fn slots(v: &mut Vectors) {
     let three_obs = make(ModelKind::Actor, shape(3, 2, 16, 2, 0), 14, Encoding::F32);
     let wide = make(ModelKind::Actor, shape(2, 2, 96, 1, 0), 15, Encoding::F32);
     let discrete = make(ModelKind::Discrete, shape(2, 2, 8, 2, 5), 16, Encoding::F16);
+    // Integer actors: the scratch rule is the other encodings' (the same width, in int32).
+    let calibration = calibration_observations(2, 64, 5.0, 0xCA1);
+    let integer = |shape, seed| {
+        let f32_blob = make(ModelKind::Actor, shape, seed, Encoding::F32);
+        integer_vec(&f32_blob, &calibration).expect("calibrates")
+    };
+    let integer_actor = integer(shape(2, 2, 16, 2, 0), 18);
+    let integer_wide = integer(shape(2, 2, 96, 1, 0), 19);
 
     // A slot region: the record, then erased flash (0xFF) to a multiple of 64 plus 64 bytes.
     let region = |blob: &[u8], sequence: u32| {
@@ -994,7 +1059,7 @@ fn slots(v: &mut Vectors) {
     let mut random = vec![0u8; 256];
     let mut rng = SplitMix64(17);
     random.iter_mut().for_each(|x| *x = rng.next() as u8);
-    let files: [(&str, Vec<u8>); 19] = [
+    let files: [(&str, Vec<u8>); 21] = [
         ("a-seq-1", region(&a, 1)),
         ("a-seq-5", region(&a, 5)),
         ("a-seq-max", region(&a, u32::MAX)),
@@ -1010,6 +1075,8 @@ fn slots(v: &mut Vectors) {
         ("three-observations-seq-2", region(&three_obs, 2)),
         ("width-96-seq-2", region(&wide, 2)),
         ("discrete-seq-2", region(&discrete, 2)),
+        ("integer-seq-2", region(&integer_actor, 2)),
+        ("integer-width-96-seq-2", region(&integer_wide, 2)),
         ("erased", vec![0xFF; 256]),
         ("zeros", vec![0x00; 256]),
         ("random", random),
@@ -1035,6 +1102,8 @@ fn slots(v: &mut Vectors) {
         ("b-wrong-sizes", "a-seq-1", "three-observations-seq-2"),
         ("b-too-wide", "a-seq-1", "width-96-seq-2"),
         ("b-discrete", "a-seq-1", "discrete-seq-2"),
+        ("b-integer", "a-seq-1", "integer-seq-2"),
+        ("b-integer-too-wide", "a-seq-1", "integer-width-96-seq-2"),
         ("both-empty", "erased", "erased"),
         ("both-bad", "b-seq-2-payload-flipped", "critic-seq-2"),
         ("a-erased", "erased", "b-seq-5"),
@@ -1078,7 +1147,7 @@ pub fn status(s: Status) -> String {
 // ------------------------------------------------------------------------------------------
 // Helpers.
 
-fn shape(observations: u16, actions: u16, width: u16, depth: u8, choices: u16) -> Shape {
+pub fn shape(observations: u16, actions: u16, width: u16, depth: u8, choices: u16) -> Shape {
     Shape {
         observations,
         actions,
@@ -1147,7 +1216,7 @@ fn layer_at(bytes: &[u8], l: usize) -> LayerLayout {
 }
 
 /// An integer blob's input block and layers, in bytes from the blob's start.
-fn integer_at(bytes: &[u8]) -> (IntegerInput, Vec<IntegerLayer>) {
+pub fn integer_at(bytes: &[u8]) -> (IntegerInput, Vec<IntegerLayer>) {
     let verified = blob::verify(bytes).expect("valid");
     let h = &verified.header;
     let start = bytes.len() - 4 - verified.payload.len();

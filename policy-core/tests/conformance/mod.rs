@@ -7,6 +7,7 @@
 //! reader cannot drift apart.
 
 mod generate;
+mod integer_cases;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -151,6 +152,19 @@ fn every_vector_holds_for_policy_core() {
                     .act(&parse_bits(line.field("obs")), scratch, &mut action)
                     .expect(&at);
                 assert_eq!(hex_bits(&action), hex_bits(&expected), "{at}");
+                // An integer actor's line also gives its input codes and the integer entry's
+                // unit codes for them.
+                if let Some(codes) = line.fields.get("codes") {
+                    *counts.entry("act codes".into()).or_default() += 1;
+                    let obs = parse_bits(line.field("obs"));
+                    let mut found = vec![0i8; obs.len()];
+                    model.observation_codes(&obs, &mut found).expect(&at);
+                    assert_eq!(generate::decimal(&found), *codes, "{at}: codes");
+                    let mut units = vec![0i8; expected.len()];
+                    let ints = &mut vec![0i32; model.scratch_floats()];
+                    model.act_codes_in(&found, ints, &mut units).expect(&at);
+                    assert_eq!(generate::decimal(&units), line.field("units"), "{at}");
+                }
             }
             ("q", _) => {
                 let model = Model::from_blob(&bytes).expect(&at);
@@ -218,6 +232,7 @@ fn every_vector_holds_for_policy_core() {
         ("blob accept", 20),
         ("blob reject", 50),
         ("act", 100),
+        ("act codes", 50),
         ("q", 30),
         ("choose", 30),
         ("slot", 15),
