@@ -22,14 +22,13 @@
 //! states, and each part alone in the faulty closed loop against the f32 blob.
 
 use std::collections::BTreeMap;
-use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use firmware_sim::controller::{BlobPolicy, Controller};
 use firmware_sim::nav::faults::Faults;
 use firmware_sim::nav::scenario::Scenario;
-use firmware_sim::nav::test_protocol::{evaluate, evaluate_controller, EvalConfig};
+use firmware_sim::nav::test_protocol::{evaluate, evaluate_controller, EvalConfig, Report};
 use host_trainer::blob::export::{
     calibration_observations, encode_integer, visited_observations_in, CALIBRATION_EPISODES,
     CALIBRATION_SEED,
@@ -41,6 +40,7 @@ use host_trainer::stats::power::power_paired;
 use host_trainer::stats::sensitivity::sensitivity;
 use host_trainer::stats::{REPS, SEED};
 use policy_core::model::Model;
+use policy_core::Encoding;
 use studies::hybrid::{Hybrid, HybridPolicy};
 use studies::paired::paired_text;
 use studies::run_folder;
@@ -162,9 +162,18 @@ fn held_run<'a>(
     config: &EvalConfig,
 ) -> Result<HeldAction<BlobPolicy<'a>>, String> {
     let inner = BlobPolicy::boot(blob).map_err(|e| e.to_string())?;
+    Ok(held_run_of(inner, scenario, config)?.0)
+}
+
+/// Any controller through the test protocol with `config`, noting what it holds.
+fn held_run_of<C: Controller>(
+    inner: C,
+    scenario: &Scenario,
+    config: &EvalConfig,
+) -> Result<(HeldAction<C>, Report), String> {
     let mut c = HeldAction::new(inner);
-    evaluate_controller(&mut c, scenario, config).map_err(|e| e.to_string())?;
-    Ok(c)
+    let report = evaluate_controller(&mut c, scenario, config).map_err(|e| e.to_string())?;
+    Ok((c, report))
 }
 
 /// The mean |action 0| each episode of the stuck-actuator test holds, for `blob`.
@@ -285,6 +294,8 @@ struct PartFigures {
     /// and the mean |action 0| the actuator held in the hybrid's own loop.
     loop_diff: [f64; 2],
     loop_held: f64,
+    /// The mean |action 0| the actuator held in the f32 blob's own faulty loop.
+    f32_loop_held: f64,
 }
 
 /// Where a part sits, for the tables: 0 the input codes, `k` hidden layer `k`, [`OUTPUT`] the
@@ -297,27 +308,37 @@ fn part_key(part: usize, parts: usize) -> usize {
     }
 }
 
-const OUTPUT: usize = usize::MAX - 1;
+const OUTPUT: usize = usize::MAX - 3;
 
 /// The key of the row that runs every part in integers: the integer blob itself.
-const ALL: usize = usize::MAX;
+const ALL: usize = usize::MAX - 2;
+
+/// The keys of the controls: the f32 actor with its weights rounded to f16 or int8 (the other
+/// encodings, activations in f32), a smaller and a like-sized change that is no integer part.
+const F16: usize = usize::MAX - 1;
+const INT8: usize = usize::MAX;
 
 fn part_name(key: usize) -> String {
     match key {
         0 => "input codes".into(),
         OUTPUT => "output layer and tanh table".into(),
         ALL => "all (the integer blob)".into(),
+        F16 => "control: f16 weights, f32 activations".into(),
+        INT8 => "control: int8 weights, f32 activations".into(),
         k => format!("hidden layer {k}"),
     }
 }
 
-/// Means over the states (`width` components each) of |Δ action 0| and |action 0| of the hybrid
-/// with `integer` parts, and of |Δ action| over every component, against the f32 actor.
+/// How a policy under comparison acts on one observation (into the action, in its bounds).
+type Act<'a> = dyn Fn(&[f32], &mut [f32]) -> Result<(), String> + 'a;
+
+/// Means over the states (`width` components each) of |Δ action 0| and |action 0| of `act`, and
+/// of |Δ action| over every component, against the f32 actor.
 fn action_figures(
     hybrid: &Hybrid<'_>,
     states: &[f32],
     width: usize,
-    integer: &Range<usize>,
+    act: &Act<'_>,
 ) -> Result<[f64; 3], String> {
     let actions = usize::from(hybrid.f32_model().header().shape.actions);
     let (mut a, mut b) = (vec![0.0f32; actions], vec![0.0f32; actions]);
@@ -325,7 +346,7 @@ fn action_figures(
     let n = states.len() / width.max(1);
     for obs in states.chunks_exact(width.max(1)) {
         hybrid.act(obs, &(0..0), &mut a)?;
-        hybrid.act(obs, integer, &mut b)?;
+        act(obs, &mut b)?;
         let d0 = f64::from((b[0] - a[0]).abs());
         let all: f32 = a.iter().zip(&b).map(|(a, b)| (a - b).abs()).sum();
         sums[0] += d0;
@@ -335,29 +356,85 @@ fn action_figures(
     Ok(sums.map(|s| s / n.max(1) as f64))
 }
 
+/// What [`attribute`] measures the variants on: the f32 actor in both encodings, the states
+/// the integer policy meets, and the faulty loop with the f32 blob's outcome in it.
+struct Bench<'h, 'a> {
+    hybrid: &'h Hybrid<'a>,
+    width: usize,
+    held_states: Vec<f32>,
+    clean_states: Vec<f32>,
+    scenario: Scenario,
+    faults: EvalConfig,
+    /// The f32 blob in the faulty loop: success, settled error, mean held |action 0|.
+    f32_faults: [f64; 3],
+}
+
+impl Bench<'_, '_> {
+    /// The action figures of `alone` and `through` (`[alone, up to it]`) and `controller`'s
+    /// outcome in the faulty loop.
+    fn figures(
+        &self,
+        alone: &Act<'_>,
+        through: &Act<'_>,
+        controller: impl Controller,
+    ) -> Result<PartFigures, String> {
+        let mut f = PartFigures {
+            held_f32: action_figures(self.hybrid, &self.held_states, self.width, &|o, a| {
+                self.hybrid.act(o, &(0..0), a)
+            })?[1],
+            f32_loop_held: self.f32_faults[2],
+            ..PartFigures::default()
+        };
+        for (k, act) in [alone, through].into_iter().enumerate() {
+            let [d0, held, _] = action_figures(self.hybrid, &self.held_states, self.width, act)?;
+            let [_, _, clean] = action_figures(self.hybrid, &self.clean_states, self.width, act)?;
+            (f.held_error[k], f.held[k], f.clean_error[k]) = (d0, held, clean);
+        }
+        let (c, report) = held_run_of(controller, &self.scenario, &self.faults)?;
+        f.loop_diff = [
+            report.success_rate - self.f32_faults[0],
+            report.mean_error - self.f32_faults[1],
+        ];
+        f.loop_held = c.mean_held();
+        Ok(f)
+    }
+}
+
 fn attribute(group: &str, dir: &Path, pairs: &[Pair]) -> Result<Attribution, String> {
+    let name = run_folder::name(dir)?;
+    attribute_run(group, dir, pairs).map_err(|e| format!("{name}: {e}"))
+}
+
+fn attribute_run(group: &str, dir: &Path, pairs: &[Pair]) -> Result<Attribution, String> {
     let name = run_folder::name(dir)?;
     let f32 = run_folder::read(dir, folder::POLICY)?;
     let scenario = run_folder::scenario(dir)?;
     let integer = integer_of(&f32, &scenario, &name)?;
-    let hybrid = Hybrid::new(&f32, &integer).map_err(|e| format!("{name}: {e}"))?;
-    let width = usize::from(hybrid.f32_model().header().shape.observations);
+    let hybrid = Hybrid::new(&f32, &integer)?;
     let faults = EvalConfig {
         faults: FAULTS.parse().map_err(|e| format!("{FAULTS}: {e}"))?,
         ..run_folder::test_protocol()
     };
-    let held_states = held_run(&integer, &scenario, &faults)
-        .map_err(|e| format!("{name}: {e}"))?
-        .states;
-    let clean_states = visited_observations_in(&integer, &scenario, &run_folder::test_protocol())
-        .map_err(|e| format!("{name}: {e}"))?;
-    let f32_faults = pairs
+    let with_faults = pairs
         .iter()
         .find(|p| p.condition == "faults")
-        .ok_or_else(|| format!("{name}: no faults condition"))?
+        .ok_or("no faults condition")?
         .f32
         .measures;
-    let held_f32 = action_figures(&hybrid, &held_states, width, &(0..0))?[1];
+    let bench = Bench {
+        hybrid: &hybrid,
+        width: usize::from(hybrid.f32_model().header().shape.observations),
+        held_states: held_run(&integer, &scenario, &faults)?.states,
+        clean_states: visited_observations_in(&integer, &scenario, &run_folder::test_protocol())
+            .map_err(|e| e.to_string())?,
+        f32_faults: [
+            with_faults[0],
+            with_faults[1],
+            held_run(&f32, &scenario, &faults)?.mean_held(),
+        ],
+        scenario,
+        faults,
+    };
     let n = hybrid.parts();
     let mut parts = Vec::new();
     for part in 0..=n {
@@ -368,27 +445,25 @@ fn attribute(group: &str, dir: &Path, pairs: &[Pair]) -> Result<Attribution, Str
             (part_key(part, n), part..part + 1)
         };
         let through = 0..(part + 1).min(n);
-        let mut f = PartFigures {
-            held_f32,
-            ..PartFigures::default()
-        };
-        for (k, integer) in [alone.clone(), through].iter().enumerate() {
-            let [d0, held, _] = action_figures(&hybrid, &held_states, width, integer)?;
-            let [_, _, clean] = action_figures(&hybrid, &clean_states, width, integer)?;
-            (f.held_error[k], f.held[k], f.clean_error[k]) = (d0, held, clean);
-        }
-        let mut c = HeldAction::new(HybridPolicy {
-            hybrid: &hybrid,
-            integer: alone,
-        });
-        let report =
-            evaluate_controller(&mut c, &scenario, &faults).map_err(|e| format!("{name}: {e}"))?;
-        f.loop_diff = [
-            report.success_rate - f32_faults[0],
-            report.mean_error - f32_faults[1],
-        ];
-        f.loop_held = c.mean_held();
+        let f = bench.figures(
+            &|o, a| hybrid.act(o, &alone, a),
+            &|o, a| hybrid.act(o, &through, a),
+            HybridPolicy {
+                hybrid: &hybrid,
+                integer: alone.clone(),
+            },
+        )?;
         parts.push((key, f));
+    }
+    for (key, encoding) in [(F16, Encoding::F16), (INT8, Encoding::Int8)] {
+        let blob = policy_core::blob::encode(&f32, encoding).map_err(|e| e.to_string())?;
+        let model = Model::from_blob(&blob).map_err(|e| e.to_string())?;
+        let act = |o: &[f32], a: &mut [f32]| {
+            let mut scratch = vec![0.0; model.scratch_floats()];
+            model.act_in(o, &mut scratch, a).map_err(|e| e.to_string())
+        };
+        let controller = BlobPolicy::boot(&blob).map_err(|e| e.to_string())?;
+        parts.push((key, bench.figures(&act, &act, controller)?));
     }
     Ok(Attribution {
         group: group.to_string(),
@@ -434,16 +509,17 @@ fn print_attribution(attributions: &[Attribution]) {
         );
     }
     println!();
-    println!("| group | integer part alone, with the faults | runs | Δ success | Δ settled error | mean held \\|action 0\\| in its own loop |");
+    println!("| group | integer part alone, with the faults | runs | Δ success | Δ settled error | mean held \\|action 0\\| in its own loop, f32 → this |");
     println!("|---|---|---:|---:|---:|---:|");
     for ((group, key), fs) in &rows {
         let diffs = |k: usize| -> Vec<f64> { fs.iter().map(|f| f.loop_diff[k]).collect() };
         println!(
-            "| {group} | {} | {} | {} | {} | {:.4} |",
+            "| {group} | {} | {} | {} | {} | {:.4} → {:.4} |",
             part_name(*key),
             fs.len(),
             paired_text(&diffs(0), 3),
             paired_text(&diffs(1), 3),
+            mean(fs, &|f| f.f32_loop_held),
             mean(fs, &|f| f.loop_held),
         );
     }
