@@ -1,5 +1,6 @@
 //! An actor run partly in f32 and partly as its integer encoding runs it, to say which layer's
-//! rounding moves the integer policy's action (docs/results/integer-cost.md, "Which layer").
+//! rounding moves the integer policy's action (docs/results/integer-cost.md, "Which part of the
+//! integer computation").
 //!
 //! An f32 blob and its integer encoding describe one network. [`Hybrid`] runs the f32 network
 //! and replaces the parts a range names by their integer computation. Part 0 is the
