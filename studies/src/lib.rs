@@ -8,6 +8,7 @@
 
 #![deny(missing_docs)]
 
+pub mod hybrid;
 pub mod main_job;
 pub mod paired;
 pub mod restat;

@@ -15,7 +15,11 @@
 //! stuck rate, and the differences integer − f32), then per (task, algorithm) and condition
 //! the mean paired difference with its bootstrap interval and sign-flip p
 //! ([`studies::paired`]), the starts whose pass/fail the encoding changed, and the protocol's
-//! verdict for success and for settled error.
+//! verdict for success and for settled error. Then the diagnosis of the faulty condition, and
+//! which part of the integer computation moves the command the stuck actuator holds: the f32
+//! actor with one part (input codes, a hidden layer, the output layer), or the parts up to it,
+//! computed as the integer blob computes it ([`studies::hybrid`]), on the integer policy's
+//! states, and each part alone in the faulty closed loop against the f32 blob.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -24,7 +28,7 @@ use std::process::ExitCode;
 use firmware_sim::controller::{BlobPolicy, Controller};
 use firmware_sim::nav::faults::Faults;
 use firmware_sim::nav::scenario::Scenario;
-use firmware_sim::nav::test_protocol::{evaluate, evaluate_controller, EvalConfig};
+use firmware_sim::nav::test_protocol::{evaluate, evaluate_controller, EvalConfig, Report};
 use host_trainer::blob::export::{
     calibration_observations, encode_integer, visited_observations_in, CALIBRATION_EPISODES,
     CALIBRATION_SEED,
@@ -36,6 +40,8 @@ use host_trainer::stats::power::power_paired;
 use host_trainer::stats::sensitivity::sensitivity;
 use host_trainer::stats::{REPS, SEED};
 use policy_core::model::Model;
+use policy_core::Encoding;
+use studies::hybrid::{Hybrid, HybridPolicy};
 use studies::paired::paired_text;
 use studies::run_folder;
 
@@ -100,15 +106,31 @@ const ALONE: [&str; 2] = ["dropout-nan:0.05", "stuck:0@50"];
 /// The tick from which [`FAULTS`]'s stuck actuator holds action 0 (`stuck:0@50`).
 const STUCK_FROM: usize = 50;
 
-/// A blob in the loop that notes |action 0| at the tick before the actuator sticks: the value
-/// the actuator then holds for the rest of the episode.
-struct HeldAction<'a> {
-    inner: BlobPolicy<'a>,
+/// A controller in the loop that notes, at the tick before the actuator sticks, |action 0| (the
+/// value the actuator then holds for the rest of the episode) and the observation it acted on.
+struct HeldAction<C> {
+    inner: C,
     tick: usize,
     held: Vec<f64>,
+    states: Vec<f32>,
 }
 
-impl Controller for HeldAction<'_> {
+impl<C: Controller> HeldAction<C> {
+    fn new(inner: C) -> Self {
+        HeldAction {
+            inner,
+            tick: 0,
+            held: Vec::new(),
+            states: Vec::new(),
+        }
+    }
+
+    fn mean_held(&self) -> f64 {
+        self.held.iter().sum::<f64>() / self.held.len().max(1) as f64
+    }
+}
+
+impl<C: Controller> Controller for HeldAction<C> {
     fn name(&self) -> String {
         self.inner.name()
     }
@@ -127,21 +149,36 @@ impl Controller for HeldAction<'_> {
         if self.tick + 1 == STUCK_FROM {
             self.held
                 .push(f64::from(action.first().copied().unwrap_or(0.0).abs()));
+            self.states.extend_from_slice(obs);
         }
         self.tick += 1;
     }
 }
 
+/// `blob` through the test protocol with `config`, noting what it holds (see [`HeldAction`]).
+fn held_run<'a>(
+    blob: &'a [u8],
+    scenario: &Scenario,
+    config: &EvalConfig,
+) -> Result<HeldAction<BlobPolicy<'a>>, String> {
+    let inner = BlobPolicy::boot(blob).map_err(|e| e.to_string())?;
+    Ok(held_run_of(inner, scenario, config)?.0)
+}
+
+/// Any controller through the test protocol with `config`, noting what it holds.
+fn held_run_of<C: Controller>(
+    inner: C,
+    scenario: &Scenario,
+    config: &EvalConfig,
+) -> Result<(HeldAction<C>, Report), String> {
+    let mut c = HeldAction::new(inner);
+    let report = evaluate_controller(&mut c, scenario, config).map_err(|e| e.to_string())?;
+    Ok((c, report))
+}
+
 /// The mean |action 0| each episode of the stuck-actuator test holds, for `blob`.
 fn mean_held(blob: &[u8], scenario: &Scenario, config: &EvalConfig) -> Result<f64, String> {
-    let inner = BlobPolicy::boot(blob).map_err(|e| e.to_string())?;
-    let mut c = HeldAction {
-        inner,
-        tick: 0,
-        held: Vec::new(),
-    };
-    evaluate_controller(&mut c, scenario, config).map_err(|e| e.to_string())?;
-    Ok(c.held.iter().sum::<f64>() / c.held.len().max(1) as f64)
+    Ok(held_run(blob, scenario, config)?.mean_held())
 }
 
 /// The finite rows of `observations` (rows of `width`): a NaN dropout carries no range.
@@ -233,6 +270,261 @@ fn diagnose(group: &str, dir: &Path, pairs: &[Pair]) -> Result<Diagnosis, String
     })
 }
 
+/// Which part of the integer computation moves the held command, per run
+/// ([`studies::hybrid`]): the f32 actor with one part in integers (the observation's input
+/// codes, a hidden layer, the output layer with its tanh table), or the parts up to it, on the
+/// states the integer policy meets; and each part alone in the faulty closed loop.
+struct Attribution {
+    group: String,
+    /// Per part: its place ([`part_key`]), then the action figures and the closed loop's.
+    parts: Vec<(usize, PartFigures)>,
+}
+
+/// One part's figures; `[alone, up to it]` where a pair.
+#[derive(Clone, Copy, Default)]
+struct PartFigures {
+    /// Mean |Δ action 0| against the f32 actor at the held tick of the faulty episodes.
+    held_error: [f64; 2],
+    /// Mean |action 0| at the held tick: the f32 actor's, then the hybrids'.
+    held_f32: f64,
+    held: [f64; 2],
+    /// Mean |Δ action| (every component) against the f32 actor over the clean episodes' states.
+    clean_error: [f64; 2],
+    /// The part alone in the faulty loop, against the f32 blob: Δ success, Δ settled error;
+    /// and the mean |action 0| the actuator held in the hybrid's own loop.
+    loop_diff: [f64; 2],
+    loop_held: f64,
+    /// The mean |action 0| the actuator held in the f32 blob's own faulty loop.
+    f32_loop_held: f64,
+}
+
+/// Where a part sits, for the tables: 0 the input codes, `k` hidden layer `k`, [`OUTPUT`] the
+/// output layer (runs of different depths share their input and output rows).
+fn part_key(part: usize, parts: usize) -> usize {
+    if part + 1 == parts {
+        OUTPUT
+    } else {
+        part
+    }
+}
+
+const OUTPUT: usize = usize::MAX - 3;
+
+/// The key of the row that runs every part in integers: the integer blob itself.
+const ALL: usize = usize::MAX - 2;
+
+/// The keys of the controls: the f32 actor with its weights rounded to f16 or int8 (the other
+/// encodings, activations in f32), a smaller and a like-sized change that is no integer part.
+const F16: usize = usize::MAX - 1;
+const INT8: usize = usize::MAX;
+
+fn part_name(key: usize) -> String {
+    match key {
+        0 => "input codes".into(),
+        OUTPUT => "output layer and tanh table".into(),
+        ALL => "all (the integer blob)".into(),
+        F16 => "control: f16 weights, f32 activations".into(),
+        INT8 => "control: int8 weights, f32 activations".into(),
+        k => format!("hidden layer {k}"),
+    }
+}
+
+/// How a policy under comparison acts on one observation (into the action, in its bounds).
+type Act<'a> = dyn Fn(&[f32], &mut [f32]) -> Result<(), String> + 'a;
+
+/// Means over the states (`width` components each) of |Δ action 0| and |action 0| of `act`, and
+/// of |Δ action| over every component, against the f32 actor.
+fn action_figures(
+    hybrid: &Hybrid<'_>,
+    states: &[f32],
+    width: usize,
+    act: &Act<'_>,
+) -> Result<[f64; 3], String> {
+    let actions = usize::from(hybrid.f32_model().header().shape.actions);
+    let (mut a, mut b) = (vec![0.0f32; actions], vec![0.0f32; actions]);
+    let mut sums = [0.0f64; 3];
+    let n = states.len() / width.max(1);
+    for obs in states.chunks_exact(width.max(1)) {
+        hybrid.act(obs, &(0..0), &mut a)?;
+        act(obs, &mut b)?;
+        let d0 = f64::from((b[0] - a[0]).abs());
+        let all: f32 = a.iter().zip(&b).map(|(a, b)| (a - b).abs()).sum();
+        sums[0] += d0;
+        sums[1] += f64::from(b[0].abs());
+        sums[2] += f64::from(all) / actions as f64;
+    }
+    Ok(sums.map(|s| s / n.max(1) as f64))
+}
+
+/// What [`attribute`] measures the variants on: the f32 actor in both encodings, the states
+/// the integer policy meets, and the faulty loop with the f32 blob's outcome in it.
+struct Bench<'h, 'a> {
+    hybrid: &'h Hybrid<'a>,
+    width: usize,
+    held_states: Vec<f32>,
+    clean_states: Vec<f32>,
+    scenario: Scenario,
+    faults: EvalConfig,
+    /// The f32 blob in the faulty loop: success, settled error, mean held |action 0|.
+    f32_faults: [f64; 3],
+}
+
+impl Bench<'_, '_> {
+    /// The action figures of `alone` and `through` (`[alone, up to it]`) and `controller`'s
+    /// outcome in the faulty loop.
+    fn figures(
+        &self,
+        alone: &Act<'_>,
+        through: &Act<'_>,
+        controller: impl Controller,
+    ) -> Result<PartFigures, String> {
+        let mut f = PartFigures {
+            held_f32: action_figures(self.hybrid, &self.held_states, self.width, &|o, a| {
+                self.hybrid.act(o, &(0..0), a)
+            })?[1],
+            f32_loop_held: self.f32_faults[2],
+            ..PartFigures::default()
+        };
+        for (k, act) in [alone, through].into_iter().enumerate() {
+            let [d0, held, _] = action_figures(self.hybrid, &self.held_states, self.width, act)?;
+            let [_, _, clean] = action_figures(self.hybrid, &self.clean_states, self.width, act)?;
+            (f.held_error[k], f.held[k], f.clean_error[k]) = (d0, held, clean);
+        }
+        let (c, report) = held_run_of(controller, &self.scenario, &self.faults)?;
+        f.loop_diff = [
+            report.success_rate - self.f32_faults[0],
+            report.mean_error - self.f32_faults[1],
+        ];
+        f.loop_held = c.mean_held();
+        Ok(f)
+    }
+}
+
+fn attribute(group: &str, dir: &Path, pairs: &[Pair]) -> Result<Attribution, String> {
+    let name = run_folder::name(dir)?;
+    attribute_run(group, dir, pairs).map_err(|e| format!("{name}: {e}"))
+}
+
+fn attribute_run(group: &str, dir: &Path, pairs: &[Pair]) -> Result<Attribution, String> {
+    let name = run_folder::name(dir)?;
+    let f32 = run_folder::read(dir, folder::POLICY)?;
+    let scenario = run_folder::scenario(dir)?;
+    let integer = integer_of(&f32, &scenario, &name)?;
+    let hybrid = Hybrid::new(&f32, &integer)?;
+    let faults = EvalConfig {
+        faults: FAULTS.parse().map_err(|e| format!("{FAULTS}: {e}"))?,
+        ..run_folder::test_protocol()
+    };
+    let with_faults = pairs
+        .iter()
+        .find(|p| p.condition == "faults")
+        .ok_or("no faults condition")?
+        .f32
+        .measures;
+    let bench = Bench {
+        hybrid: &hybrid,
+        width: usize::from(hybrid.f32_model().header().shape.observations),
+        held_states: held_run(&integer, &scenario, &faults)?.states,
+        clean_states: visited_observations_in(&integer, &scenario, &run_folder::test_protocol())
+            .map_err(|e| e.to_string())?,
+        f32_faults: [
+            with_faults[0],
+            with_faults[1],
+            held_run(&f32, &scenario, &faults)?.mean_held(),
+        ],
+        scenario,
+        faults,
+    };
+    let n = hybrid.parts();
+    let mut parts = Vec::new();
+    for part in 0..=n {
+        // Part `n` stands for every part at once: the integer blob, as a check of the others.
+        let (key, alone) = if part == n {
+            (ALL, 0..n)
+        } else {
+            (part_key(part, n), part..part + 1)
+        };
+        let through = 0..(part + 1).min(n);
+        let f = bench.figures(
+            &|o, a| hybrid.act(o, &alone, a),
+            &|o, a| hybrid.act(o, &through, a),
+            HybridPolicy {
+                hybrid: &hybrid,
+                integer: alone.clone(),
+            },
+        )?;
+        parts.push((key, f));
+    }
+    for (key, encoding) in [(F16, Encoding::F16), (INT8, Encoding::Int8)] {
+        let blob = policy_core::blob::encode(&f32, encoding).map_err(|e| e.to_string())?;
+        let model = Model::from_blob(&blob).map_err(|e| e.to_string())?;
+        let act = |o: &[f32], a: &mut [f32]| {
+            let mut scratch = vec![0.0; model.scratch_floats()];
+            model.act_in(o, &mut scratch, a).map_err(|e| e.to_string())
+        };
+        let controller = BlobPolicy::boot(&blob).map_err(|e| e.to_string())?;
+        parts.push((key, bench.figures(&act, &act, controller)?));
+    }
+    Ok(Attribution {
+        group: group.to_string(),
+        parts,
+    })
+}
+
+/// The integer encoding of `f32`, made as `export --encoding integer` makes it: calibrated on
+/// the f32 policy's own visited states.
+fn integer_of(f32: &[u8], scenario: &Scenario, name: &str) -> Result<Vec<u8>, String> {
+    let observations = calibration_observations(f32, scenario, CALIBRATION_EPISODES as usize)
+        .map_err(|e| format!("{name}: calibration: {e}"))?;
+    encode_integer(f32, &observations).map_err(|e| format!("{name}: integer export failed: {e}"))
+}
+
+/// The attribution's two tables: the action figures per part (alone and up to it), then each
+/// part alone in the faulty loop, per group.
+fn print_attribution(attributions: &[Attribution]) {
+    let mut rows: BTreeMap<(&str, usize), Vec<PartFigures>> = BTreeMap::new();
+    for a in attributions {
+        for (key, f) in &a.parts {
+            rows.entry((&a.group, *key)).or_default().push(*f);
+        }
+    }
+    let mean = |fs: &[PartFigures], g: &dyn Fn(&PartFigures) -> f64| {
+        fs.iter().map(g).sum::<f64>() / fs.len().max(1) as f64
+    };
+    println!("| group | integer part | runs | mean \\|Δ action 0\\| at the held tick, part alone | the same, parts up to it | mean held \\|action 0\\|, f32 → part alone | f32 → parts up to it | mean \\|Δ action\\|, clean episodes' states, part alone | the same, parts up to it |");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|");
+    for ((group, key), fs) in &rows {
+        println!(
+            "| {group} | {} | {} | {:.4} | {:.4} | {:.4} → {:.4} | {:.4} → {:.4} | {:.4} | {:.4} |",
+            part_name(*key),
+            fs.len(),
+            mean(fs, &|f| f.held_error[0]),
+            mean(fs, &|f| f.held_error[1]),
+            mean(fs, &|f| f.held_f32),
+            mean(fs, &|f| f.held[0]),
+            mean(fs, &|f| f.held_f32),
+            mean(fs, &|f| f.held[1]),
+            mean(fs, &|f| f.clean_error[0]),
+            mean(fs, &|f| f.clean_error[1]),
+        );
+    }
+    println!();
+    println!("| group | integer part alone, with the faults | runs | Δ success | Δ settled error | mean held \\|action 0\\| in its own loop, f32 → this |");
+    println!("|---|---|---:|---:|---:|---:|");
+    for ((group, key), fs) in &rows {
+        let diffs = |k: usize| -> Vec<f64> { fs.iter().map(|f| f.loop_diff[k]).collect() };
+        println!(
+            "| {group} | {} | {} | {} | {} | {:.4} → {:.4} |",
+            part_name(*key),
+            fs.len(),
+            paired_text(&diffs(0), 3),
+            paired_text(&diffs(1), 3),
+            mean(fs, &|f| f.f32_loop_held),
+            mean(fs, &|f| f.loop_held),
+        );
+    }
+}
+
 fn run_one(group: &str, dir: &Path) -> Result<Vec<Pair>, String> {
     // The folder that holds the run (a sweep's output folder), or nothing for a bare name.
     let holder = dir
@@ -243,11 +535,7 @@ fn run_one(group: &str, dir: &Path) -> Result<Vec<Pair>, String> {
     let name = format!("{holder}/{}", run_folder::name(dir)?);
     let f32 = run_folder::read(dir, folder::POLICY)?;
     let scenario = run_folder::scenario(dir)?;
-    // What `export --encoding integer` does: calibrate on the f32 policy's own visited states.
-    let observations = calibration_observations(&f32, &scenario, CALIBRATION_EPISODES as usize)
-        .map_err(|e| format!("{name}: calibration: {e}"))?;
-    let integer = encode_integer(&f32, &observations)
-        .map_err(|e| format!("{name}: integer export failed: {e}"))?;
+    let integer = integer_of(&f32, &scenario, &name)?;
     let faults: Faults = FAULTS.parse().map_err(|e| format!("{FAULTS}: {e}"))?;
     let mut pairs = Vec::new();
     for condition in CONDITIONS {
@@ -341,10 +629,12 @@ fn main() -> ExitCode {
     };
     let mut pairs = Vec::new();
     let mut diagnoses = Vec::new();
+    let mut attributions = Vec::new();
     for (group, dir) in &dirs {
         let measured = run_one(group, dir).and_then(|p| {
             let key = p.first().map(|p| p.group.clone()).unwrap_or_default();
             diagnoses.push(diagnose(&key, dir, &p)?);
+            attributions.push(attribute(&key, dir, &p)?);
             Ok(p)
         });
         match measured {
@@ -439,6 +729,8 @@ fn main() -> ExitCode {
             mean(&|d| d.held[1]),
         );
     }
+    println!();
+    print_attribution(&attributions);
     ExitCode::SUCCESS
 }
 
