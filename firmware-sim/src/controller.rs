@@ -32,6 +32,75 @@ pub trait Controller {
     }
 }
 
+/// A controller that acts as the one it wraps and shows `note` every step: the tick since the
+/// last reset (0 for an episode's first action), the observation and the action it chose. What
+/// a study or a calibration records from the loop, without a controller of its own for each.
+///
+/// ```
+/// use firmware_sim::controller::{Controller, Observed, SafeState};
+/// let mut seen = Vec::new();
+/// let zero = SafeState { observations: 2, actions: 1 };
+/// let mut c = Observed::new(zero, |tick, obs: &[f32], _: &[f32]| {
+///     seen.push((tick, obs[0]));
+/// });
+/// let mut a = [1.0];
+/// c.act(&[4.0, 0.0], &mut a);
+/// c.act(&[5.0, 0.0], &mut a);
+/// c.reset();
+/// c.act(&[6.0, 0.0], &mut a);
+/// drop(c);
+/// assert_eq!(seen, [(0, 4.0), (1, 5.0), (0, 6.0)]);
+/// ```
+pub struct Observed<C, F> {
+    inner: C,
+    note: F,
+    tick: usize,
+}
+
+impl<C: core::fmt::Debug, F> core::fmt::Debug for Observed<C, F> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Observed")
+            .field("inner", &self.inner)
+            .field("tick", &self.tick)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<C, F> Observed<C, F> {
+    /// `inner`, with `note` called after each of its actions.
+    pub fn new(inner: C, note: F) -> Self {
+        Observed {
+            inner,
+            note,
+            tick: 0,
+        }
+    }
+}
+
+impl<C: Controller, F: FnMut(usize, &[f32], &[f32])> Controller for Observed<C, F> {
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+    fn observations(&self) -> usize {
+        self.inner.observations()
+    }
+    fn actions(&self) -> usize {
+        self.inner.actions()
+    }
+    fn reset(&mut self) {
+        self.inner.reset();
+        self.tick = 0;
+    }
+    fn act(&mut self, obs: &[f32], action: &mut [f32]) {
+        self.inner.act(obs, action);
+        (self.note)(self.tick, obs, action);
+        self.tick += 1;
+    }
+    fn failure(&mut self) -> Option<Error> {
+        self.inner.failure()
+    }
+}
+
 /// The safe state a loop enters when the blob fails to load: every action is 0.
 #[derive(Clone, Copy, Debug)]
 pub struct SafeState {

@@ -342,44 +342,20 @@ pub fn visited_observations_in(
     scenario: &firmware_sim::nav::scenario::Scenario,
     config: &firmware_sim::nav::test_protocol::EvalConfig,
 ) -> Result<Vec<f32>, Error> {
-    use firmware_sim::controller::BlobPolicy;
+    use firmware_sim::controller::{BlobPolicy, Observed};
     use firmware_sim::nav::test_protocol::evaluate_controller;
     let sim = |e: firmware_sim::Error| Error::Sim {
         context: "calibration episodes".into(),
         message: e.to_string(),
     };
     let inner = BlobPolicy::boot(policy).map_err(sim)?;
-    let mut recording = Recording {
-        inner,
-        seen: Vec::new(),
-    };
+    let mut seen = Vec::new();
+    let mut recording = Observed::new(inner, |_, obs: &[f32], _: &[f32]| {
+        seen.extend_from_slice(obs);
+    });
     evaluate_controller(&mut recording, scenario, config).map_err(sim)?;
-    Ok(recording.seen)
-}
-
-/// A controller that notes every observation it is given, then acts as the one it wraps.
-struct Recording<'a> {
-    inner: firmware_sim::controller::BlobPolicy<'a>,
-    seen: Vec<f32>,
-}
-
-impl firmware_sim::controller::Controller for Recording<'_> {
-    fn name(&self) -> String {
-        self.inner.name()
-    }
-    fn observations(&self) -> usize {
-        self.inner.observations()
-    }
-    fn actions(&self) -> usize {
-        self.inner.actions()
-    }
-    fn reset(&mut self) {
-        self.inner.reset();
-    }
-    fn act(&mut self, obs: &[f32], action: &mut [f32]) {
-        self.seen.extend_from_slice(obs);
-        self.inner.act(obs, action);
-    }
+    drop(recording);
+    Ok(seen)
 }
 
 /// The f32 actor blob `policy` in the integer encoding, calibrated on `observations`

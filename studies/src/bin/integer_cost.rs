@@ -25,7 +25,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use firmware_sim::controller::{BlobPolicy, Controller};
+use firmware_sim::controller::{BlobPolicy, Controller, Observed};
 use firmware_sim::nav::faults::Faults;
 use firmware_sim::nav::scenario::Scenario;
 use firmware_sim::nav::test_protocol::{evaluate, evaluate_controller, EvalConfig, Report};
@@ -106,61 +106,22 @@ const ALONE: [&str; 2] = ["dropout-nan:0.05", "stuck:0@50"];
 /// The tick from which [`FAULTS`]'s stuck actuator holds action 0 (`stuck:0@50`).
 const STUCK_FROM: usize = 50;
 
-/// A controller in the loop that notes, at the tick before the actuator sticks, |action 0| (the
-/// value the actuator then holds for the rest of the episode) and the observation it acted on.
-struct HeldAction<C> {
-    inner: C,
-    tick: usize,
+/// What the loop holds: at the tick before the actuator sticks, |action 0| (the value the
+/// actuator then holds for the rest of the episode) and the observation it acted on.
+#[derive(Default)]
+struct Held {
     held: Vec<f64>,
     states: Vec<f32>,
 }
 
-impl<C: Controller> HeldAction<C> {
-    fn new(inner: C) -> Self {
-        HeldAction {
-            inner,
-            tick: 0,
-            held: Vec::new(),
-            states: Vec::new(),
-        }
-    }
-
+impl Held {
     fn mean_held(&self) -> f64 {
         self.held.iter().sum::<f64>() / self.held.len().max(1) as f64
     }
 }
 
-impl<C: Controller> Controller for HeldAction<C> {
-    fn name(&self) -> String {
-        self.inner.name()
-    }
-    fn observations(&self) -> usize {
-        self.inner.observations()
-    }
-    fn actions(&self) -> usize {
-        self.inner.actions()
-    }
-    fn reset(&mut self) {
-        self.inner.reset();
-        self.tick = 0;
-    }
-    fn act(&mut self, obs: &[f32], action: &mut [f32]) {
-        self.inner.act(obs, action);
-        if self.tick + 1 == STUCK_FROM {
-            self.held
-                .push(f64::from(action.first().copied().unwrap_or(0.0).abs()));
-            self.states.extend_from_slice(obs);
-        }
-        self.tick += 1;
-    }
-}
-
-/// `blob` through the test protocol with `config`, noting what it holds (see [`HeldAction`]).
-fn held_run<'a>(
-    blob: &'a [u8],
-    scenario: &Scenario,
-    config: &EvalConfig,
-) -> Result<HeldAction<BlobPolicy<'a>>, String> {
+/// `blob` through the test protocol with `config`, noting what it holds (see [`Held`]).
+fn held_run(blob: &[u8], scenario: &Scenario, config: &EvalConfig) -> Result<Held, String> {
     let inner = BlobPolicy::boot(blob).map_err(|e| e.to_string())?;
     Ok(held_run_of(inner, scenario, config)?.0)
 }
@@ -170,10 +131,18 @@ fn held_run_of<C: Controller>(
     inner: C,
     scenario: &Scenario,
     config: &EvalConfig,
-) -> Result<(HeldAction<C>, Report), String> {
-    let mut c = HeldAction::new(inner);
+) -> Result<(Held, Report), String> {
+    let mut held = Held::default();
+    let mut c = Observed::new(inner, |tick, obs: &[f32], action: &[f32]| {
+        if tick + 1 == STUCK_FROM {
+            let a0 = action.first().copied().unwrap_or(0.0);
+            held.held.push(f64::from(a0.abs()));
+            held.states.extend_from_slice(obs);
+        }
+    });
     let report = evaluate_controller(&mut c, scenario, config).map_err(|e| e.to_string())?;
-    Ok((c, report))
+    drop(c);
+    Ok((held, report))
 }
 
 /// The mean |action 0| each episode of the stuck-actuator test holds, for `blob`.
