@@ -6,6 +6,9 @@
 //!   box plots over every finished seed's tests.
 //! - Figure 7: steps to the goal (within 0.1 for 10 steps), per agent, with and without walls:
 //!   the mean over seeds of each run's mean, with its 95 % interval.
+//! - Figure 8 (not the paper's): the performance profile of success over the five network
+//!   sizes, per agent: the share of runs whose success is above each threshold, with its 95 %
+//!   stratified bootstrap band, as rliable draws it.
 
 use std::path::Path;
 
@@ -24,7 +27,10 @@ use super::folder::{Finished, Outcome};
 use super::grid::{Agent, Cell, GridRun, Walls, AGENTS};
 use crate::algorithms::Algo;
 use crate::run::folder;
+use crate::stats::aggregate::performance_profile_ci;
+use crate::stats::bootstrap::Interval;
 use crate::stats::student_t::mean_interval;
+use crate::stats::{CONFIDENCE, REPS, SEED};
 use crate::Error;
 
 /// Test starts drawn per panel of figures 4–5.
@@ -406,7 +412,86 @@ fn draw_steps(root: &DrawingArea<SVGBackend<'_>, Shift>, bars: &[Bar], top: f64)
     root.present()
 }
 
-/// Writes the four figures into `dir`, atomically each; returns their file names.
+/// The thresholds of figure 8: success from 0 to 1 in steps of 0.02.
+fn profile_taus() -> Vec<f64> {
+    (0..=50).map(|i| f64::from(i) / 50.0).collect()
+}
+
+/// Figure 8: per agent, the share of its runs over the five sizes (each size weighing the
+/// same) whose success is above each threshold, with the 95 % stratified bootstrap band.
+pub fn success_profile(all: &[(GridRun, Outcome)]) -> Result<String, Error> {
+    let taus = profile_taus();
+    let curves: Vec<(&str, Vec<Interval>)> = AGENTS
+        .iter()
+        .filter_map(|&agent| {
+            let tasks = super::page::size_tasks(all, agent);
+            (!tasks.iter().all(Vec::is_empty)).then(|| {
+                let band = performance_profile_ci(&tasks, &taus, CONFIDENCE, REPS, SEED);
+                (agent.name, band)
+            })
+        })
+        .collect();
+    let mut text = String::new();
+    {
+        let root = SVGBackend::with_string(&mut text, (900, 480)).into_drawing_area();
+        draw_profile(&root, &taus, &curves).map_err(|e| drawing("the success profile", e))?;
+    }
+    Ok(text)
+}
+
+fn draw_profile(
+    root: &DrawingArea<SVGBackend<'_>, Shift>,
+    taus: &[f64],
+    curves: &[(&str, Vec<Interval>)],
+) -> Drawn {
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(root)
+        .caption(
+            "Success over the five network sizes (pinwheel, GR): share of runs above each threshold, 95 % stratified bootstrap band",
+            ("sans-serif", 14),
+        )
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .build_cartesian_2d(0.0..1.0, 0.0..1.02)?;
+    chart
+        .configure_mesh()
+        .x_desc("success threshold τ")
+        .y_desc("share of runs with success > τ")
+        .draw()?;
+    for (i, (name, band)) in curves.iter().enumerate() {
+        let colour = Palette99::pick(i).to_rgba();
+        let upper = taus.iter().zip(band).map(|(&t, b)| (t, b.hi));
+        let lower = taus.iter().zip(band).rev().map(|(&t, b)| (t, b.lo));
+        chart.draw_series(std::iter::once(Polygon::new(
+            upper.chain(lower).collect::<Vec<_>>(),
+            colour.mix(0.12).filled(),
+        )))?;
+        let line: Vec<(f64, f64)> = taus
+            .iter()
+            .zip(band)
+            .map(|(&t, b)| (t, b.estimate))
+            .collect();
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                line,
+                colour.stroke_width(2),
+            )))?
+            .label(*name)
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2))
+            });
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    root.present()
+}
+
+/// Writes the five figures into `dir`, atomically each; returns their file names.
 pub fn write_all(dir: &Path, all: &[(GridRun, Outcome)]) -> Result<Vec<&'static str>, Error> {
     std::fs::create_dir_all(dir).map_err(|source| Error::Io {
         path: dir.to_path_buf(),
@@ -417,6 +502,7 @@ pub fn write_all(dir: &Path, all: &[(GridRun, Outcome)]) -> Result<Vec<&'static 
         (FIGURE_5, trajectories(all, Walls::Without)?),
         (FIGURE_6, settled_error_boxes(all)?),
         (FIGURE_7, steps_to_goal(all)?),
+        (FIGURE_8, success_profile(all)?),
     ];
     for (name, svg) in &figures {
         let path = dir.join(name);
@@ -433,6 +519,8 @@ pub const FIGURE_5: &str = "fig5-trajectories-open.svg";
 pub const FIGURE_6: &str = "fig6-settled-error.svg";
 /// Figure 7's file.
 pub const FIGURE_7: &str = "fig7-steps-to-goal.svg";
+/// Figure 8's file.
+pub const FIGURE_8: &str = "fig8-success-profile.svg";
 
 #[cfg(test)]
 mod tests {
@@ -501,6 +589,33 @@ mod tests {
         assert!(trajectories(&none, Walls::With)
             .expect("in the test")
             .contains("no finished run"));
+    }
+
+    #[test]
+    fn the_profile_draws_a_band_and_a_named_curve_per_agent_with_runs() {
+        let all = oracle_outcomes();
+        let svg = success_profile(&all).expect("in the test");
+        assert_eq!(svg.matches("<polygon").count(), AGENTS.len());
+        for agent in AGENTS {
+            assert!(
+                svg.contains(&format!(">\n{}\n<", agent.name)),
+                "{}",
+                agent.name
+            );
+        }
+        let none: Vec<_> = all
+            .into_iter()
+            .map(|(run, _)| (run, Outcome::Missing))
+            .collect();
+        assert_eq!(
+            success_profile(&none)
+                .expect("in the test")
+                .matches("<polygon")
+                .count(),
+            0
+        );
+        assert_eq!(profile_taus().first(), Some(&0.0));
+        assert_eq!(profile_taus().last(), Some(&1.0));
     }
 
     #[test]

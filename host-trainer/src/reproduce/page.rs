@@ -630,26 +630,30 @@ fn judge_paired<A: AsRef<[f64]>>(
     judge(&runs, &alts, pre, exact)
 }
 
+/// The success of every run of `agent`'s five network sizes (pinwheel, GR), one list per size:
+/// Table 1's cells as the tasks of an aggregate.
+pub fn size_tasks(all: &[(GridRun, Outcome)], agent: Agent) -> Vec<Vec<f64>> {
+    SIZES
+        .iter()
+        .map(|&size| {
+            let cell = Cell {
+                size,
+                ..Cell::headline(agent)
+            };
+            CellRuns::of(all, &cell)
+                .success()
+                .iter()
+                .map(|s| s.1)
+                .collect()
+        })
+        .collect()
+}
+
 /// Table 1's cells as tasks: per agent, the interquartile mean of success over every run of
 /// its five network sizes, and the probability that a run of it beats a run of DDPG at the
 /// same size, each with a stratified bootstrap interval (runs resampled within each size).
 pub fn sizes_aggregate(all: &[(GridRun, Outcome)]) -> String {
-    let tasks = |agent: Agent| -> Vec<Vec<f64>> {
-        SIZES
-            .iter()
-            .map(|&size| {
-                let cell = Cell {
-                    size,
-                    ..Cell::headline(agent)
-                };
-                CellRuns::of(all, &cell)
-                    .success()
-                    .iter()
-                    .map(|s| s.1)
-                    .collect()
-            })
-            .collect()
-    };
+    let tasks = |agent: Agent| size_tasks(all, agent);
     let ddpg = tasks(Agent::named("ddpg").expect("ddpg is an agent"));
     let mut t = String::from(
         "| agent | runs | IQM of success [95 % stratified bootstrap] | P(a run beats DDPG's at the same size) [95 %] |\n|---|---|---|---|\n",
@@ -755,7 +759,9 @@ pub fn body(grid: &Grid, all: &[(GridRun, Outcome)]) -> String {
          over the runs of an agent's five sizes, and the probability that a run of it beats a \
          run of DDPG at the same size (averaged over sizes, a tie counting half), each with a \
          95 % stratified bootstrap interval ({REPS} resamples of the runs within each size, \
-         seed {SEED}), as rliable computes them.\n\n{}",
+         seed {SEED}), as rliable computes them. Figure 8 draws the whole distribution behind \
+         them: for each threshold τ, the share of an agent's runs (each size weighing the \
+         same) whose success is above τ, with its band from the same resamples.\n\n{}",
         sizes_aggregate(all)
     );
     let _ = writeln!(

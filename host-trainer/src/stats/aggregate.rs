@@ -1,5 +1,6 @@
-//! Aggregates over runs and tasks as rliable computes them: the interquartile mean and the
-//! probability of improvement, each with its stratified bootstrap interval.
+//! Aggregates over runs and tasks as rliable computes them: the interquartile mean, the
+//! probability of improvement and the performance profile, each with its stratified bootstrap
+//! interval.
 //!
 //! Why these: over few runs the mean is pulled by one outlying seed and the median ignores all
 //! but one or two; the interquartile mean (the mean of the middle half) is as robust as the
@@ -95,4 +96,57 @@ pub fn probability_of_improvement_ci(
             / tasks as f64
     };
     stratified_bootstrap_ci(&strata, average, confidence, reps, seed)
+}
+
+/// The performance profile at `tau` (rliable's run-score distribution): the share of runs whose
+/// score is above `tau`, averaged over tasks, so that each task weighs the same whatever its
+/// number of runs. Tasks without runs are left out; `NaN` if none has any.
+///
+/// ```
+/// use host_trainer::stats::aggregate::performance_profile;
+/// let tasks = vec![vec![0.2, 0.6, 1.0, 1.0], vec![0.0, 0.9]];
+/// assert_eq!(performance_profile(&tasks, 0.5), (3.0 / 4.0 + 1.0 / 2.0) / 2.0);
+/// assert_eq!(performance_profile(&tasks, 1.0), 0.0); // strictly above
+/// assert_eq!(performance_profile(&tasks, -1.0), 1.0);
+/// ```
+pub fn performance_profile(tasks: &[Vec<f64>], tau: f64) -> f64 {
+    let shares: Vec<f64> = tasks
+        .iter()
+        .filter(|t| !t.is_empty())
+        .map(|t| t.iter().filter(|&&x| x > tau).count() as f64 / t.len() as f64)
+        .collect();
+    shares.iter().sum::<f64>() / shares.len() as f64
+}
+
+/// [`performance_profile`] at each of `taus`, each with its stratified bootstrap interval. Every
+/// `tau` draws the same resamples (the same stream `seed`), so the band is one set of
+/// replicates read at each threshold, as rliable draws it.
+///
+/// ```
+/// use host_trainer::stats::aggregate::performance_profile_ci;
+/// let tasks = vec![vec![0.2, 0.6, 1.0, 1.0], vec![0.0, 0.9, 0.95]];
+/// let band = performance_profile_ci(&tasks, &[0.0, 0.5, 0.99], 0.95, 2_000, 0);
+/// assert_eq!(band.len(), 3);
+/// // Never rising with the threshold, each estimate within its interval.
+/// assert!(band.windows(2).all(|w| w[1].estimate <= w[0].estimate));
+/// assert!(band.iter().all(|i| i.lo <= i.estimate && i.estimate <= i.hi && i.hi <= 1.0));
+/// ```
+pub fn performance_profile_ci(
+    tasks: &[Vec<f64>],
+    taus: &[f64],
+    confidence: f64,
+    reps: usize,
+    seed: u64,
+) -> Vec<Interval> {
+    taus.iter()
+        .map(|&tau| {
+            stratified_bootstrap_ci(
+                tasks,
+                |t| performance_profile(t, tau),
+                confidence,
+                reps,
+                seed,
+            )
+        })
+        .collect()
 }
