@@ -6,6 +6,7 @@
 
 use crate::format::{ModelKind, Shape};
 use crate::mlp::activation::Activation;
+use crate::mlp::integer::IntegerDense;
 
 /// Entries of an activation table: one per int8 code, `table[code + 128]`.
 pub const TABLE_LEN: usize = 256;
@@ -114,6 +115,31 @@ impl IntegerLayer {
             table,
             end,
         })
+    }
+
+    /// The layer's parts in `payload` (the verified integer payload it was laid out in), as
+    /// the integer forward pass reads them. A layer without a table is a ReLU layer when `relu`
+    /// (a hidden layer of a ReLU network), whose clamp starts at its zero point: the fused
+    /// ReLU. Parts past the payload's end read as empty (a verified payload holds them all).
+    pub fn dense<'a>(&self, payload: &'a [u8], relu: bool) -> IntegerDense<'a> {
+        let part = |from: usize, to: usize| payload.get(from..to).unwrap_or_default();
+        let output_zero = part(self.zero, self.zero + 4)
+            .try_into()
+            .map_or(0, i32::from_le_bytes);
+        let table = self.table.map(|at| part(at, at + TABLE_LEN));
+        IntegerDense {
+            multipliers: part(self.multipliers, self.shifts),
+            shifts: part(self.shifts, self.shift_padding),
+            weights: part(self.weights, self.weight_padding),
+            bias: part(self.bias, self.bias + 4 * self.outputs),
+            output_zero,
+            lower: if relu && table.is_none() {
+                output_zero
+            } else {
+                -128
+            },
+            table,
+        }
     }
 }
 

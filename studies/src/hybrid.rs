@@ -20,7 +20,7 @@
 use std::ops::Range;
 
 use firmware_sim::controller::Controller;
-use policy_core::blob::{self, IntegerLayer, Quantisation, TABLE_LEN};
+use policy_core::blob::{self, IntegerLayer, Quantisation};
 use policy_core::mlp::integer::{unit_of_code, IntegerDense};
 use policy_core::mlp::{accumulate_bytes, squash, Activation};
 use policy_core::model::Model;
@@ -159,7 +159,7 @@ impl<'a> Hybrid<'a> {
             let weights = &values[at..at + layer.inputs * layer.outputs];
             let bias = &values[at + weights.len()..at + weights.len() + layer.outputs];
             at += weights.len() + layer.outputs;
-            let integer = dense(payload, &layer, h.activation);
+            let integer = layer.dense(payload, h.activation == Activation::Relu);
             let next = match layer.table {
                 Some(_) => UNIT,
                 None => Quantisation {
@@ -267,28 +267,6 @@ fn word(payload: &[u8], at: usize) -> [u8; 4] {
         .get(at..at + 4)
         .and_then(|b| b.try_into().ok())
         .unwrap_or_default()
-}
-
-/// Layer `layer` of the verified integer payload as policy-core's integer pass reads it
-/// (`Model::integer_dense`): a layer without a table is a ReLU layer whose clamp starts at its
-/// zero point (the fused ReLU).
-fn dense<'a>(payload: &'a [u8], layer: &IntegerLayer, activation: Activation) -> IntegerDense<'a> {
-    let part = |from: usize, to: usize| payload.get(from..to).unwrap_or_default();
-    let output_zero = i32::from_le_bytes(word(payload, layer.zero));
-    let table = layer.table.map(|at| part(at, at + TABLE_LEN));
-    IntegerDense {
-        multipliers: part(layer.multipliers, layer.shifts),
-        shifts: part(layer.shifts, layer.shift_padding),
-        weights: part(layer.weights, layer.weight_padding),
-        bias: part(layer.bias, layer.bias + 4 * layer.outputs),
-        output_zero,
-        lower: if activation == Activation::Relu && table.is_none() {
-            output_zero
-        } else {
-            -128
-        },
-        table,
-    }
 }
 
 /// A layer's output scale, from its input scale, the f32 weights (column-major) and the stored

@@ -106,15 +106,7 @@ pub(crate) fn reproduce_command(args: ReproduceArgs) -> Result<ExitCode> {
     else {
         return Ok(ExitCode::from(INTERRUPTED));
     };
-    outln!(
-        "part {slice} of {}: {} runs, {} trained, {} already finished, {} failed, {:.0} s",
-        grid.describe(),
-        part.runs,
-        part.finished,
-        part.skipped,
-        part.failed,
-        part.wall_seconds
-    );
+    outln!("part {slice} of {}: {}", grid.describe(), part.tally());
     if slice != Slice::WHOLE {
         outln!(
             "when every part has run: host-trainer reproduce {} --out {} --merge",
@@ -167,15 +159,7 @@ fn added_seeds(args: &ReproduceArgs, grid: &Grid) -> Result<ExitCode> {
     else {
         return Ok(ExitCode::from(INTERRUPTED));
     };
-    outln!(
-        "the added seeds of {}: {} runs, {} trained, {} already finished, {} failed, {:.0} s",
-        grid.describe(),
-        part.runs,
-        part.finished,
-        part.skipped,
-        part.failed,
-        part.wall_seconds
-    );
+    outln!("the added seeds of {}: {}", grid.describe(), part.tally());
     let code = merge(&args.out, grid)?;
     Ok(if part.failed > 0 {
         ExitCode::FAILURE

@@ -1,12 +1,12 @@
 //! Running an [`Encoding::Integer`] actor: the float entry ([`Model::act`] and the other actor
 //! methods, which quantise the observation and dequantise the action with a few float
 //! operations per component) and the integer entry ([`Model::act_codes_in`], no float at all),
-//! both through one integer forward pass ([`IntegerDense`]).
+//! both through one integer forward pass ([`IntegerDense`](crate::mlp::integer::IntegerDense)).
 
 use super::Model;
-use crate::blob::{self, Encoding, IntegerLayer, ModelKind};
+use crate::blob::{self, Encoding, ModelKind};
 use crate::error::Error;
-use crate::mlp::integer::{observation_code, unit_of_code, IntegerDense};
+use crate::mlp::integer::{observation_code, unit_of_code};
 use crate::Activation;
 
 impl Model<'_> {
@@ -143,7 +143,7 @@ impl Model<'_> {
         let relu = h.activation == Activation::Relu;
         let mut outputs = 0;
         blob::integer_layers(h.kind, h.shape, h.activation, |_, layer| {
-            let dense = self.integer_dense(&layer, relu);
+            let dense = layer.dense(self.payload, relu);
             // The input vector is the working space of the pass's kernel (the next layer
             // writes its outputs there anyway): no scratch beyond the two vectors.
             let xs = x.get_mut(..layer.inputs).unwrap_or_default();
@@ -158,28 +158,5 @@ impl Model<'_> {
         });
         // After the last swap the output layer's codes are in `x`.
         x.get(..outputs).unwrap_or_default()
-    }
-
-    /// One layer's parts, as [`IntegerDense`] reads them. A layer without a table is a
-    /// ReLU layer, whose clamp starts at its zero point (the fused ReLU).
-    fn integer_dense(&self, layer: &IntegerLayer, relu: bool) -> IntegerDense<'_> {
-        let part = |from: usize, to: usize| self.payload.get(from..to).unwrap_or_default();
-        let output_zero = part(layer.zero, layer.zero + 4)
-            .try_into()
-            .map_or(0, i32::from_le_bytes);
-        let table = layer.table.map(|at| part(at, at + blob::TABLE_LEN));
-        IntegerDense {
-            multipliers: part(layer.multipliers, layer.shifts),
-            shifts: part(layer.shifts, layer.shift_padding),
-            weights: part(layer.weights, layer.weight_padding),
-            bias: part(layer.bias, layer.bias + 4 * layer.outputs),
-            output_zero,
-            lower: if relu && table.is_none() {
-                output_zero
-            } else {
-                -128
-            },
-            table,
-        }
     }
 }
