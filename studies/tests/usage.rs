@@ -11,6 +11,7 @@ fn no_arguments_is_a_usage_error() {
         (env!("CARGO_BIN_EXE_integer-cost"), "integer-cost"),
         (env!("CARGO_BIN_EXE_compare-in-loop"), "compare-in-loop"),
         (env!("CARGO_BIN_EXE_restat"), "restat"),
+        (env!("CARGO_BIN_EXE_cmsis-nn-header"), "cmsis-nn-header"),
     ] {
         let out = study(binary, &[]);
         assert!(!out.status.success(), "{name}");
