@@ -19,9 +19,10 @@
 # every case under QEMU's mps2-an386. Prints a table; exits 1 if either pass's codes differ from
 # the host's, 2 on a usage error.
 set -euo pipefail
-cmsis=${1:?usage: scripts/bench-cmsis-nn.sh CMSIS_NN_DIR [INTEGER_BLOB]}
+case $# in 1|2) ;; *) echo "usage: scripts/bench-cmsis-nn.sh CMSIS_NN_DIR [INTEGER_BLOB]" >&2; exit 2 ;; esac
+cmsis=$(realpath -m "$1")
+[ $# -lt 2 ] || set -- "$1" "$(realpath -m "$2")"
 cd "$(dirname "$0")/.."
-ROOT=$PWD
 blob=${2:-models/nav-walls__dcp-paper__0-integer.postcard}
 [ -f "$cmsis/Include/arm_nnfunctions.h" ] || { echo "bench-cmsis-nn: $cmsis holds no Include/arm_nnfunctions.h: not a CMSIS-NN checkout" >&2; exit 2; }
 [ -f "$blob" ] || { echo "bench-cmsis-nn: no blob $blob" >&2; exit 2; }

@@ -111,8 +111,11 @@ fn cmsis_layers(bytes: &[u8]) -> Result<Vec<CmsisLayer>> {
     Ok(layers)
 }
 
+/// One row of int8 codes per case.
+type Codes = Vec<Vec<i8>>;
+
 /// The test cases: input codes and the unit codes policy-core's integer entry computes.
-fn cases(bytes: &[u8]) -> Result<(Vec<Vec<i8>>, Vec<Vec<i8>>)> {
+fn cases(bytes: &[u8]) -> Result<(Codes, Codes)> {
     let model = Model::from_blob(bytes).context("the blob does not load")?;
     let h = model.header();
     let (s, a) = (h.shape.observations as usize, h.shape.actions as usize);
