@@ -202,20 +202,48 @@ impl IntegerDense<'_> {
         }
     }
 
-    /// [`IntegerDense::requantise`] with the multipliers read by `multipliers`.
+    /// [`IntegerDense::requantise`] with the multipliers read by `multipliers`: the table's
+    /// presence is tested once for the layer, not once per output.
     #[inline(always)]
     fn requantise_by(&self, y: &mut [i32], multipliers: impl Iterator<Item = i32>) {
+        match self.table {
+            Some(table) => self.requantise_with(y, multipliers, |code| lookup(table, code)),
+            None => self.requantise_with(y, multipliers, |code| code),
+        }
+    }
+
+    /// Each accumulator requantised (a verified multiplier is at least 2^30, so the doubling
+    /// high multiply's one saturating case cannot occur: [`doubling_high_mul_of_verified`]),
+    /// offset by the output zero point, clamped, then mapped by `finish`.
+    #[inline(always)]
+    fn requantise_with(
+        &self,
+        y: &mut [i32],
+        multipliers: impl Iterator<Item = i32>,
+        finish: impl Fn(i32) -> i32,
+    ) {
         for (acc, (multiplier, &shift)) in y.iter_mut().zip(multipliers.zip(self.shifts)) {
-            let scaled = multiply_by_quantized_multiplier(*acc, multiplier, i32::from(shift as i8));
+            let high = doubling_high_mul_of_verified(*acc, multiplier);
+            let scaled = rounding_divide_by_pot(high, i32::from(shift as i8).unsigned_abs());
             let code = scaled
                 .saturating_add(self.output_zero)
                 .clamp(self.lower, 127);
-            *acc = match self.table {
-                Some(table) => lookup(table, code),
-                None => code,
-            };
+            *acc = finish(code);
         }
     }
+}
+
+/// [`saturating_rounding_doubling_high_mul`] without its test for the one saturating case, `a =
+/// b = i32::MIN`: equal to it whenever `b > i32::MIN`, as every multiplier the loader accepts is
+/// (at least [`MIN_MULTIPLIER`](crate::blob::MIN_MULTIPLIER), 2^30). CMSIS-NN's requantisation
+/// (`arm_nn_doubling_high_mult_no_sat`) leaves the test out likewise; it is five instructions of
+/// each output's requantisation on the Cortex-M4. For `a = b = i32::MIN` (no verified layer) the
+/// result wraps to `i32::MIN` rather than saturating; it never panics.
+#[inline(always)]
+fn doubling_high_mul_of_verified(a: i32, b: i32) -> i32 {
+    // |ab| ≤ 2^62, so the sum does not overflow; the quotient fits in i32 except for the case
+    // above, which `as` wraps.
+    ((i64::from(a) * i64::from(b) + (1 << 30)) >> 31) as i32
 }
 
 /// `bytes` as i32 words in place where they start at a 4-byte boundary (every block of the
@@ -368,8 +396,8 @@ pub fn unit_of_code(code: i32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::{
-        accumulate_in_blocks, rounding_divide_by_pot, saturating_rounding_doubling_high_mul,
-        IntegerDense,
+        accumulate_in_blocks, doubling_high_mul_of_verified, rounding_divide_by_pot,
+        saturating_rounding_doubling_high_mul, IntegerDense,
     };
 
     /// gemmlowp's `SaturatingRoundingDoublingHighMul` as it is written there: the nudge by
@@ -476,6 +504,15 @@ mod tests {
                 srdhm_transcribed(a, b),
                 "srdhm({a}, {b})"
             );
+            // The requantisation's version without the saturation test, for every multiplier
+            // but the one the loader refuses and the test exists for.
+            if b != i32::MIN {
+                assert_eq!(
+                    doubling_high_mul_of_verified(a, b),
+                    srdhm_transcribed(a, b),
+                    "without the test: ({a}, {b})"
+                );
+            }
             for exponent in [0, 1, 2, 7, 15, 30, 31, 32, 40] {
                 assert_eq!(
                     rounding_divide_by_pot(a, exponent),
