@@ -195,6 +195,7 @@ ALL_VARIANTS=(
   c-m0-4x48:$M0:4x48-tanh:release:::c
   c-m0-4x48-relu-int8:$M0:4x48-relu-int8:release:::c
   c-m0-integer:$M0:trained-integer:release:::c
+  m0-integer-minimal:$M0:trained-integer:release::integer:m0
   rv32-trained:$RV32:trained
   rv32-trained-f16:$RV32:trained-f16
   rv32-trained-int8:$RV32:trained-int8
@@ -735,7 +736,19 @@ for spec in "${ALL_VARIANTS[@]}"; do
   dir=$WORK/variants/$name; mkdir -p "$dir"; rm -f "$dir"/*.log "$dir/resources.json"
   blob=$(blob_for "$which")
 
-  if [ "${firmware:-rust}" = c ]; then
+  if [ "${firmware:-rust}" = m0 ]; then
+    # firmware-m0/: its own crate (policy-core with `integer` alone, opt-level "z"), no features.
+    step "$name: build firmware-m0 ($target, opt-level z, integer only; no blob inside)"
+    if ! (cd "$ROOT/firmware-m0" && "${FW_ENV[@]}" cargo build --release --locked -Zbuild-std=core --target "$target" 2>&1 \
+          | { grep -vE '^ +(Compiling|Downloaded|Downloading|Locking|Adding|Updating|Finished)' || true; } ); then
+      FAILED+=("$name: build"); continue
+    fi
+    cp "$WORK/fw/$target/release/policy-firmware-m0" "$dir/firmware.elf" || { FAILED+=("$name: build produced no ELF"); continue; }
+    # No soft-float routine may be linked: the firmware runs the integer entry from codes.
+    if nm "$dir/firmware.elf" | grep -E ' __aeabi_[fd](add|sub|mul|div|cmp|2|to)| __(add|sub|mul|div)[sd]f3' >"$dir/float.txt"; then
+      FAILED+=("$name: soft-float routines linked: $(awk '{print $3}' "$dir/float.txt" | tr '\n' ' ')"); continue
+    fi
+  elif [ "${firmware:-rust}" = c ]; then
     step "$name: build the C firmware ($target; policy-core-ffi, profile $profile; no blob inside), and again with -DMEASURE_CALLS"
     if ! build_c_firmware "$target" "$dir/firmware.elf"; then FAILED+=("$name: build"); continue; fi
     # The same firmware that then measures the stack of each call of the C API: a build of its
@@ -795,8 +808,9 @@ for spec in "${ALL_VARIANTS[@]}"; do
     fi
     calls_args=(--calls-log "$dir/calls/firmware.log")
   fi
+  opt_level=${OPT_LEVEL[$profile]}; [ "${firmware:-rust}" = m0 ] && opt_level=z # firmware-m0's own release profile
   if ! "$HC" measure --variant "$name" --target "$target" --machine "$machine" --cpu "$cpu" --blob "$blob" --image "$dir/slot-a.bin" \
-        --profile "$profile" --opt-level "${OPT_LEVEL[$profile]}" --encodings "${encodings:-f32,f16,int8}" --sizes "$dir/sizes.txt" --fw-log "$dir/firmware.log" "${main_plugin_log[@]}" "${critic_args[@]}" "${calls_args[@]}" --out "$dir/resources.json"; then
+        --profile "$profile" --opt-level "$opt_level" --encodings "${encodings:-f32,f16,int8}" --sizes "$dir/sizes.txt" --fw-log "$dir/firmware.log" "${main_plugin_log[@]}" "${critic_args[@]}" "${calls_args[@]}" --out "$dir/resources.json"; then
     FAILED+=("$name: measurement"); continue
   fi
   if [ "${firmware:-rust}" = c ]; then
