@@ -36,6 +36,12 @@
 # discrete-2x8-relu-f32. The c-m0-* variants run the C firmware on a
 # Cortex-M0 (thumbv6m-none-eabi, QEMU's microbit: an nRF51822, 256 KiB of flash, 16 KiB of
 # RAM; the layout of firmware-c/nrf51/memory.x, 88 KiB slots).
+# m0-integer-minimal runs firmware-m0/, the whole Cortex-M0 firmware at its smallest (its own
+# crate: policy-core with `integer` and `small-crc` alone, opt-level "z", no core::fmt): A/B
+# slots with full verification, the trained integer actor run from ten fixed observation codes
+# through the integer entry (Model::act_codes_in), no float arithmetic in the image (the build
+# fails the variant if nm finds a soft-float routine); host-check checks its unit codes against
+# the host's integer entry.
 # The rv32-* variants run the same Rust firmware on a RISC-V RV32IMAC without an FPU
 # (riscv32imac-unknown-none-elf, riscv-rt; QEMU's sifive_e, a SiFive FE310: flash from
 # 0x20400000, 16 KiB of RAM; the layout of firmware/fe310/memory.x, 128 KiB slots), with
@@ -140,9 +146,9 @@ QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
 # REFINE_T=T, --refine-run's critic in its CRITIC region. encodings: the weight encodings the
 # firmware is built to run, comma-separated (`--no-default-features --features LIST`); default
 # all three (f32, f16, int8; `integer` is opt-in). firmware: rust (firmware/, the default),
-# stm32f405 (firmware/ with feature stm32f405: the board's memory map and USART1 console) or c
-# (firmware-c/ linked with
-# policy-core-ffi's static library built with the profile).
+# stm32f405 (firmware/ with feature stm32f405: the board's memory map and USART1 console), c
+# (firmware-c/ linked with policy-core-ffi's static library built with the profile) or m0
+# (firmware-m0/, its own release profile at opt-level "z"; encodings then only labels the report).
 M4F=thumbv7em-none-eabihf:mps2-an386:cortex-m4
 M3=thumbv7m-none-eabi:mps2-an385:cortex-m3
 M0=thumbv6m-none-eabi:microbit:cortex-m0

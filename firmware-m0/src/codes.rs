@@ -26,15 +26,15 @@ pub const CODES: [[i8; 2]; 10] = [
 pub const CASES: usize = CODES.len();
 
 /// Observation `k` (below [`CASES`]) for a blob of `codes.len()` observations: component `j` is
-/// the table's row `k + j / 2` (wrapping), column `j % 2`. Rows wrap by subtraction: the
-/// Cortex-M0 has no divide instruction, and `%` would link a software division.
+/// the table's row `k + j / 2` (wrapping), column `j % 2`. Rows wrap by a compare: the
+/// Cortex-M0 has no divide instruction, and `%` would call a software division.
 pub fn fill(k: usize, codes: &mut [i8]) {
     let mut row = k;
     for pair in codes.chunks_mut(2) {
-        while row >= CASES {
+        if row >= CASES {
             row -= CASES;
         }
-        for (c, &code) in pair.iter_mut().zip(&CODES[row]) {
+        for (c, &code) in pair.iter_mut().zip(CODES.get(row).unwrap_or(&[0, 0])) {
             *c = code;
         }
         row += 1;
