@@ -827,6 +827,52 @@ for spec in "${ALL_VARIANTS[@]}"; do
 done
 
 #--------------------------------------------------------------------------------------------------
+# A/B slot cases of firmware-m0 (after m0-integer-minimal ran): the same choice on the M0's own
+# build and layout, the trained integer blob in slot A, a generated integer 4x48 in slot B. Its
+# failed slots print no reason (no core::fmt in that firmware), so the cases check which slot
+# runs, that slot's codes bit-exact against its blob, or the safe state.
+M0_SLOT_JSONS=()
+if [ "$SLOT_CASES" = 1 ] && [ -n "$INTEGER_BLOB" ] && [ -f "$WORK/variants/m0-integer-minimal/resources.json" ] \
+    && printf '%s\n' "${SELECTED[@]}" | grep -qx m0-integer-minimal; then
+  step "slot cases of firmware-m0: the slot images"
+  IFS=: read -r target machine cpu <<<"$M0"
+  m0_elf=$WORK/variants/m0-integer-minimal/firmware.elf
+  M0_A=$(slot_addr "$m0_elf" a); M0_B=$(slot_addr "$m0_elf" b)
+  S0=$WORK/slots-m0; I0=$S0/img; mkdir -p "$I0"
+  M0_GOOD_B=$WORK/blobs/actor_4x48-relu-integer-seed5.postcard
+  "$HC" gen 4x48 "$M0_GOOD_B" --activation relu --encoding integer --seed 5 >/dev/null
+  "$HC" image "$INTEGER_BLOB" "$I0/a1.bin" --sequence 1 >/dev/null
+  "$HC" image "$M0_GOOD_B" "$I0/b2.bin" --sequence 2 >/dev/null
+  "$HC" image "$(blob_for 2x32-relu)" "$I0/b2-f32.bin" --sequence 2 >/dev/null
+  "$HC" damage "$I0/a1.bin" "$I0/a1-flipped.bin" --flip 216 >/dev/null
+  "$HC" damage "$I0/b2.bin" "$I0/b2-flipped.bin" --flip 216 >/dev/null
+  # name:expect:blob that runs (or -):slot A image (or -):slot B image
+  for c in "m0-a-only:A:$INTEGER_BLOB:a1.bin:-" "m0-b-newer:B:$M0_GOOD_B:a1.bin:b2.bin" \
+      "m0-b-flipped-byte:A:$INTEGER_BLOB:a1.bin:b2-flipped.bin" "m0-b-f32:A:$INTEGER_BLOB:a1.bin:b2-f32.bin" \
+      "m0-a-empty:B:$M0_GOOD_B:-:b2.bin" "m0-both-bad:safe:-:a1-flipped.bin:b2-flipped.bin"; do
+    IFS=: read -r cname expect runs img_a img_b <<<"$c"
+    step "slot case $cname: expect $expect"
+    dir=$S0/$cname; mkdir -p "$dir"; cp "$m0_elf" "$dir/firmware.elf"
+    loads=()
+    [ "$img_a" = - ] || loads+=("$M0_A" "$I0/$img_a")
+    [ "$img_b" = - ] || loads+=("$M0_B" "$I0/$img_b")
+    set +e
+    run_qemu "$dir" "$machine" "$cpu" "${loads[@]}"
+    rc=$?
+    set -e
+    want_rc=0; [ "$expect" = safe ] && want_rc=1
+    if [ $rc != $want_rc ]; then
+      tail -n 5 "$dir/firmware.log"
+      FAILED+=("slot case $cname: QEMU exit status $rc, expected $want_rc"); continue
+    fi
+    args=(--name "$cname" --expect "$expect" --fw-log "$dir/firmware.log" "${plugin_log[@]}" --out "$dir/case.json")
+    [ "$runs" = - ] || args+=(--blob "$runs")
+    if ! "$HC" slot-case "${args[@]}"; then FAILED+=("slot case $cname"); continue; fi
+    M0_SLOT_JSONS+=("$dir/case.json")
+  done
+fi
+
+#--------------------------------------------------------------------------------------------------
 # A/B slot cases on the M4F (release): the same firmware, other slot contents. Each case names
 # the slot that must run (its actions checked bit-exact against that slot's blob on the host) or
 # the safe state (zero actions, both slots' reasons, exit status 1), and the reason a skipped slot
@@ -932,6 +978,10 @@ if [ ${#SLOT_JSONS[@]} -gt 0 ]; then
   echo "slot cases (M4F, release; boot = choosing and verifying, in instructions):"
   "$HC" slot-table "${OUT%.json}-slots.md" "${SLOT_JSONS[@]}"
 fi
+if [ ${#M0_SLOT_JSONS[@]} -gt 0 ]; then
+  echo "slot cases of firmware-m0 (Cortex-M0; boot = choosing and verifying, in instructions):"
+  "$HC" slot-table "${OUT%.json}-slots-m0.md" "${M0_SLOT_JSONS[@]}"
+fi
 step done
 echo "report: $OUT (table: ${OUT%.json}.md)"
 echo "timings:"; printf '  %s\n' "${TIMINGS[@]}"
@@ -940,4 +990,4 @@ if [ ${#FAILED[@]} -gt 0 ]; then
   printf 'FAILED: %s\n' "${FAILED[@]}" >&2
   exit 1
 fi
-echo "RESULT: PASS (${#JSONS[@]} variants bit-exact with the host; ${#SLOT_JSONS[@]} slot cases as expected)"
+echo "RESULT: PASS (${#JSONS[@]} variants bit-exact with the host; $(( ${#SLOT_JSONS[@]} + ${#M0_SLOT_JSONS[@]} )) slot cases as expected)"
