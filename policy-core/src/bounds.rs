@@ -127,16 +127,11 @@ pub(crate) fn check(
     high: impl Iterator<Item = f32>,
 ) -> Result<(), Error> {
     for (index, (lo, hi)) in low.zip(high).enumerate() {
-        let (inverted, too_wide) = if FLOAT_ENCODINGS {
-            float_rules(lo, hi)
-        } else {
-            integer_rules(lo, hi)
-        };
         let what = if !lo.is_finite() || !hi.is_finite() {
             "non-finite action bound"
-        } else if inverted {
+        } else if inverted(lo, hi) {
             "action bound low > high"
-        } else if too_wide {
+        } else if too_wide(lo, hi) {
             "action bounds too wide for f32"
         } else {
             continue;
@@ -149,26 +144,30 @@ pub(crate) fn check(
 /// Whether this build reads a float encoding, and so links float arithmetic anyway.
 ///
 /// The bounds rules are float rules, decided two ways with the same outcome for every pair of
-/// finite values (tested): by the float expressions ([`float_rules`]), or on the values' bits
-/// with integer arithmetic only ([`integer_rules`]). A build with the integer encoding alone
-/// takes the integer route, so that an integer blob's verification links no software float
-/// routine on a chip without an FPU (firmware-m0: `__aeabi_fcmpgt`, `__aeabi_fsub` and
-/// `__aeabi_fadd`, 508 B of its flash). A build that reads f32, f16 or int8 weights has float
-/// arithmetic in its kernels anyway, and there the float expressions are smaller (the integer
-/// route added 796 B to the M4F firmware with every encoding, 496 B to the C firmware on the M0).
+/// finite values (tested): by the float expressions, or on the values' bits with integer
+/// arithmetic only ([`above`], [`sum_overflows`]). A build with the integer encoding alone takes
+/// the integer route, so that an integer blob's verification links no software float routine
+/// on a chip without an FPU (firmware-m0: `__aeabi_fcmpgt`, `__aeabi_fsub` and `__aeabi_fadd`,
+/// 508 B of its flash). A build that reads f32, f16 or int8 weights has float arithmetic in its
+/// kernels anyway, and there the float expressions are smaller.
 const FLOAT_ENCODINGS: bool = cfg!(any(feature = "f32", feature = "f16", feature = "int8"));
 
-/// (`low > high`, `high - low` or `high + low` not finite), for finite `lo` and `hi`.
-fn float_rules(lo: f32, hi: f32) -> (bool, bool) {
-    (lo > hi, !(hi - lo).is_finite() || !(hi + lo).is_finite())
+/// `lo > hi`, for finite values.
+fn inverted(lo: f32, hi: f32) -> bool {
+    if FLOAT_ENCODINGS {
+        lo > hi
+    } else {
+        above(lo, hi)
+    }
 }
 
-/// [`float_rules`] on the bits, with integer arithmetic only.
-fn integer_rules(lo: f32, hi: f32) -> (bool, bool) {
-    (
-        above(lo, hi),
-        sum_overflows(hi, negated(lo)) || sum_overflows(hi, lo),
-    )
+/// `hi - lo` or `hi + lo` not finite, for finite values.
+fn too_wide(lo: f32, hi: f32) -> bool {
+    if FLOAT_ENCODINGS {
+        !(hi - lo).is_finite() || !(hi + lo).is_finite()
+    } else {
+        sum_overflows(hi, negated(lo)) || sum_overflows(hi, lo)
+    }
 }
 
 /// `-x`, by its sign bit.
@@ -232,8 +231,17 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    use float_rules as reference;
-    use integer_rules as integer;
+    /// The float rules the integer ones decide.
+    fn reference(lo: f32, hi: f32) -> (bool, bool) {
+        (lo > hi, !(hi - lo).is_finite() || !(hi + lo).is_finite())
+    }
+
+    fn integer(lo: f32, hi: f32) -> (bool, bool) {
+        (
+            above(lo, hi),
+            sum_overflows(hi, negated(lo)) || sum_overflows(hi, lo),
+        )
+    }
 
     /// Finite floats spread over every binade, with the largest ones (where sums overflow) and
     /// the zeros and subnormals (where the order has its edge cases) drawn often.
