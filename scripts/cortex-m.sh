@@ -37,7 +37,8 @@
 # Cortex-M0 (thumbv6m-none-eabi, QEMU's microbit: an nRF51822, 256 KiB of flash, 16 KiB of
 # RAM; the layout of firmware-c/nrf51/memory.x, 88 KiB slots).
 # m0-integer-minimal runs firmware-m0/, the whole Cortex-M0 firmware at its smallest (its own
-# crate: policy-core with `integer` and `small-crc` alone, opt-level "z", no core::fmt): A/B
+# crate: policy-core with `integer`, `small-crc` and `float-free-verify` alone, opt-level "z",
+# no core::fmt): A/B
 # slots with full verification, the trained integer actor run from ten fixed observation codes
 # through the integer entry (Model::act_codes_in), no float arithmetic in the image (the build
 # fails the variant if nm finds a soft-float routine); host-check checks its unit codes against
