@@ -150,7 +150,7 @@ pub(crate) fn check(
 /// links no float at all (firmware-m0) asks for the integer route: the float expressions linked
 /// `__aeabi_fcmpgt`, `__aeabi_fsub` and `__aeabi_fadd` into its image, 508 B of its flash. Every
 /// other build keeps the float expressions, which are smaller where float arithmetic is linked
-/// anyway (the integer route added 650 to 730 B to the firmware of the M4F, the M3 and the
+/// anyway (the integer route added 590 to 660 B to the firmware of the M4F, the M3 and the
 /// RV32, and 496 B to the C firmware on the M0).
 const INTEGER_RULES: bool = cfg!(feature = "float-free-verify");
 
