@@ -36,6 +36,13 @@
 # discrete-2x8-relu-f32. The c-m0-* variants run the C firmware on a
 # Cortex-M0 (thumbv6m-none-eabi, QEMU's microbit: an nRF51822, 256 KiB of flash, 16 KiB of
 # RAM; the layout of firmware-c/nrf51/memory.x, 88 KiB slots).
+# m0-integer-minimal runs firmware-m0/, the whole Cortex-M0 firmware at its smallest (its own
+# crate: policy-core with `integer`, `small-crc` and `float-free-verify` alone, opt-level "z",
+# no core::fmt): A/B
+# slots with full verification, the trained integer actor run from ten fixed observation codes
+# through the integer entry (Model::act_codes_in), no float arithmetic in the image (the build
+# fails the variant if nm finds a soft-float routine); host-check checks its unit codes against
+# the host's integer entry.
 # The rv32-* variants run the same Rust firmware on a RISC-V RV32IMAC without an FPU
 # (riscv32imac-unknown-none-elf, riscv-rt; QEMU's sifive_e, a SiFive FE310: flash from
 # 0x20400000, 16 KiB of RAM; the layout of firmware/fe310/memory.x, 128 KiB slots), with
@@ -140,9 +147,9 @@ QEMU_TIMEOUT=${QEMU_TIMEOUT:-60}
 # REFINE_T=T, --refine-run's critic in its CRITIC region. encodings: the weight encodings the
 # firmware is built to run, comma-separated (`--no-default-features --features LIST`); default
 # all three (f32, f16, int8; `integer` is opt-in). firmware: rust (firmware/, the default),
-# stm32f405 (firmware/ with feature stm32f405: the board's memory map and USART1 console) or c
-# (firmware-c/ linked with
-# policy-core-ffi's static library built with the profile).
+# stm32f405 (firmware/ with feature stm32f405: the board's memory map and USART1 console), c
+# (firmware-c/ linked with policy-core-ffi's static library built with the profile) or m0
+# (firmware-m0/, its own release profile at opt-level "z"; encodings then only labels the report).
 M4F=thumbv7em-none-eabihf:mps2-an386:cortex-m4
 M3=thumbv7m-none-eabi:mps2-an385:cortex-m3
 M0=thumbv6m-none-eabi:microbit:cortex-m0
@@ -195,6 +202,7 @@ ALL_VARIANTS=(
   c-m0-4x48:$M0:4x48-tanh:release:::c
   c-m0-4x48-relu-int8:$M0:4x48-relu-int8:release:::c
   c-m0-integer:$M0:trained-integer:release:::c
+  m0-integer-minimal:$M0:trained-integer:release::integer:m0
   rv32-trained:$RV32:trained
   rv32-trained-f16:$RV32:trained-f16
   rv32-trained-int8:$RV32:trained-int8
@@ -735,7 +743,19 @@ for spec in "${ALL_VARIANTS[@]}"; do
   dir=$WORK/variants/$name; mkdir -p "$dir"; rm -f "$dir"/*.log "$dir/resources.json"
   blob=$(blob_for "$which")
 
-  if [ "${firmware:-rust}" = c ]; then
+  if [ "${firmware:-rust}" = m0 ]; then
+    # firmware-m0/: its own crate (policy-core with `integer` alone, opt-level "z"), no features.
+    step "$name: build firmware-m0 ($target, opt-level z, integer only; no blob inside)"
+    if ! (cd "$ROOT/firmware-m0" && "${FW_ENV[@]}" cargo build --release --locked -Zbuild-std=core --target "$target" 2>&1 \
+          | { grep -vE '^ +(Compiling|Downloaded|Downloading|Locking|Adding|Updating|Finished)' || true; } ); then
+      FAILED+=("$name: build"); continue
+    fi
+    cp "$WORK/fw/$target/release/policy-firmware-m0" "$dir/firmware.elf" || { FAILED+=("$name: build produced no ELF"); continue; }
+    # No soft-float routine may be linked: the firmware runs the integer entry from codes.
+    if nm "$dir/firmware.elf" | grep -E ' __aeabi_[fd](add|sub|mul|div|cmp|2|to)| __(add|sub|mul|div)[sd]f3' >"$dir/float.txt"; then
+      FAILED+=("$name: soft-float routines linked: $(awk '{print $3}' "$dir/float.txt" | tr '\n' ' ')"); continue
+    fi
+  elif [ "${firmware:-rust}" = c ]; then
     step "$name: build the C firmware ($target; policy-core-ffi, profile $profile; no blob inside), and again with -DMEASURE_CALLS"
     if ! build_c_firmware "$target" "$dir/firmware.elf"; then FAILED+=("$name: build"); continue; fi
     # The same firmware that then measures the stack of each call of the C API: a build of its
@@ -795,8 +815,9 @@ for spec in "${ALL_VARIANTS[@]}"; do
     fi
     calls_args=(--calls-log "$dir/calls/firmware.log")
   fi
+  opt_level=${OPT_LEVEL[$profile]}; [ "${firmware:-rust}" = m0 ] && opt_level=z # firmware-m0's own release profile
   if ! "$HC" measure --variant "$name" --target "$target" --machine "$machine" --cpu "$cpu" --blob "$blob" --image "$dir/slot-a.bin" \
-        --profile "$profile" --opt-level "${OPT_LEVEL[$profile]}" --encodings "${encodings:-f32,f16,int8}" --sizes "$dir/sizes.txt" --fw-log "$dir/firmware.log" "${main_plugin_log[@]}" "${critic_args[@]}" "${calls_args[@]}" --out "$dir/resources.json"; then
+        --profile "$profile" --opt-level "$opt_level" --encodings "${encodings:-f32,f16,int8}" --sizes "$dir/sizes.txt" --fw-log "$dir/firmware.log" "${main_plugin_log[@]}" "${critic_args[@]}" "${calls_args[@]}" --out "$dir/resources.json"; then
     FAILED+=("$name: measurement"); continue
   fi
   if [ "${firmware:-rust}" = c ]; then
@@ -805,6 +826,52 @@ for spec in "${ALL_VARIANTS[@]}"; do
   fi
   JSONS+=("$dir/resources.json")
 done
+
+#--------------------------------------------------------------------------------------------------
+# A/B slot cases of firmware-m0 (after m0-integer-minimal ran): the same choice on the M0's own
+# build and layout, the trained integer blob in slot A, a generated integer 4x48 in slot B. Its
+# failed slots print no reason (no core::fmt in that firmware), so the cases check which slot
+# runs, that slot's codes bit-exact against its blob, or the safe state.
+M0_SLOT_JSONS=()
+if [ "$SLOT_CASES" = 1 ] && [ -n "$INTEGER_BLOB" ] && [ -f "$WORK/variants/m0-integer-minimal/resources.json" ] \
+    && printf '%s\n' "${SELECTED[@]}" | grep -qx m0-integer-minimal; then
+  step "slot cases of firmware-m0: the slot images"
+  IFS=: read -r target machine cpu <<<"$M0"
+  m0_elf=$WORK/variants/m0-integer-minimal/firmware.elf
+  M0_A=$(slot_addr "$m0_elf" a); M0_B=$(slot_addr "$m0_elf" b)
+  S0=$WORK/slots-m0; I0=$S0/img; mkdir -p "$I0"
+  M0_GOOD_B=$WORK/blobs/actor_4x48-relu-integer-seed5.postcard
+  "$HC" gen 4x48 "$M0_GOOD_B" --activation relu --encoding integer --seed 5 >/dev/null
+  "$HC" image "$INTEGER_BLOB" "$I0/a1.bin" --sequence 1 >/dev/null
+  "$HC" image "$M0_GOOD_B" "$I0/b2.bin" --sequence 2 >/dev/null
+  "$HC" image "$(blob_for 2x32-relu)" "$I0/b2-f32.bin" --sequence 2 >/dev/null
+  "$HC" damage "$I0/a1.bin" "$I0/a1-flipped.bin" --flip 216 >/dev/null
+  "$HC" damage "$I0/b2.bin" "$I0/b2-flipped.bin" --flip 216 >/dev/null
+  # name:expect:blob that runs (or -):slot A image (or -):slot B image
+  for c in "m0-a-only:A:$INTEGER_BLOB:a1.bin:-" "m0-b-newer:B:$M0_GOOD_B:a1.bin:b2.bin" \
+      "m0-b-flipped-byte:A:$INTEGER_BLOB:a1.bin:b2-flipped.bin" "m0-b-f32:A:$INTEGER_BLOB:a1.bin:b2-f32.bin" \
+      "m0-a-empty:B:$M0_GOOD_B:-:b2.bin" "m0-both-bad:safe:-:a1-flipped.bin:b2-flipped.bin"; do
+    IFS=: read -r cname expect runs img_a img_b <<<"$c"
+    step "slot case $cname: expect $expect"
+    dir=$S0/$cname; mkdir -p "$dir"; cp "$m0_elf" "$dir/firmware.elf"
+    loads=()
+    [ "$img_a" = - ] || loads+=("$M0_A" "$I0/$img_a")
+    [ "$img_b" = - ] || loads+=("$M0_B" "$I0/$img_b")
+    set +e
+    run_qemu "$dir" "$machine" "$cpu" "${loads[@]}"
+    rc=$?
+    set -e
+    want_rc=0; [ "$expect" = safe ] && want_rc=1
+    if [ $rc != $want_rc ]; then
+      tail -n 5 "$dir/firmware.log"
+      FAILED+=("slot case $cname: QEMU exit status $rc, expected $want_rc"); continue
+    fi
+    args=(--name "$cname" --expect "$expect" --fw-log "$dir/firmware.log" "${plugin_log[@]}" --out "$dir/case.json")
+    [ "$runs" = - ] || args+=(--blob "$runs")
+    if ! "$HC" slot-case "${args[@]}"; then FAILED+=("slot case $cname"); continue; fi
+    M0_SLOT_JSONS+=("$dir/case.json")
+  done
+fi
 
 #--------------------------------------------------------------------------------------------------
 # A/B slot cases on the M4F (release): the same firmware, other slot contents. Each case names
@@ -912,6 +979,10 @@ if [ ${#SLOT_JSONS[@]} -gt 0 ]; then
   echo "slot cases (M4F, release; boot = choosing and verifying, in instructions):"
   "$HC" slot-table "${OUT%.json}-slots.md" "${SLOT_JSONS[@]}"
 fi
+if [ ${#M0_SLOT_JSONS[@]} -gt 0 ]; then
+  echo "slot cases of firmware-m0 (Cortex-M0; boot = choosing and verifying, in instructions):"
+  "$HC" slot-table "${OUT%.json}-slots-m0.md" "${M0_SLOT_JSONS[@]}"
+fi
 step done
 echo "report: $OUT (table: ${OUT%.json}.md)"
 echo "timings:"; printf '  %s\n' "${TIMINGS[@]}"
@@ -920,4 +991,4 @@ if [ ${#FAILED[@]} -gt 0 ]; then
   printf 'FAILED: %s\n' "${FAILED[@]}" >&2
   exit 1
 fi
-echo "RESULT: PASS (${#JSONS[@]} variants bit-exact with the host; ${#SLOT_JSONS[@]} slot cases as expected)"
+echo "RESULT: PASS (${#JSONS[@]} variants bit-exact with the host; $(( ${#SLOT_JSONS[@]} + ${#M0_SLOT_JSONS[@]} )) slot cases as expected)"

@@ -12,6 +12,7 @@ use policy_core::{Activation, Encoding, ModelKind, Shape};
 use rand_chacha::ChaCha8Rng;
 use rand_core::{Rng, SeedableRng};
 
+use crate::codes;
 use crate::observations::{fill, CASES};
 use crate::sizes::{MAX_ACT, MAX_OBS};
 
@@ -163,6 +164,34 @@ pub fn actions(bytes: &[u8], observations: &[Vec<f32>]) -> Result<Vec<Vec<f32>>>
             let mut action = vec![0.0; model.header().shape.actions.into()];
             model.act(obs, &mut scratch, &mut action)?;
             Ok(action)
+        })
+        .collect()
+}
+
+/// The observation codes of firmware-m0 (firmware-m0/src/codes.rs) at the blob's observation
+/// size, as that firmware fills them.
+pub fn observation_codes(bytes: &[u8]) -> Result<Vec<Vec<i8>>> {
+    let n = BlobInfo::of(bytes)?.observations();
+    Ok((0..codes::CASES)
+        .map(|k| {
+            let mut c = vec![0; n];
+            codes::fill(k, &mut c);
+            c
+        })
+        .collect())
+}
+
+/// The unit codes policy-core's integer entry ([`Model::act_codes_in`]) computes on the host for
+/// an integer blob and each vector of observation codes, at the blob's sizes.
+pub fn action_codes(bytes: &[u8], codes: &[Vec<i8>]) -> Result<Vec<Vec<i8>>> {
+    let model = Model::from_blob(bytes)?;
+    let mut scratch = vec![0i32; 2 * MAX_WIDTH];
+    codes
+        .iter()
+        .map(|c| {
+            let mut unit = vec![0; model.header().shape.actions.into()];
+            model.act_codes_in(c, &mut scratch, &mut unit)?;
+            Ok(unit)
         })
         .collect()
 }
@@ -386,8 +415,14 @@ mod tests {
         let shape = parse_shape("2x13", (3, 5)).unwrap();
         let f32_blob = generate(shape, 9, Activation::Relu, Encoding::F32).unwrap();
         let q = generate(shape, 9, Activation::Relu, Encoding::Integer).unwrap();
-        assert_eq!(q, generate(shape, 9, Activation::Relu, Encoding::Integer).unwrap());
-        assert_ne!(q, generate(shape, 10, Activation::Relu, Encoding::Integer).unwrap());
+        assert_eq!(
+            q,
+            generate(shape, 9, Activation::Relu, Encoding::Integer).unwrap()
+        );
+        assert_ne!(
+            q,
+            generate(shape, 10, Activation::Relu, Encoding::Integer).unwrap()
+        );
         let info = BlobInfo::of(&q).unwrap();
         assert_eq!((info.encoding, info.version), (Encoding::Integer, 4));
         let exact = actions(&f32_blob, &observations(&f32_blob).unwrap()).unwrap();

@@ -33,6 +33,9 @@ pub fn compare_with(
     print: bool,
 ) -> Result<Comparison> {
     log.require_success()?;
+    if !log.action_codes.is_empty() {
+        return compare_codes(blob, log, print);
+    }
     let observations = blobs::observations(blob)?;
     let host = match (log.refine, critic) {
         (None, None) => blobs::actions(blob, &observations)?,
@@ -86,6 +89,49 @@ pub fn compare_with(
     Ok(Comparison {
         cases: host.len(),
         max_abs_diff,
+    })
+}
+
+/// [`compare`] for firmware-m0, which runs the integer entry: the observation codes must be the
+/// shared table's (firmware-m0/src/codes.rs) and every unit code equal to the host's.
+fn compare_codes(blob: &[u8], log: &FirmwareLog, print: bool) -> Result<Comparison> {
+    let codes = blobs::observation_codes(blob)?;
+    let host = blobs::action_codes(blob, &codes)?;
+    if log.observation_codes.len() != codes.len() || log.action_codes.len() != codes.len() {
+        bail!(
+            "expected {} observation and action codes from the firmware, found {} and {}",
+            codes.len(),
+            log.observation_codes.len(),
+            log.action_codes.len()
+        );
+    }
+    let mut mismatches = 0;
+    for (k, (obs, want)) in codes.iter().zip(&host).enumerate() {
+        let (Some(seen), Some(got)) = (log.observation_codes.get(&k), log.action_codes.get(&k))
+        else {
+            bail!("case {k} missing from the firmware's output");
+        };
+        if seen != obs {
+            bail!("case {k}: the firmware acted on codes {seen:?}, expected {obs:?}: code lists differ");
+        }
+        let same = got == want;
+        mismatches += usize::from(!same);
+        if print {
+            println!(
+                "  case {k}: codes {obs:?}  target {got:?}  host {want:?}  {}",
+                if same { "bit-exact" } else { "MISMATCH" }
+            );
+        }
+    }
+    if mismatches > 0 {
+        bail!(
+            "{mismatches} of {} cases differ from the host; bit-exact required",
+            host.len()
+        );
+    }
+    Ok(Comparison {
+        cases: host.len(),
+        max_abs_diff: 0.0,
     })
 }
 
@@ -219,6 +265,40 @@ mod tests {
         assert!(compare_with(actor, Some(critic), &log_of(&refined), false).is_ok());
         assert!(compare_with(actor, Some(critic), &log_of(&plain), false).is_err());
         assert!(compare_with(actor, None, &log_of(&refined), false).is_err());
+    }
+
+    /// firmware-m0's log (observation codes in, unit codes out) is checked against the host's
+    /// integer entry; one changed code fails.
+    #[test]
+    fn an_integer_firmware_is_checked_by_its_codes() {
+        let blob = generate(
+            parse_shape("2x13", (3, 5)).unwrap(),
+            1,
+            policy_core::Activation::Relu,
+            policy_core::Encoding::Integer,
+        )
+        .unwrap();
+        let codes = blobs::observation_codes(&blob).unwrap();
+        let units = blobs::action_codes(&blob, &codes).unwrap();
+        let hex = |v: &[i8]| {
+            v.iter()
+                .map(|c| format!(" {:02x}", *c as u8))
+                .collect::<String>()
+        };
+        let lines = |flip: bool| {
+            let mut out = String::new();
+            for (k, (c, u)) in codes.iter().zip(&units).enumerate() {
+                let mut u = u.clone();
+                if flip && k == 4 {
+                    u[0] ^= 1;
+                }
+                out += &format!("OBS_CODES {k}{}\nACT_CODES {k}{}\n", hex(c), hex(&u));
+            }
+            FirmwareLog::parse(&(out + "DONE\n")).unwrap()
+        };
+        assert_eq!(codes[0], [0, 0, 127]);
+        assert_eq!(compare(&blob, &lines(false), false).unwrap().cases, 10);
+        assert!(compare(&blob, &lines(true), false).is_err());
     }
 
     #[test]

@@ -20,6 +20,11 @@ pub struct FirmwareLog {
     pub observations: BTreeMap<usize, Vec<u32>>,
     /// Action `k` as bits, as many as the running blob acts (none in the safe state).
     pub actions: BTreeMap<usize, Vec<u32>>,
+    /// Observation codes of case `k` (firmware-m0, which runs the integer entry: int8 codes in,
+    /// unit codes out, no float); empty for the other firmware.
+    pub observation_codes: BTreeMap<usize, Vec<i8>>,
+    /// Action (unit) codes of case `k`, as many as the running blob acts (firmware-m0).
+    pub action_codes: BTreeMap<usize, Vec<i8>>,
     /// Measured spans in mark order: name and how many repetitions the span holds.
     pub spans: Vec<(String, u64)>,
     /// `TICKS name reps ticks`.
@@ -90,6 +95,19 @@ impl FirmwareLog {
                     };
                     map.insert(k, v);
                 }
+                Some(tag @ ("OBS_CODES" | "ACT_CODES")) => {
+                    let k = num(f.next(), line)? as usize;
+                    let v = f
+                        .map(|x| u8::from_str_radix(x, 16).map(|b| b as i8))
+                        .collect::<Result<Vec<_>, _>>()
+                        .with_context(|| format!("bad code in {line:?}"))?;
+                    let map = if tag == "OBS_CODES" {
+                        &mut log.observation_codes
+                    } else {
+                        &mut log.action_codes
+                    };
+                    map.insert(k, v);
+                }
                 Some("SPAN") => {
                     let name = f.next().ok_or_else(|| anyhow!("short line {line:?}"))?;
                     let arg = num(f.next(), line)?;
@@ -138,6 +156,11 @@ impl FirmwareLog {
             }
         }
         Ok(log)
+    }
+
+    /// How many cases the firmware acted on: actions, or action codes (firmware-m0).
+    pub fn cases(&self) -> usize {
+        self.actions.len().max(self.action_codes.len())
     }
 
     /// Fails unless the firmware ran to its end without reporting a failure.
@@ -225,6 +248,15 @@ mod tests {
         );
         assert_eq!(log.running.as_deref(), Some("A"));
         log.require_success().unwrap();
+    }
+
+    #[test]
+    fn codes_are_read_as_int8_bits() {
+        let log = FirmwareLog::parse("OBS_CODES 1 7f 80\nACT_CODES 1 ff 00\nDONE\n").unwrap();
+        assert_eq!(log.observation_codes[&1], [127, -128]);
+        assert_eq!(log.action_codes[&1], [-1, 0]);
+        assert_eq!(log.cases(), 1);
+        assert!(FirmwareLog::parse("ACT_CODES 0 1ff\n").is_err());
     }
 
     #[test]

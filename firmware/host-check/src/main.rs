@@ -40,6 +40,8 @@
 mod blobs;
 mod budgets;
 mod check;
+#[path = "../../../firmware-m0/src/codes.rs"]
+mod codes;
 mod log;
 mod measure;
 #[path = "../../src/observations.rs"]

@@ -81,7 +81,7 @@ fn instruction_spans(
     let act = *spans
         .get("act")
         .ok_or_else(|| anyhow!("no TICKS act line"))?;
-    for k in 0..log.actions.len() {
+    for k in 0..log.cases() {
         spans.insert(format!("act{k}"), act);
     }
     Ok((spans, "systick-icount"))
@@ -121,7 +121,7 @@ pub fn measure(
     }
 
     let (spans, source) = instruction_spans(log, plugin_log)?;
-    let acts: Vec<f64> = (0..log.actions.len())
+    let acts: Vec<f64> = (0..log.cases())
         .map(|k| {
             spans
                 .get(&format!("act{k}"))
