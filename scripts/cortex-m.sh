@@ -444,6 +444,36 @@ run_qemu() {
   timeout "$QEMU_TIMEOUT" "$(qemu_for "$machine")" "${QEMU_ARGS[@]}" -M "$machine" -cpu "$cpu" "${plugin_args[@]}" "${loaders[@]}" \
     -kernel "$dir/firmware.elf" </dev/null >"$dir/firmware.log" 2>"$dir/plugin.log"
 }
+
+# One A/B slot case: ELF booted under QEMU (MACHINE, CPU) in CASES/NAME with IMAGES/IMG_A at A_ADDR
+# and IMAGES/IMG_B at B_ADDR ("-": the slot left empty), its exit status (1 for the safe state,
+# else 0) and its log checked by `host-check slot-case` against EXPECT (A, B or safe), the blob
+# RUNS that must run ("-": none) and the REASON a failed slot must give ("-": not checked). A case
+# that passes appends its JSON to the array named RESULTS; one that fails is added to FAILED.
+slot_case() { # RESULTS CASES ELF IMAGES A_ADDR B_ADDR MACHINE CPU NAME EXPECT RUNS REASON IMG_A IMG_B
+  local -n results=$1
+  local cases=$2 elf=$3 images=$4 a_addr=$5 b_addr=$6 machine=$7 cpu=$8
+  local cname=$9 expect=${10} runs=${11} reason=${12} img_a=${13} img_b=${14}
+  step "slot case $cname: expect $expect"
+  local dir=$cases/$cname rc want_rc loads=() args=()
+  mkdir -p "$dir"; cp "$elf" "$dir/firmware.elf"
+  [ "$img_a" = - ] || loads+=("$a_addr" "$images/$img_a")
+  [ "$img_b" = - ] || loads+=("$b_addr" "$images/$img_b")
+  set +e
+  run_qemu "$dir" "$machine" "$cpu" "${loads[@]}"
+  rc=$?
+  set -e
+  want_rc=0; [ "$expect" = safe ] && want_rc=1
+  if [ $rc != $want_rc ]; then
+    tail -n 5 "$dir/firmware.log"
+    FAILED+=("slot case $cname: QEMU exit status $rc, expected $want_rc"); return 0
+  fi
+  args=(--name "$cname" --expect "$expect" --fw-log "$dir/firmware.log" "${plugin_log[@]}" --out "$dir/case.json")
+  [ "$runs" = - ] || args+=(--blob "$runs")
+  [ "$reason" = - ] || args+=(--reason "$reason")
+  if ! "$HC" slot-case "${args[@]}"; then FAILED+=("slot case $cname"); return 0; fi
+  results+=("$dir/case.json")
+}
 # The STM32F405 board (f405-* variants): no semihosting, so no exit status from the firmware.
 # Its USART1 goes to DIR/firmware.log; QEMU runs until the log's last line is DONE or FAIL (the
 # firmware then parks its core) and is stopped there.
@@ -852,24 +882,8 @@ if [ "$SLOT_CASES" = 1 ] && [ -n "$INTEGER_BLOB" ] && [ -f "$WORK/variants/m0-in
       "m0-b-flipped-byte:A:$INTEGER_BLOB:a1.bin:b2-flipped.bin" "m0-b-f32:A:$INTEGER_BLOB:a1.bin:b2-f32.bin" \
       "m0-a-empty:B:$M0_GOOD_B:-:b2.bin" "m0-both-bad:safe:-:a1-flipped.bin:b2-flipped.bin"; do
     IFS=: read -r cname expect runs img_a img_b <<<"$c"
-    step "slot case $cname: expect $expect"
-    dir=$S0/$cname; mkdir -p "$dir"; cp "$m0_elf" "$dir/firmware.elf"
-    loads=()
-    [ "$img_a" = - ] || loads+=("$M0_A" "$I0/$img_a")
-    [ "$img_b" = - ] || loads+=("$M0_B" "$I0/$img_b")
-    set +e
-    run_qemu "$dir" "$machine" "$cpu" "${loads[@]}"
-    rc=$?
-    set -e
-    want_rc=0; [ "$expect" = safe ] && want_rc=1
-    if [ $rc != $want_rc ]; then
-      tail -n 5 "$dir/firmware.log"
-      FAILED+=("slot case $cname: QEMU exit status $rc, expected $want_rc"); continue
-    fi
-    args=(--name "$cname" --expect "$expect" --fw-log "$dir/firmware.log" "${plugin_log[@]}" --out "$dir/case.json")
-    [ "$runs" = - ] || args+=(--blob "$runs")
-    if ! "$HC" slot-case "${args[@]}"; then FAILED+=("slot case $cname"); continue; fi
-    M0_SLOT_JSONS+=("$dir/case.json")
+    slot_case M0_SLOT_JSONS "$S0" "$m0_elf" "$I0" "$M0_A" "$M0_B" "$machine" "$cpu" \
+      "$cname" "$expect" "$runs" - "$img_a" "$img_b"
   done
 fi
 
@@ -928,25 +942,8 @@ if [ "$SLOT_CASES" = 1 ]; then
   )
   for c in "${CASES[@]}"; do
     IFS=: read -r cname expect runs reason img_a img_b <<<"$c"
-    step "slot case $cname: expect $expect"
-    dir=$S/$cname; mkdir -p "$dir"; cp "$elf" "$dir/firmware.elf"
-    loads=()
-    [ "$img_a" = - ] || loads+=("$A_ADDR" "$I/$img_a")
-    [ "$img_b" = - ] || loads+=("$B_ADDR" "$I/$img_b")
-    set +e
-    run_qemu "$dir" "$machine" "$cpu" "${loads[@]}"
-    rc=$?
-    set -e
-    want_rc=0; [ "$expect" = safe ] && want_rc=1
-    if [ $rc != $want_rc ]; then
-      tail -n 5 "$dir/firmware.log"
-      FAILED+=("slot case $cname: QEMU exit status $rc, expected $want_rc"); continue
-    fi
-    args=(--name "$cname" --expect "$expect" --fw-log "$dir/firmware.log" "${plugin_log[@]}" --out "$dir/case.json")
-    [ "$runs" = - ] || args+=(--blob "$runs")
-    [ "$reason" = - ] || args+=(--reason "$reason")
-    if ! "$HC" slot-case "${args[@]}"; then FAILED+=("slot case $cname"); continue; fi
-    SLOT_JSONS+=("$dir/case.json")
+    slot_case SLOT_JSONS "$S" "$elf" "$I" "$A_ADDR" "$B_ADDR" "$machine" "$cpu" \
+      "$cname" "$expect" "$runs" "$reason" "$img_a" "$img_b"
   done
 fi
 
