@@ -42,8 +42,7 @@ pub fn saturating_rounding_doubling_high_mul(a: i32, b: i32) -> i32 {
     if a == b && a == i32::MIN {
         return i32::MAX;
     }
-    // |ab| ≤ 2^62, so the sum does not overflow, and the quotient fits in i32.
-    ((i64::from(a) * i64::from(b) + (1 << 30)) >> 31) as i32
+    doubling_high_mul_of_verified(a, b)
 }
 
 /// gemmlowp's `RoundingDivideByPOT`: `x / 2^exponent` rounded to nearest, ties away from zero,
