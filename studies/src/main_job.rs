@@ -40,6 +40,11 @@ pub enum Kind {
     Rings,
     /// On the generated maze layout.
     Maze,
+    /// Today's single run again, timed in the candidate stop rule's queue (the same machine).
+    Single,
+    /// `train` with the candidate stop rule (the protocol's amendment): rounds every 50
+    /// episodes, the first round that meets the criteria ends the race.
+    FirstRound,
 }
 
 impl Kind {
@@ -50,6 +55,8 @@ impl Kind {
             Kind::Pinwheel => "pinwheel",
             Kind::Rings => "rings",
             Kind::Maze => "maze",
+            Kind::Single => "single",
+            Kind::FirstRound => "first-round",
         }
     }
 
@@ -62,6 +69,8 @@ impl Kind {
             "pinwheel" => Kind::Pinwheel,
             "rings" => Kind::Rings,
             "maze" => Kind::Maze,
+            "single" => Kind::Single,
+            "first-round" => Kind::FirstRound,
             other => bail!("plan line {name:?}: unknown kind {other:?}"),
         };
         Ok((
@@ -525,6 +534,38 @@ fn yes(b: bool) -> &'static str {
     }
 }
 
+/// Which lines a set of aims judges, and the single runs it times them against.
+struct Judged {
+    /// The lines judged.
+    kind: Kind,
+    /// The single runs of the wall-time ratio.
+    baseline: Kind,
+    /// The heading of the aims' section.
+    heading: &'static str,
+    /// How the text names the judged lines.
+    label: &'static str,
+    /// How it names the single runs.
+    baseline_label: &'static str,
+}
+
+/// The protocol's aims: `train`'s defaults on the pinwheel against today's single run.
+const DEFAULTS: Judged = Judged {
+    kind: Kind::Pinwheel,
+    baseline: Kind::Today,
+    heading: "### The aims",
+    label: "pinwheel",
+    baseline_label: "today's single run",
+};
+
+/// The amendment's aims: the candidate stop rule against today's single run timed in its queue.
+const CANDIDATE: Judged = Judged {
+    kind: Kind::FirstRound,
+    baseline: Kind::Single,
+    heading: "#### Its aims",
+    label: "first-round",
+    baseline_label: "today's single run in the same queue",
+};
+
 /// The results section: every line's row, then the aims judged by the protocol's rules (only
 /// once all their lines are in).
 pub fn render(lines: &[Line], today: &BTreeMap<u64, Test>, commit: &str, cpu: &str) -> String {
@@ -558,9 +599,15 @@ pub fn render(lines: &[Line], today: &BTreeMap<u64, Test>, commit: &str, cpu: &s
             format!("the binary of commit {c} on {m} ({})", lines.join("; "))
         })
         .collect();
+    // The amendment's lines are counted once the plan has them.
+    let amended: String = [Kind::FirstRound, Kind::Single]
+        .into_iter()
+        .filter(|&k| of(k).count() > 0)
+        .map(|k| format!(", {} {} of {}", k.name(), done(k), of(k).count()))
+        .collect();
     let _ = writeln!(
         out,
-        "Measured with {}. Lines in: pinwheel {} of {}, today {} of {}, rings {} of {}, maze {} of {}.\n",
+        "Measured with {}. Lines in: pinwheel {} of {}, today {} of {}, rings {} of {}, maze {} of {}{amended}.\n",
         if measured.is_empty() { "nothing yet".to_string() } else { measured.join("; ") },
         done(Kind::Pinwheel),
         of(Kind::Pinwheel).count(),
@@ -585,9 +632,43 @@ pub fn render(lines: &[Line], today: &BTreeMap<u64, Test>, commit: &str, cpu: &s
         let _ = writeln!(out, "{} | {t0} |", row(l));
     }
     let _ = writeln!(out, "\n### Today's single run, for the wall-time ratio\n");
+    single_runs(&mut out, of(Kind::Today), today);
+    aims(&mut out, lines, today, &DEFAULTS);
+    if of(Kind::FirstRound).count() > 0 {
+        candidate(&mut out, lines, today);
+    }
+    for (kind, title) in [
+        (Kind::Rings, "rings-1-seed12"),
+        (Kind::Maze, "maze-1-seed12"),
+    ] {
+        let _ = writeln!(out, "\n### {title} (reported, not judged)\n");
+        let _ = writeln!(out, "| base seed | winner (racer, seed) | race ended at episode | ended by | test success | settled error | stuck | delivers | gate | wall s | CPU s | parts |");
+        let _ = writeln!(
+            out,
+            "|---:|---|---:|---|---:|---:|---:|---|---|---:|---:|---:|"
+        );
+        let mut any = false;
+        for l in of(kind).filter(|l| !l.parts.is_empty()) {
+            any = true;
+            let _ = writeln!(out, "{} |", row(l));
+        }
+        if !any {
+            let _ = writeln!(out, "| no line has started | | | | | | | | | | | |");
+        }
+    }
+    out
+}
+
+/// The table of single runs (today's, or the amendment's `single` lines): the test figures,
+/// whether they are the margin study's A0 row (the same training bytes), and the times.
+fn single_runs<'a>(
+    out: &mut String,
+    lines: impl Iterator<Item = &'a Line>,
+    today: &BTreeMap<u64, Test>,
+) {
     let _ = writeln!(out, "| seed | test success | settled error | stuck | the margin study's A0 row | wall s | CPU s | parts |");
     let _ = writeln!(out, "|---:|---:|---:|---:|---|---:|---:|---:|");
-    for l in of(Kind::Today) {
+    for l in lines {
         let (figures, same) = match (&l.test, today.get(&l.seed)) {
             (Some(t), row) => (
                 format!("{:.2} | {:.3} | {:.2}", t.success, t.error, t.stuck),
@@ -613,27 +694,55 @@ pub fn render(lines: &[Line], today: &BTreeMap<u64, Test>, commit: &str, cpu: &s
             l.time_cells()
         );
     }
-    aims(&mut out, lines, today);
-    for (kind, title) in [
-        (Kind::Rings, "rings-1-seed12"),
-        (Kind::Maze, "maze-1-seed12"),
-    ] {
-        let _ = writeln!(out, "\n### {title} (reported, not judged)\n");
-        let _ = writeln!(out, "| base seed | winner (racer, seed) | race ended at episode | ended by | test success | settled error | stuck | delivers | gate | wall s | CPU s | parts |");
-        let _ = writeln!(
-            out,
-            "|---:|---|---:|---|---:|---:|---:|---|---|---:|---:|---:|"
-        );
-        let mut any = false;
-        for l in of(kind).filter(|l| !l.parts.is_empty()) {
-            any = true;
-            let _ = writeln!(out, "{} |", row(l));
-        }
-        if !any {
-            let _ = writeln!(out, "| no line has started | | | | | | | | | | | |");
-        }
+}
+
+/// The amendment's section: the candidate stop rule's rows beside the defaults' line of the
+/// same base seed (whose racers trained the same bytes up to the earlier stop), its single
+/// runs, its aims, and the adoption rule's decision.
+fn candidate(out: &mut String, lines: &[Line], today: &BTreeMap<u64, Test>) {
+    let of = |k: Kind| lines.iter().filter(move |l| l.kind == k);
+    let _ = writeln!(
+        out,
+        "\n### The amendment's candidate: the first round that meets the criteria, rounds every 50 episodes\n"
+    );
+    let _ = writeln!(out, "| base seed | winner (racer, seed) | race ended at episode | ended by | test success | settled error | stuck | delivers | gate | wall s | CPU s | parts | the defaults' line: ended at, delivers |");
+    let _ = writeln!(
+        out,
+        "|---:|---|---:|---|---:|---:|---:|---|---|---:|---:|---:|---|"
+    );
+    for l in of(Kind::FirstRound) {
+        let defaults = of(Kind::Pinwheel)
+            .find(|d| d.seed == l.seed && d.done)
+            .map_or_else(
+                || "–".to_string(),
+                |d| {
+                    let ended = d
+                        .race
+                        .as_ref()
+                        .map_or("–".into(), |r| r.ended_at.to_string());
+                    let delivers = d.test.map_or("–", |t| yes(t.delivers()));
+                    format!("{ended}, {delivers}")
+                },
+            );
+        let _ = writeln!(out, "{} | {defaults} |", row(l));
     }
-    out
+    let _ = writeln!(out, "\n#### Today's single run, timed in the same queue\n");
+    single_runs(out, of(Kind::Single), today);
+    let (delivered, fast) = aims(out, lines, today, &CANDIDATE);
+    let _ = match (delivered, fast) {
+        (Some(true), Some(true)) => writeln!(
+            out,
+            "\nBy the amendment's rule the candidate is **adopted**: both aims are met."
+        ),
+        (Some(_), Some(_)) => writeln!(
+            out,
+            "\nBy the amendment's rule the candidate is **not adopted**: `train`'s defaults stay as they are."
+        ),
+        _ => writeln!(
+            out,
+            "\nNot decided yet: the amendment's rule decides once every line of the candidate and of its single runs is in."
+        ),
+    };
 }
 
 /// A race line's table cells, without the closing bar.
@@ -670,18 +779,25 @@ fn row(l: &Line) -> String {
     )
 }
 
-fn aims(out: &mut String, lines: &[Line], today: &BTreeMap<u64, Test>) {
-    let pinwheel: Vec<&Line> = lines.iter().filter(|l| l.kind == Kind::Pinwheel).collect();
-    let finished: Vec<&Line> = pinwheel.iter().copied().filter(|l| l.done).collect();
+/// Aims 1 and 2 for the lines `j` names, with their verdicts (`None` until all their lines
+/// are in).
+fn aims(
+    out: &mut String,
+    lines: &[Line],
+    today: &BTreeMap<u64, Test>,
+    j: &Judged,
+) -> (Option<bool>, Option<bool>) {
+    let judged: Vec<&Line> = lines.iter().filter(|l| l.kind == j.kind).collect();
+    let finished: Vec<&Line> = judged.iter().copied().filter(|l| l.done).collect();
     let delivered = finished
         .iter()
         .filter(|l| l.test.is_some_and(|t| t.delivers()))
         .count();
-    let _ = writeln!(out, "\n### The aims\n");
+    let _ = writeln!(out, "\n{}\n", j.heading);
     let n = finished.len();
     if n == 0 {
-        let _ = writeln!(out, "Not judged yet: no pinwheel base seed is in.");
-        return;
+        let _ = writeln!(out, "Not judged yet: no {} base seed is in.", j.label);
+        return (None, None);
     }
     let (lo, hi) = clopper_pearson(delivered as u64, n.max(1) as u64, 0.95);
     let today_in: Vec<&Test> = finished.iter().filter_map(|l| today.get(&l.seed)).collect();
@@ -699,12 +815,15 @@ fn aims(out: &mut String, lines: &[Line], today: &BTreeMap<u64, Test>) {
     }
     let _ = writeln!(
         out,
-        "**1. Delivered policies.** {delivered} of the {n} pinwheel base seeds in deliver (95 % exact interval of the rate {lo:.2}–{hi:.2}); today's single run delivers on {today_delivered} of the same {} seeds (the margin study's A0 rows). Pairs by base seed: {b} deliver now and not today, {c} the other way; exact McNemar p = {:.3}.",
+        "**1. Delivered policies.** {delivered} of the {n} {} base seeds in deliver (95 % exact interval of the rate {lo:.2}–{hi:.2}); today's single run delivers on {today_delivered} of the same {} seeds (the margin study's A0 rows). Pairs by base seed: {b} deliver now and not today, {c} the other way; exact McNemar p = {:.3}.",
+        j.label,
         today_in.len(),
         mcnemar_exact(b, c),
     );
+    let mut verdicts = (None, None);
     if n == BASE_SEEDS {
         let met = delivered >= AIM_DELIVERED;
+        verdicts.0 = Some(met);
         let _ = writeln!(
             out,
             "Verdict: the aim (at least {AIM_DELIVERED} of {BASE_SEEDS}) is **{}**; {} base seed{} changing {} would flip it.",
@@ -731,30 +850,33 @@ fn aims(out: &mut String, lines: &[Line], today: &BTreeMap<u64, Test>) {
     }
     let walls: Vec<f64> = finished.iter().map(|l| l.wall()).collect();
     let cpus: Vec<f64> = finished.iter().map(|l| l.cpu()).collect();
-    let today_lines: Vec<&Line> = lines
+    let single_walls: Vec<f64> = lines
         .iter()
-        .filter(|l| l.kind == Kind::Today && l.done)
+        .filter(|l| l.kind == j.baseline && l.done)
+        .map(Line::wall)
         .collect();
-    let today_walls: Vec<f64> = today_lines.iter().map(|l| l.wall()).collect();
     let range = |xs: &[f64]| {
         let lo = xs.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         format!("{lo:.0}–{hi:.0}")
     };
-    match (median(&walls), median(&today_walls)) {
+    match (median(&walls), median(&single_walls)) {
         (Some(m), Some(m0)) => {
             let _ = writeln!(
                 out,
-                "\n**2. Wall time.** Median {m:.0} s (range {}, CPU median {:.0} s) over the {n} pinwheel lines in, against {m0:.0} s for today's single run ({} line{} in: {}): a ratio of {:.2}.",
+                "\n**2. Wall time.** Median {m:.0} s (range {}, CPU median {:.0} s) over the {n} {} lines in, against {m0:.0} s for {} ({} line{} in: {}): a ratio of {:.2}.",
                 range(&walls),
                 median(&cpus).unwrap_or(f64::NAN),
-                today_walls.len(),
-                if today_walls.len() == 1 { "" } else { "s" },
-                today_walls.iter().map(|w| format!("{w:.0} s")).collect::<Vec<_>>().join(", "),
+                j.label,
+                j.baseline_label,
+                single_walls.len(),
+                if single_walls.len() == 1 { "" } else { "s" },
+                single_walls.iter().map(|w| format!("{w:.0} s")).collect::<Vec<_>>().join(", "),
                 m / m0
             );
-            if n == BASE_SEEDS && today_walls.len() == 2 {
+            if n == BASE_SEEDS && single_walls.len() == 2 {
                 let met = m <= 0.5 * m0;
+                verdicts.1 = Some(met);
                 let _ = writeln!(
                     out,
                     "Verdict: the aim (at most half) is **{}**.",
@@ -767,8 +889,10 @@ fn aims(out: &mut String, lines: &[Line], today: &BTreeMap<u64, Test>) {
         _ => {
             let _ = writeln!(
                 out,
-                "\n**2. Wall time.** Not judged yet: no pinwheel line and today's run both in."
+                "\n**2. Wall time.** Not judged yet: no {} line and {} both in.",
+                j.label, j.baseline_label
             );
         }
     }
+    verdicts
 }

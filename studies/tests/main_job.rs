@@ -158,3 +158,100 @@ fn a_page_rebuilt_from_the_record_shows_the_rows_the_folders_gave() {
     assert!(err.contains("expected 14 tab-separated columns"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The amendment's candidate is judged by the same aims against the single runs timed in its
+/// own queue, shown beside the defaults' line of each base seed, and adopted only once every
+/// line is in and both aims are met.
+#[test]
+fn the_amendment_judges_its_candidate_against_its_own_single_runs() {
+    let dir = std::env::temp_dir().join(format!("main-job-amendment-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let runs = dir.join("runs");
+    let plan = dir.join("plan.txt");
+    std::fs::create_dir_all(&runs).expect("runs");
+    let mut text = String::from("today-0 --seed 0\ntoday-1 --seed 1\n");
+    for s in 0..20 {
+        text.push_str(&format!("pinwheel-{s} --seed {s}\n"));
+    }
+    text.push_str("single-0 --seed 0\nsingle-1 --seed 1\n");
+    for s in 0..20 {
+        text.push_str(&format!(
+            "first-round-{s} --seed {s} --config first-round.toml\n"
+        ));
+    }
+    std::fs::write(&plan, &text).expect("plan");
+    line(&runs, "pinwheel-3", (1.0, 0.2, 0.0), Some(true));
+    for s in 0..2 {
+        let name = format!("single-{s}");
+        line(&runs, &name, (1.0, 1.196, 0.46), None);
+        // Today's single run took 400 s in this queue: the candidate's 151 s lines are below half.
+        std::fs::write(runs.join(&name).join("parts.txt"), "1 0 400 390 2\n").expect("parts");
+    }
+    for s in 0..19 {
+        line(
+            &runs,
+            &format!("first-round-{s}"),
+            (1.0, 0.2, 0.0),
+            Some(true),
+        );
+    }
+    let today = BTreeMap::new();
+    let page = render(
+        &load(&plan, &runs, &BTreeMap::new()).expect("loads"),
+        &today,
+        "abc1234",
+        "a test machine",
+    );
+    assert!(
+        page.contains("maze 0 of 0, first-round 19 of 20, single 2 of 2."),
+        "{page}"
+    );
+    assert!(
+        page.contains("| 3 | 1, 9 | 1600 | validation | 1.00 | 0.200 | 0.00 | yes | PASS | 151 | 137 | 2 | 1600, yes |"),
+        "the defaults' line of the same base seed beside the candidate's: {page}"
+    );
+    assert!(
+        page.contains("| 0 | 1.00 | 1.196 | 0.46 | – | 400 | 392 | 1 |"),
+        "{page}"
+    );
+    assert!(
+        page.contains("19 of the 19 first-round base seeds in deliver"),
+        "{page}"
+    );
+    assert!(
+        page.contains("against 400 s for today's single run in the same queue (2 lines in: 400 s, 400 s): a ratio of 0.38."),
+        "{page}"
+    );
+    assert!(
+        page.contains("Not decided yet"),
+        "one line is missing: {page}"
+    );
+    assert!(!page.contains("adopted"), "{page}");
+
+    line(&runs, "first-round-19", (0.95, 0.3, 0.0), Some(true));
+    let page = render(
+        &load(&plan, &runs, &BTreeMap::new()).expect("loads"),
+        &today,
+        "abc1234",
+        "a test machine",
+    );
+    assert!(
+        page.contains("By the amendment's rule the candidate is **adopted**"),
+        "{page}"
+    );
+
+    // One candidate line that does not deliver still meets aim 1 (19 of 20); two do not.
+    line(&runs, "first-round-18", (0.8, 0.3, 0.0), Some(true));
+    line(&runs, "first-round-17", (1.0, 0.6, 0.0), Some(true));
+    let page = render(
+        &load(&plan, &runs, &BTreeMap::new()).expect("loads"),
+        &today,
+        "abc1234",
+        "a test machine",
+    );
+    assert!(
+        page.contains("By the amendment's rule the candidate is **not adopted**"),
+        "{page}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
