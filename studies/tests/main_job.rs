@@ -2,7 +2,7 @@
 //! only once every line is in.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use studies::main_job::{load, read_record, record_row, render, Test};
 
@@ -32,17 +32,23 @@ fn line(runs: &Path, name: &str, (success, error, stuck): (f64, f64, f64), race:
     }
 }
 
-#[test]
-fn the_page_shows_every_line_and_judges_only_a_complete_queue() {
-    let dir = std::env::temp_dir().join(format!("main-job-page-{}", std::process::id()));
+/// A fresh scratch folder for one test: `(folder, its runs/ folder, its plan file)`.
+fn scratch(name: &str) -> (PathBuf, PathBuf, PathBuf) {
+    let dir = std::env::temp_dir().join(format!("{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let runs = dir.join("runs");
+    std::fs::create_dir_all(&runs).expect("runs");
     let plan = dir.join("plan.txt");
+    (dir, runs, plan)
+}
+
+#[test]
+fn the_page_shows_every_line_and_judges_only_a_complete_queue() {
+    let (dir, runs, plan) = scratch("main-job-page");
     let mut text = String::from("# a comment\ntoday-0 --seed 0 --race 1\n");
     for s in 0..20 {
         text.push_str(&format!("pinwheel-{s} --seed {s}\n"));
     }
-    std::fs::create_dir_all(&runs).expect("runs");
     std::fs::write(&plan, &text).expect("plan");
     line(&runs, "today-0", (1.0, 1.196, 0.46), None);
     line(&runs, "pinwheel-0", (1.0, 0.303, 0.0), Some(true));
@@ -96,11 +102,7 @@ fn the_page_shows_every_line_and_judges_only_a_complete_queue() {
 /// and machine each line ran on.
 #[test]
 fn a_page_rebuilt_from_the_record_shows_the_rows_the_folders_gave() {
-    let dir = std::env::temp_dir().join(format!("main-job-record-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let runs = dir.join("runs");
-    let plan = dir.join("plan.txt");
-    std::fs::create_dir_all(&runs).expect("runs");
+    let (dir, runs, plan) = scratch("main-job-record");
     std::fs::write(
         &plan,
         "today-0 --seed 0 --race 1\npinwheel-0 --seed 0\npinwheel-1 --seed 1\nrings-0 --seed 0\n",
@@ -164,11 +166,7 @@ fn a_page_rebuilt_from_the_record_shows_the_rows_the_folders_gave() {
 /// line is in and both aims are met.
 #[test]
 fn the_amendment_judges_its_candidate_against_its_own_single_runs() {
-    let dir = std::env::temp_dir().join(format!("main-job-amendment-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let runs = dir.join("runs");
-    let plan = dir.join("plan.txt");
-    std::fs::create_dir_all(&runs).expect("runs");
+    let (dir, runs, plan) = scratch("main-job-amendment");
     let mut text = String::from("today-0 --seed 0\ntoday-1 --seed 1\n");
     for s in 0..20 {
         text.push_str(&format!("pinwheel-{s} --seed {s}\n"));
@@ -196,12 +194,15 @@ fn the_amendment_judges_its_candidate_against_its_own_single_runs() {
         );
     }
     let today = BTreeMap::new();
-    let page = render(
-        &load(&plan, &runs, &BTreeMap::new()).expect("loads"),
-        &today,
-        "abc1234",
-        "a test machine",
-    );
+    let rendered = || {
+        render(
+            &load(&plan, &runs, &BTreeMap::new()).expect("loads"),
+            &today,
+            "abc1234",
+            "a test machine",
+        )
+    };
+    let page = rendered();
     assert!(
         page.contains("maze 0 of 0, first-round 19 of 20, single 2 of 2."),
         "{page}"
@@ -229,26 +230,14 @@ fn the_amendment_judges_its_candidate_against_its_own_single_runs() {
     assert!(!page.contains("adopted"), "{page}");
 
     line(&runs, "first-round-19", (0.95, 0.3, 0.0), Some(true));
-    let page = render(
-        &load(&plan, &runs, &BTreeMap::new()).expect("loads"),
-        &today,
-        "abc1234",
-        "a test machine",
-    );
-    assert!(
-        page.contains("By the amendment's rule the candidate is **adopted**"),
-        "{page}"
-    );
+    let adopted = "By the amendment's rule the candidate is **adopted**";
+    assert!(rendered().contains(adopted), "{}", rendered());
 
-    // One candidate line that does not deliver still meets aim 1 (19 of 20); two do not.
+    // One candidate line that does not deliver still meets aim 1 (19 of 20); a second does not.
     line(&runs, "first-round-18", (0.8, 0.3, 0.0), Some(true));
+    assert!(rendered().contains(adopted), "{}", rendered());
     line(&runs, "first-round-17", (1.0, 0.6, 0.0), Some(true));
-    let page = render(
-        &load(&plan, &runs, &BTreeMap::new()).expect("loads"),
-        &today,
-        "abc1234",
-        "a test machine",
-    );
+    let page = rendered();
     assert!(
         page.contains("By the amendment's rule the candidate is **not adopted**"),
         "{page}"
