@@ -42,13 +42,18 @@ fn scratch(name: &str) -> (PathBuf, PathBuf, PathBuf) {
     (dir, runs, plan)
 }
 
+/// The plan lines of the 20 pinwheel base seeds.
+fn pinwheel_lines() -> String {
+    (0..20)
+        .map(|s| format!("pinwheel-{s} --seed {s}\n"))
+        .collect()
+}
+
 #[test]
 fn the_page_shows_every_line_and_judges_only_a_complete_queue() {
     let (dir, runs, plan) = scratch("main-job-page");
     let mut text = String::from("# a comment\ntoday-0 --seed 0 --race 1\n");
-    for s in 0..20 {
-        text.push_str(&format!("pinwheel-{s} --seed {s}\n"));
-    }
+    text.push_str(&pinwheel_lines());
     std::fs::write(&plan, &text).expect("plan");
     line(&runs, "today-0", (1.0, 1.196, 0.46), None);
     line(&runs, "pinwheel-0", (1.0, 0.303, 0.0), Some(true));
@@ -168,9 +173,7 @@ fn a_page_rebuilt_from_the_record_shows_the_rows_the_folders_gave() {
 fn the_amendment_judges_its_candidate_against_its_own_single_runs() {
     let (dir, runs, plan) = scratch("main-job-amendment");
     let mut text = String::from("today-0 --seed 0\ntoday-1 --seed 1\n");
-    for s in 0..20 {
-        text.push_str(&format!("pinwheel-{s} --seed {s}\n"));
-    }
+    text.push_str(&pinwheel_lines());
     text.push_str("single-0 --seed 0\nsingle-1 --seed 1\n");
     for s in 0..20 {
         text.push_str(&format!(
