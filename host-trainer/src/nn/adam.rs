@@ -1,15 +1,16 @@
 //! Adam, with L2 regularisation of the weights (the paper's 1e-4).
 //!
-//! Every parameter and moment the step writes is flushed to zero when it is subnormal (below
-//! 2⁻¹²⁶ in magnitude). The weights of a ReLU unit that no longer fires get no gradient but the
-//! L2 term's, which Adam drives towards zero by ever smaller steps, so they pass into the
-//! subnormal range and stay there; on CPUs that handle subnormal operands in microcode (the
-//! Intel Xeons of docs/performance.md) every multiply-add that meets one is about 90 times
-//! slower, and training about 15 times slower as a whole. A product with a subnormal weight is
-//! below half an ulp of any sum of normal size, so flushing the weight leaves the sums, and so
-//! every activation, gradient and decision of training, as they were: only those weights' own
-//! bits change (docs/performance.md, "Subnormal numbers on Intel Xeon", measures both). In
-//! code, not by the CPU's flush-to-zero mode, so that every machine computes the same bits.
+//! Every moment the step writes is flushed to zero when it is subnormal (below 2⁻¹²⁶ in
+//! magnitude), and every parameter when it is below 2⁻⁹⁰ (`flush_param` says why that
+//! bound). The weights of a ReLU unit that no longer fires get no gradient but the L2 term's,
+//! which Adam drives towards zero by ever smaller steps, into the subnormal range; on CPUs that
+//! handle subnormal operands and results in microcode (the Intel Xeons of docs/performance.md)
+//! every multiply-add that meets one is about 90 times slower, and training several times
+//! slower as a whole. A product with so small a weight is below half an ulp of any sum of
+//! normal size, so flushing the weight leaves the sums, and so every activation, gradient and
+//! decision of training, as they were: only those weights' own bits change
+//! (docs/performance.md, "Subnormal numbers on Intel Xeon", measures both). In code, not by the
+//! CPU's flush-to-zero mode, so that every machine computes the same bits.
 
 use serde::{Deserialize, Serialize};
 
@@ -184,6 +185,33 @@ fn flush(x: f32) -> f32 {
     }
 }
 
+/// Below this magnitude (2⁻⁹⁰, about 8 × 10⁻²⁸) a parameter is set to zero: see
+/// [`flush_param`].
+pub(crate) const TINY_PARAM: f32 = f32::from_bits((127 - 90) << 23);
+
+/// A parameter, or zero where its magnitude is below [`TINY_PARAM`] (zero and NaN pass as
+/// they are).
+///
+/// Flushing only subnormal parameters is not enough: the outgoing weights of a ReLU unit that
+/// no longer fires get no gradient but the L2 term's, and Adam's moments, still decaying, walk
+/// a flushed weight back to about 10⁻³⁷. Such a weight is normal, but the backward pass
+/// multiplies it by the next layer's gradients (about 10⁻³ and above) into subnormal results,
+/// and every multiply-add that produces one pays the CPU's microcode assist. Above 2⁻⁹⁰ a
+/// weight's products with gradients above 10⁻¹¹ are normal; below it, its product with any
+/// activation or gradient under 2¹⁰ is below 2⁻⁸⁰, under half an ulp of any sum above 2⁻⁵⁶
+/// (about 10⁻¹⁷), so the sums that training reads keep their bits (docs/performance.md,
+/// "Subnormal numbers on Intel Xeon", checks it over whole runs). Once a weight is zero and
+/// its moments have decayed, its gradient is exactly zero and it stays zero until its unit
+/// fires.
+#[inline(always)]
+pub(crate) fn flush_param(x: f32) -> f32 {
+    if x != 0.0 && x.abs() < TINY_PARAM {
+        0.0
+    } else {
+        x
+    }
+}
+
 struct Step {
     lr: f32,
     inv_c2: f32,
@@ -199,7 +227,7 @@ impl Step {
             let g = g + l2 * *p;
             *m = self.beta1 * *m + (1.0 - self.beta1) * g;
             *v = self.beta2 * *v + (1.0 - self.beta2) * g * g;
-            *p = flush(*p - self.lr * *m / ((*v * self.inv_c2).sqrt() + self.eps));
+            *p = flush_param(*p - self.lr * *m / ((*v * self.inv_c2).sqrt() + self.eps));
             *m = flush(*m);
             *v = flush(*v);
         }
@@ -290,6 +318,49 @@ mod tests {
         assert_eq!(flush(f32::MIN_POSITIVE / 2.0), 0.0);
         assert_eq!(flush(-f32::from_bits(1)), 0.0);
         assert!(flush(-0.0).is_sign_negative() && flush(f32::NAN).is_nan());
+    }
+
+    #[test]
+    fn a_weight_whose_unit_stopped_firing_ends_at_zero_and_stays_there() {
+        // The outgoing weight of a unit that fired and then stopped: a gradient while it
+        // fired, then only the L2 term's. Adam's moments, still decaying, keep moving a weight
+        // that a subnormal-only flush set to zero, back to about 1e-37, a normal number whose
+        // products with gradients are subnormal; `flush_param` holds it at zero instead.
+        let adam = Adam::new(
+            &Net::new(tiny(), &mut training_stream(5, "adam")),
+            2.0f32.powi(-12),
+            1e-4,
+        );
+        let (mut p, mut m, mut v) = ([0.3f32, -0.2], [0.0f32; 2], [0.0f32; 2]);
+        let mut zero_from = None;
+        for step in 1..=40_000u32 {
+            let t = step as i32;
+            let apply = Step {
+                lr: (f64::from(adam.lr) / (1.0 - f64::from(adam.beta1).powi(t))) as f32,
+                inv_c2: (1.0 / (1.0 - f64::from(adam.beta2).powi(t))) as f32,
+                beta1: adam.beta1,
+                beta2: adam.beta2,
+                eps: adam.eps,
+            };
+            let g = if step <= 200 { [0.01, -0.02] } else { [0.0; 2] };
+            apply.apply(&mut p, &g, &mut m, &mut v, adam.l2);
+            for x in p {
+                assert!(
+                    x == 0.0 || x.abs() >= TINY_PARAM,
+                    "{x:e} at step {step}: a weight this small makes subnormal products"
+                );
+            }
+            match (zero_from, p == [0.0; 2]) {
+                (None, true) => zero_from = Some(step),
+                (Some(at), false) => panic!("zero at step {at}, then {p:?} at step {step}"),
+                _ => {}
+            }
+        }
+        assert!(zero_from.is_some(), "the weights never reached zero: {p:?}");
+        assert_eq!(flush_param(TINY_PARAM), TINY_PARAM);
+        assert_eq!(flush_param(-TINY_PARAM / 2.0), 0.0);
+        assert_eq!(TINY_PARAM, 2.0f32.powi(-90));
+        assert!(flush_param(-0.0).is_sign_negative() && flush_param(f32::NAN).is_nan());
     }
 
     fn tiny() -> NetConfig {

@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 
 use firmware_sim::seed;
 
+use super::adam::flush_param;
 use super::workers::Workers;
 
 /// A row-major batch: rows are samples, columns are features; `data.len() == rows * cols`.
@@ -820,11 +821,15 @@ pub fn soft_update(target: &mut Net, source: &Net, tau: f32) {
         "soft_update: network shapes differ"
     );
     let keep = 1.0 - tau;
+    // Flushed as Adam's step flushes its parameters (`nn::adam::flush_param`): a target
+    // weight whose source is zero decays by `keep` each update into the subnormal range and
+    // sticks there (below about 100 · 2⁻¹⁴⁹, `keep * t` rounds back to `t`), where every
+    // target pass that reads it pays the CPU's microcode assist.
     // Slice by slice, not through the chained `params_mut` iterator: that one does not
     // vectorise, and this loop runs over every parameter of two networks per update.
     let blend = |t: &mut [f32], s: &[f32]| {
         for (t, &s) in t.iter_mut().zip(s) {
-            *t = tau * s + keep * *t;
+            *t = flush_param(tau * s + keep * *t);
         }
     };
     for (t, s) in target.layers.iter_mut().zip(&source.layers) {

@@ -295,6 +295,22 @@ fn soft_update_interpolates() {
 }
 
 #[test]
+fn a_target_weight_whose_source_is_zero_decays_to_zero_not_into_tiny_values() {
+    // τ = 0.005: without the flush, the target weight sticks near 100 · 2⁻¹⁴⁹, subnormal.
+    let cfg = config(Activation::Relu, Output::Tanh, 0.0);
+    let mut source = spread_net(cfg.clone(), 17);
+    let mut target = spread_net(cfg, 18);
+    source.layers[0].w[0] = 0.0;
+    target.layers[0].w[0] = 1e-3;
+    for _ in 0..40_000 {
+        soft_update(&mut target, &source, 0.005);
+        let w = target.layers[0].w[0];
+        assert!(w == 0.0 || w.abs() >= crate::nn::adam::TINY_PARAM, "{w:e}");
+    }
+    assert_eq!(target.layers[0].w[0], 0.0);
+}
+
+#[test]
 fn ddpg_init_bounds() {
     let cfg = NetConfig {
         inputs: 4,
