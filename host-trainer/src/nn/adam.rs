@@ -197,7 +197,7 @@ pub(crate) const TINY_PARAM: f32 = f32::from_bits((127 - 90) << 23);
 /// a flushed weight back to about 10⁻³⁷. Such a weight is normal, but the backward pass
 /// multiplies it by the next layer's gradients (about 10⁻³ and above) into subnormal results,
 /// and every multiply-add that produces one pays the CPU's microcode assist. Above 2⁻⁹⁰ a
-/// weight's products with gradients above 10⁻¹¹ are normal; below it, its product with any
+/// weight's products with gradients above 2⁻³⁶ are normal; below it, its product with any
 /// activation or gradient under 2¹⁰ is below 2⁻⁸⁰, under half an ulp of any sum above 2⁻⁵⁶
 /// (about 10⁻¹⁷), so the sums that training reads keep their bits (docs/performance.md,
 /// "Subnormal numbers on Intel Xeon", checks it over whole runs). Once a weight is zero and
