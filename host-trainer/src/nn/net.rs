@@ -800,7 +800,9 @@ pub fn evaluate(
     });
 }
 
-/// Polyak averaging of target networks: `target <- tau * source + (1 - tau) * target`.
+/// Polyak averaging of target networks: `target <- tau * source + (1 - tau) * target`, each
+/// result below 2⁻⁹⁰ in magnitude set to zero as Adam's step sets its parameters
+/// (`nn::adam`'s docs say why).
 ///
 /// # Panics
 /// If the two networks do not have the same shape.
