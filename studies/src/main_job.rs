@@ -546,6 +546,9 @@ struct Judged {
     label: &'static str,
     /// How it names the single runs.
     baseline_label: &'static str,
+    /// Aim 2 taken per half of the queue, each line against its own half's single run (the
+    /// amendment's note: its halves ran on two machines), rather than as a ratio of medians.
+    per_half: bool,
 }
 
 /// The protocol's aims: `train`'s defaults on the pinwheel against today's single run.
@@ -555,6 +558,7 @@ const DEFAULTS: Judged = Judged {
     heading: "### The aims",
     label: "pinwheel",
     baseline_label: "today's single run",
+    per_half: false,
 };
 
 /// The amendment's aims: the candidate stop rule against today's single run timed in its queue.
@@ -564,6 +568,7 @@ const CANDIDATE: Judged = Judged {
     heading: "#### Its aims",
     label: "first-round",
     baseline_label: "today's single run in the same queue",
+    per_half: true,
 };
 
 /// The results section: every line's row, then the aims judged by the protocol's rules (only
@@ -633,9 +638,9 @@ pub fn render(lines: &[Line], today: &BTreeMap<u64, Test>, commit: &str, cpu: &s
     }
     let _ = writeln!(out, "\n### Today's single run, for the wall-time ratio\n");
     single_runs(&mut out, of(Kind::Today), today);
-    aims(&mut out, lines, today, &DEFAULTS);
+    aims(&mut out, lines, today, cpu, &DEFAULTS);
     if of(Kind::FirstRound).count() > 0 {
-        candidate(&mut out, lines, today);
+        candidate(&mut out, lines, today, cpu);
     }
     for (kind, title) in [
         (Kind::Rings, "rings-1-seed12"),
@@ -699,7 +704,7 @@ fn single_runs<'a>(
 /// The amendment's section: the candidate stop rule's rows beside the defaults' line of the
 /// same base seed (whose racers trained the same bytes up to the earlier stop), its single
 /// runs, its aims, and the adoption rule's decision.
-fn candidate(out: &mut String, lines: &[Line], today: &BTreeMap<u64, Test>) {
+fn candidate(out: &mut String, lines: &[Line], today: &BTreeMap<u64, Test>, cpu: &str) {
     let of = |k: Kind| lines.iter().filter(move |l| l.kind == k);
     let _ = writeln!(
         out,
@@ -728,7 +733,7 @@ fn candidate(out: &mut String, lines: &[Line], today: &BTreeMap<u64, Test>) {
     }
     let _ = writeln!(out, "\n#### Today's single run, timed in the same queue\n");
     single_runs(out, of(Kind::Single), today);
-    let (delivered, fast) = aims(out, lines, today, &CANDIDATE);
+    let (delivered, fast) = aims(out, lines, today, cpu, &CANDIDATE);
     let _ = match (delivered, fast) {
         (Some(true), Some(true)) => writeln!(
             out,
@@ -780,11 +785,12 @@ fn row(l: &Line) -> String {
 }
 
 /// Aims 1 and 2 for the lines `j` names, with their verdicts (`None` until all their lines
-/// are in).
+/// are in). `cpu` names the machine of the lines read from the queue's folder.
 fn aims(
     out: &mut String,
     lines: &[Line],
     today: &BTreeMap<u64, Test>,
+    cpu: &str,
     j: &Judged,
 ) -> (Option<bool>, Option<bool>) {
     let judged: Vec<&Line> = lines.iter().filter(|l| l.kind == j.kind).collect();
@@ -848,6 +854,10 @@ fn aims(
             }
         );
     }
+    if j.per_half {
+        verdicts.1 = wall_per_half(out, &finished, lines, cpu);
+        return verdicts;
+    }
     let walls: Vec<f64> = finished.iter().map(|l| l.wall()).collect();
     let cpus: Vec<f64> = finished.iter().map(|l| l.cpu()).collect();
     let single_walls: Vec<f64> = lines
@@ -895,4 +905,131 @@ fn aims(
         }
     }
     verdicts
+}
+
+/// The half of the amendment's queue a base seed's line ran in, which names its single line:
+/// `single-0` ran before seeds 0–9, `single-1` before seeds 10–19.
+fn half(seed: u64) -> u64 {
+    seed / 10
+}
+
+/// The amendment's aim 2, judged per half (its protocol's note: the halves ran on two
+/// machines): each candidate line's wall time over that of its own half's single line, met when
+/// the median of the 20 ratios is at most 0.5. Each half's ratio of medians and the pooled one
+/// of the first wording are printed beside it; the pooled one says when it mixes machines.
+fn wall_per_half(out: &mut String, finished: &[&Line], lines: &[Line], cpu: &str) -> Option<bool> {
+    let machine = |l: &Line| l.origin.as_ref().map_or(cpu, |o| o.1.as_str()).to_string();
+    let single = |h: u64| {
+        lines
+            .iter()
+            .find(|l| l.kind == Kind::Single && l.seed == h && l.done)
+    };
+    let ratios: Vec<f64> = finished
+        .iter()
+        .filter_map(|l| single(half(l.seed)).map(|s| l.wall() / s.wall()))
+        .collect();
+    let Some(m) = median(&ratios) else {
+        let _ = writeln!(
+            out,
+            "\n**2. Wall time, per half.** Not judged yet: no first-round line and the single run of its half both in."
+        );
+        return None;
+    };
+    let lo = ratios.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = ratios.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let within = ratios.iter().filter(|&&r| r <= 0.5).count();
+    let _ = write!(
+        out,
+        "\n**2. Wall time, per half.** Each first-round line's wall time over that of its half's single run: a median ratio of {m:.2} over {} lines (range {lo:.2}–{hi:.2}; {within} at most 0.5).",
+        ratios.len()
+    );
+    for h in 0..2 {
+        let walls: Vec<f64> = finished
+            .iter()
+            .filter(|l| half(l.seed) == h)
+            .map(|l| l.wall())
+            .collect();
+        if let (Some(s), Some(w)) = (single(h), median(&walls)) {
+            let _ = write!(
+                out,
+                " Seeds {}–{} ({} in) on {}: median {w:.0} s against {:.0} s for `single-{h}`, {:.2}.",
+                h * 10,
+                h * 10 + 9,
+                walls.len(),
+                machine(s),
+                s.wall(),
+                w / s.wall()
+            );
+        }
+    }
+    let singles: Vec<&Line> = (0..2).filter_map(single).collect();
+    let walls: Vec<f64> = finished.iter().map(|l| l.wall()).collect();
+    let single_walls: Vec<f64> = singles.iter().map(|l| l.wall()).collect();
+    if let (Some(w), Some(w0)) = (median(&walls), median(&single_walls)) {
+        let mut machines: Vec<String> = finished
+            .iter()
+            .copied()
+            .chain(singles.iter().copied())
+            .map(machine)
+            .collect();
+        machines.sort();
+        machines.dedup();
+        let _ = write!(
+            out,
+            " Pooled as first worded{}: median {w:.0} s against {w0:.0} s, {:.2}.",
+            if machines.len() > 1 {
+                format!(
+                    " (mixing {} machines, so not what is judged)",
+                    machines.len()
+                )
+            } else {
+                String::new()
+            },
+            w / w0
+        );
+    }
+    let _ = writeln!(out);
+    if ratios.len() < BASE_SEEDS {
+        let _ = writeln!(out, "Not judged yet: not every line is in.");
+        return None;
+    }
+    let met = m <= 0.5;
+    let flips = median_flips(&ratios, 0.5);
+    let _ = writeln!(
+        out,
+        "Verdict: the aim (a median ratio at most 0.5) is **{}**; {flips} line{} whose ratio crossed 0.5 would flip it.",
+        if met { "met" } else { "not met" },
+        if flips == 1 { "" } else { "s" }
+    );
+    Some(met)
+}
+
+/// The sensitivity of "the median of `xs` is at most `at_most`", for values that cannot be
+/// negative: the fewest values that must change to flip it (the largest ones at most `at_most`
+/// raised without bound, or the smallest ones above it lowered to zero).
+///
+/// ```
+/// use studies::main_job::median_flips;
+/// assert_eq!(median_flips(&[0.3, 0.4, 0.6], 0.5), 1); // 0.4 above 0.5 flips it
+/// assert_eq!(median_flips(&[0.1, 0.2, 0.3, 0.6], 0.5), 2);
+/// assert_eq!(median_flips(&[0.6, 0.7, 0.8], 0.5), 2);
+/// ```
+pub fn median_flips(xs: &[f64], at_most: f64) -> usize {
+    let met = |v: &[f64]| median(v).is_some_and(|m| m <= at_most);
+    let was = met(xs);
+    let mut v = xs.to_vec();
+    v.sort_by(f64::total_cmp);
+    // The values on the verdict's side, nearest the threshold first.
+    let order: Vec<usize> = if was {
+        (0..v.len()).rev().filter(|&i| v[i] <= at_most).collect()
+    } else {
+        (0..v.len()).filter(|&i| v[i] > at_most).collect()
+    };
+    for (changed, &i) in order.iter().enumerate() {
+        v[i] = if was { f64::INFINITY } else { 0.0 };
+        if met(&v) != was {
+            return changed + 1;
+        }
+    }
+    order.len() + 1
 }

@@ -223,7 +223,7 @@ fn the_amendment_judges_its_candidate_against_its_own_single_runs() {
         "{page}"
     );
     assert!(
-        page.contains("against 400 s for today's single run in the same queue (2 lines in: 400 s, 400 s): a ratio of 0.38."),
+        page.contains("a median ratio of 0.38 over 19 lines (range 0.38–0.38; 19 at most 0.5). Seeds 0–9 (10 in) on a test machine: median 151 s against 400 s for `single-0`, 0.38. Seeds 10–19 (9 in) on a test machine: median 151 s against 400 s for `single-1`, 0.38. Pooled as first worded: median 151 s against 400 s, 0.38."),
         "{page}"
     );
     assert!(
@@ -241,6 +241,61 @@ fn the_amendment_judges_its_candidate_against_its_own_single_runs() {
     assert!(rendered().contains(adopted), "{}", rendered());
     line(&runs, "first-round-17", (1.0, 0.6, 0.0), Some(true));
     let page = rendered();
+    assert!(
+        page.contains("By the amendment's rule the candidate is **not adopted**"),
+        "{page}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_amendment_times_each_half_against_its_own_single_run() {
+    let (dir, runs, plan) = scratch("main-job-halves");
+    let mut text = String::from("single-0 --seed 0\n");
+    for s in 0..10 {
+        text.push_str(&format!("first-round-{s} --seed {s}\n"));
+    }
+    text.push_str("single-1 --seed 1\n");
+    for s in 10..20 {
+        text.push_str(&format!("first-round-{s} --seed {s}\n"));
+    }
+    std::fs::write(&plan, &text).expect("plan");
+    // A slow machine ran the first half, a fast one the second: each half's lines took just
+    // under and just over half of their own single run, while the pooled medians give exactly
+    // one half.
+    let timed = |name: &str, race: Option<bool>, wall: u32| {
+        line(&runs, name, (1.0, 0.2, 0.0), race);
+        std::fs::write(
+            runs.join(name).join("parts.txt"),
+            format!("1 0 {wall} {wall} 0\n"),
+        )
+        .expect("parts");
+    };
+    timed("single-0", None, 800);
+    timed("single-1", None, 300);
+    for s in 0..20 {
+        timed(
+            &format!("first-round-{s}"),
+            Some(true),
+            if s < 10 { 390 } else { 160 },
+        );
+    }
+    let mut lines = load(&plan, &runs, &BTreeMap::new()).expect("loads");
+    for l in lines
+        .iter_mut()
+        .filter(|l| l.name == "single-0" || (l.name.starts_with("first-round") && l.seed < 10))
+    {
+        l.origin = Some(("c0ffee1".into(), "a slow machine".into()));
+    }
+    let page = render(&lines, &BTreeMap::new(), "abc1234", "a fast machine");
+    assert!(
+        page.contains("a median ratio of 0.51 over 20 lines (range 0.49–0.53; 10 at most 0.5). Seeds 0–9 (10 in) on a slow machine: median 390 s against 800 s for `single-0`, 0.49. Seeds 10–19 (10 in) on a fast machine: median 160 s against 300 s for `single-1`, 0.53. Pooled as first worded (mixing 2 machines, so not what is judged): median 275 s against 550 s, 0.50."),
+        "{page}"
+    );
+    assert!(
+        page.contains("Verdict: the aim (a median ratio at most 0.5) is **not met**; 1 line whose ratio crossed 0.5 would flip it."),
+        "{page}"
+    );
     assert!(
         page.contains("By the amendment's rule the candidate is **not adopted**"),
         "{page}"
