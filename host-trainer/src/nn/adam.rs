@@ -97,17 +97,7 @@ impl Adam {
             "Adam::step: gradient shape"
         );
         self.steps += 1;
-        let t = self.steps.min(i32::MAX as u64) as i32;
-        // Bias corrections folded into the step size, computed in f64 (they approach 1 slowly).
-        let c1 = 1.0 - f64::from(self.beta1).powi(t);
-        let c2 = 1.0 - f64::from(self.beta2).powi(t);
-        let step = Step {
-            lr: (f64::from(self.lr) / c1) as f32,
-            inv_c2: (1.0 / c2) as f32,
-            beta1: self.beta1,
-            beta2: self.beta2,
-            eps: self.eps,
-        };
+        let step = Step::at(self.steps, self.lr, self.beta1, self.beta2, self.eps);
         for (((layer, g), m), v) in net
             .layers
             .iter_mut()
@@ -121,7 +111,6 @@ impl Adam {
     }
 }
 
-/// The per-parameter update of one step.
 /// Adam for a plain parameter vector that is not a network (PPO's state-independent
 /// log-standard-deviation), with [`Adam`]'s constants and no weight decay.
 ///
@@ -160,17 +149,7 @@ impl VecAdam {
     pub fn step(&mut self, p: &mut [f32], g: &[f32]) {
         assert_eq!(p.len(), self.m.len(), "VecAdam::step: parameter length");
         self.steps += 1;
-        let t = self.steps.min(i32::MAX as u64) as i32;
-        let (beta1, beta2) = (0.9f32, 0.999f32);
-        let c1 = 1.0 - f64::from(beta1).powi(t);
-        let c2 = 1.0 - f64::from(beta2).powi(t);
-        let step = Step {
-            lr: (f64::from(self.lr) / c1) as f32,
-            inv_c2: (1.0 / c2) as f32,
-            beta1,
-            beta2,
-            eps: 1e-8,
-        };
+        let step = Step::at(self.steps, self.lr, 0.9, 0.999, 1e-8);
         step.apply(p, g, &mut self.m, &mut self.v, 0.0);
     }
 }
@@ -212,6 +191,7 @@ pub(crate) fn flush_param(x: f32) -> f32 {
     }
 }
 
+/// The per-parameter update of one step.
 struct Step {
     lr: f32,
     inv_c2: f32,
@@ -221,6 +201,21 @@ struct Step {
 }
 
 impl Step {
+    /// Step number `steps` (from 1), with Adam's bias corrections folded into the step size,
+    /// computed in f64 (they approach 1 slowly).
+    fn at(steps: u64, lr: f32, beta1: f32, beta2: f32, eps: f32) -> Step {
+        let t = steps.min(i32::MAX as u64) as i32;
+        let c1 = 1.0 - f64::from(beta1).powi(t);
+        let c2 = 1.0 - f64::from(beta2).powi(t);
+        Step {
+            lr: (f64::from(lr) / c1) as f32,
+            inv_c2: (1.0 / c2) as f32,
+            beta1,
+            beta2,
+            eps,
+        }
+    }
+
     fn apply(&self, p: &mut [f32], g: &[f32], m: &mut [f32], v: &mut [f32], l2: f32) {
         assert_eq!(p.len(), g.len(), "Adam::step: gradient shape");
         for (((p, &g), m), v) in p.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()) {
@@ -334,14 +329,7 @@ mod tests {
         let (mut p, mut m, mut v) = ([0.3f32, -0.2], [0.0f32; 2], [0.0f32; 2]);
         let mut zero_from = None;
         for step in 1..=40_000u32 {
-            let t = step as i32;
-            let apply = Step {
-                lr: (f64::from(adam.lr) / (1.0 - f64::from(adam.beta1).powi(t))) as f32,
-                inv_c2: (1.0 / (1.0 - f64::from(adam.beta2).powi(t))) as f32,
-                beta1: adam.beta1,
-                beta2: adam.beta2,
-                eps: adam.eps,
-            };
+            let apply = Step::at(u64::from(step), adam.lr, adam.beta1, adam.beta2, adam.eps);
             let g = if step <= 200 { [0.01, -0.02] } else { [0.0; 2] };
             apply.apply(&mut p, &g, &mut m, &mut v, adam.l2);
             for x in p {
