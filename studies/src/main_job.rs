@@ -45,6 +45,9 @@ pub enum Kind {
     /// `train` with the candidate stop rule (the protocol's amendment): rounds every 50
     /// episodes, the first round that meets the criteria ends the race.
     FirstRound,
+    /// `train` with the second amendment's candidate: rounds every 10 episodes, the first round
+    /// that meets the criteria ends the race.
+    EveryTen,
 }
 
 impl Kind {
@@ -57,6 +60,7 @@ impl Kind {
             Kind::Maze => "maze",
             Kind::Single => "single",
             Kind::FirstRound => "first-round",
+            Kind::EveryTen => "every-10",
         }
     }
 
@@ -71,6 +75,7 @@ impl Kind {
             "maze" => Kind::Maze,
             "single" => Kind::Single,
             "first-round" => Kind::FirstRound,
+            "every-10" => Kind::EveryTen,
             other => bail!("plan line {name:?}: unknown kind {other:?}"),
         };
         Ok((
@@ -121,6 +126,9 @@ pub struct Race {
     pub ended_at: usize,
     /// Whether a racer's validation ended the race (else every budget was used).
     pub stopped_early: bool,
+    /// The mean settled error of the validation round whose policy the winner handed over
+    /// (`None` where the record does not have it).
+    pub kept_error: Option<f64>,
 }
 
 /// One line of the plan, as far as it has run.
@@ -195,6 +203,12 @@ struct RaceJson {
 struct RacerJson {
     seed: u64,
     episodes: usize,
+    kept: Option<RoundJson>,
+}
+
+#[derive(Deserialize)]
+struct RoundJson {
+    error: Option<f64>,
 }
 
 /// Reads every line of `plan` (in its order): from `record` (the committed rows, as
@@ -219,7 +233,7 @@ pub fn load(plan: &Path, runs: &Path, record: &BTreeMap<String, Line>) -> Result
 }
 
 /// The record's columns, in order.
-const RECORD_COLUMNS: [&str; 14] = [
+const RECORD_COLUMNS: [&str; 15] = [
     "name",
     "commit",
     "machine",
@@ -234,6 +248,7 @@ const RECORD_COLUMNS: [&str; 14] = [
     "winner_seed",
     "ended_at",
     "ended_by",
+    "kept_validation_error",
 ];
 
 /// The record's finished lines by name (an absent file is an empty record). `#` starts a
@@ -307,6 +322,10 @@ pub fn read_record(path: &Path) -> Result<BTreeMap<String, Line>> {
                         at()
                     ),
                 },
+                kept_error: match f[14] {
+                    "-" => None,
+                    _ => Some(num(14)?),
+                },
             }),
         };
         let line = Line {
@@ -335,7 +354,7 @@ pub fn read_record(path: &Path) -> Result<BTreeMap<String, Line>> {
 /// machine it ran on; figures at the page's precision or finer.
 pub fn record_row(line: &Line, commit: &str, machine: &str) -> Option<String> {
     let t = line.test.filter(|_| line.done)?;
-    let (winner, seed, ended, by) = match &line.race {
+    let (winner, seed, ended, by, kept) = match &line.race {
         Some(r) => (
             r.winner.0.to_string(),
             r.winner.1.to_string(),
@@ -346,8 +365,9 @@ pub fn record_row(line: &Line, commit: &str, machine: &str) -> Option<String> {
                 "budget"
             }
             .to_string(),
+            r.kept_error.map_or("-".into(), |e| format!("{e:.6}")),
         ),
-        None => ("-".into(), "-".into(), "-".into(), "-".into()),
+        None => ("-".into(), "-".into(), "-".into(), "-".into(), "-".into()),
     };
     Some(
         [
@@ -365,6 +385,7 @@ pub fn record_row(line: &Line, commit: &str, machine: &str) -> Option<String> {
             seed,
             ended,
             by,
+            kept,
         ]
         .join("\t"),
     )
@@ -420,10 +441,16 @@ fn load_line(dir: &Path, name: &str, kind: Kind, seed: u64) -> Result<Line> {
             .winner
             .with_context(|| format!("{name}: a finished race without a winner"))?;
         let seed = race.racers.get(w).map(|r| r.seed).unwrap_or_default();
+        let kept_error = race
+            .racers
+            .get(w)
+            .and_then(|r| r.kept.as_ref())
+            .and_then(|k| k.error);
         line.race = Some(Race {
             winner: (w, seed),
             ended_at: race.racers.iter().map(|r| r.episodes).max().unwrap_or(0),
             stopped_early: race.why.contains("was the first whose validation"),
+            kept_error,
         });
     }
     Ok(line)
@@ -549,6 +576,10 @@ struct Judged {
     /// Aim 2 taken per half of the queue, each line against its own half's single run (the
     /// amendment's note: its halves ran on two machines), rather than as a ratio of medians.
     per_half: bool,
+    /// The seeds of the `single` lines that time the two halves (base seeds 0–9, then 10–19).
+    singles: [u64; 2],
+    /// The amendment section's heading.
+    title: &'static str,
 }
 
 /// The protocol's aims: `train`'s defaults on the pinwheel against today's single run.
@@ -559,6 +590,8 @@ const DEFAULTS: Judged = Judged {
     label: "pinwheel",
     baseline_label: "today's single run",
     per_half: false,
+    singles: [0, 1],
+    title: "",
 };
 
 /// The amendment's aims: the candidate stop rule against today's single run timed in its queue.
@@ -569,6 +602,21 @@ const CANDIDATE: Judged = Judged {
     label: "first-round",
     baseline_label: "today's single run in the same queue",
     per_half: true,
+    singles: [0, 1],
+    title: "The amendment's candidate: the first round that meets the criteria, rounds every 50 episodes",
+};
+
+/// The second amendment's aims: rounds every 10 episodes, against today's single run timed in
+/// its queue (`single-2`, `single-3`).
+const SECOND: Judged = Judged {
+    kind: Kind::EveryTen,
+    baseline: Kind::Single,
+    heading: "#### Its aims",
+    label: "every-10",
+    baseline_label: "today's single run in the same queue",
+    per_half: true,
+    singles: [2, 3],
+    title: "The second amendment's candidate: the first round that meets the criteria, rounds every 10 episodes",
 };
 
 /// The results section: every line's row, then the aims judged by the protocol's rules (only
@@ -605,7 +653,7 @@ pub fn render(lines: &[Line], today: &BTreeMap<u64, Test>, commit: &str, cpu: &s
         })
         .collect();
     // The amendment's lines are counted once the plan has them.
-    let amended: String = [Kind::FirstRound, Kind::Single]
+    let amended: String = [Kind::FirstRound, Kind::EveryTen, Kind::Single]
         .into_iter()
         .filter(|&k| of(k).count() > 0)
         .map(|k| format!(", {} {} of {}", k.name(), done(k), of(k).count()))
@@ -639,8 +687,10 @@ pub fn render(lines: &[Line], today: &BTreeMap<u64, Test>, commit: &str, cpu: &s
     let _ = writeln!(out, "\n### Today's single run, for the wall-time ratio\n");
     single_runs(&mut out, of(Kind::Today), today);
     aims(&mut out, lines, today, cpu, &DEFAULTS);
-    if of(Kind::FirstRound).count() > 0 {
-        candidate(&mut out, lines, today, cpu);
+    for j in [&CANDIDATE, &SECOND] {
+        if of(j.kind).count() > 0 {
+            candidate(&mut out, lines, today, cpu, j);
+        }
     }
     for (kind, title) in [
         (Kind::Rings, "rings-1-seed12"),
@@ -704,18 +754,23 @@ fn single_runs<'a>(
 /// The amendment's section: the candidate stop rule's rows beside the defaults' line of the
 /// same base seed (whose racers trained the same bytes up to the earlier stop), its single
 /// runs, its aims, and the adoption rule's decision.
-fn candidate(out: &mut String, lines: &[Line], today: &BTreeMap<u64, Test>, cpu: &str) {
+fn candidate(out: &mut String, lines: &[Line], today: &BTreeMap<u64, Test>, cpu: &str, j: &Judged) {
     let of = |k: Kind| lines.iter().filter(move |l| l.kind == k);
+    // The second amendment's rows also show the first candidate's end and the validation
+    // round the winner's policy came from (its protocol asks for both).
+    let second = j.kind == Kind::EveryTen;
+    let _ = writeln!(out, "\n### {}\n", j.title);
     let _ = writeln!(
         out,
-        "\n### The amendment's candidate: the first round that meets the criteria, rounds every 50 episodes\n"
+        "| base seed | winner (racer, seed) | race ended at episode | ended by | test success | settled error | stuck | delivers | gate | wall s | CPU s | parts | the defaults' line: ended at, delivers |{}",
+        if second { " the first candidate's line: ended at | the kept round's validation settled error |" } else { "" }
     );
-    let _ = writeln!(out, "| base seed | winner (racer, seed) | race ended at episode | ended by | test success | settled error | stuck | delivers | gate | wall s | CPU s | parts | the defaults' line: ended at, delivers |");
     let _ = writeln!(
         out,
-        "|---:|---|---:|---|---:|---:|---:|---|---|---:|---:|---:|---|"
+        "|---:|---|---:|---|---:|---:|---:|---|---|---:|---:|---:|---|{}",
+        if second { "---:|---:|" } else { "" }
     );
-    for l in of(Kind::FirstRound) {
+    for l in of(j.kind) {
         let defaults = of(Kind::Pinwheel)
             .find(|d| d.seed == l.seed && d.done)
             .map_or_else(
@@ -729,11 +784,29 @@ fn candidate(out: &mut String, lines: &[Line], today: &BTreeMap<u64, Test>, cpu:
                     format!("{ended}, {delivers}")
                 },
             );
-        let _ = writeln!(out, "{} | {defaults} |", row(l));
+        let extra = if second {
+            let first = of(Kind::FirstRound)
+                .find(|d| d.seed == l.seed && d.done)
+                .and_then(|d| d.race.as_ref())
+                .map_or("–".to_string(), |r| r.ended_at.to_string());
+            let kept = l
+                .race
+                .as_ref()
+                .and_then(|r| r.kept_error)
+                .map_or("–".to_string(), |e| format!("{e:.3}"));
+            format!(" {first} | {kept} |")
+        } else {
+            String::new()
+        };
+        let _ = writeln!(out, "{} | {defaults} |{extra}", row(l));
     }
     let _ = writeln!(out, "\n#### Today's single run, timed in the same queue\n");
-    single_runs(out, of(Kind::Single), today);
-    let (delivered, fast) = aims(out, lines, today, cpu, &CANDIDATE);
+    single_runs(
+        out,
+        of(Kind::Single).filter(|l| j.singles.contains(&l.seed)),
+        today,
+    );
+    let (delivered, fast) = aims(out, lines, today, cpu, j);
     let _ = match (delivered, fast) {
         (Some(true), Some(true)) => writeln!(
             out,
@@ -855,7 +928,7 @@ fn aims(
         );
     }
     if j.per_half {
-        verdicts.1 = wall_per_half(out, &finished, lines, cpu);
+        verdicts.1 = wall_per_half(out, &finished, lines, cpu, j);
         return verdicts;
     }
     let walls: Vec<f64> = finished.iter().map(|l| l.wall()).collect();
@@ -907,22 +980,28 @@ fn aims(
     verdicts
 }
 
-/// The half of the amendment's queue a base seed's line ran in, which names its single line:
-/// `single-0` ran before seeds 0–9, `single-1` before seeds 10–19.
-fn half(seed: u64) -> u64 {
-    seed / 10
+/// The half of an amendment's queue a base seed's line ran in (0 for seeds 0–9, 1 for 10–19),
+/// which names its single line in [`Judged::singles`].
+fn half(seed: u64) -> usize {
+    usize::from(seed >= 10)
 }
 
 /// The amendment's aim 2, judged per half (its protocol's note: the halves ran on two
 /// machines): each candidate line's wall time over that of its own half's single line, met when
 /// the median of the 20 ratios is at most 0.5. Each half's ratio of medians and the pooled one
 /// of the first wording are printed beside it; the pooled one says when it mixes machines.
-fn wall_per_half(out: &mut String, finished: &[&Line], lines: &[Line], cpu: &str) -> Option<bool> {
+fn wall_per_half(
+    out: &mut String,
+    finished: &[&Line],
+    lines: &[Line],
+    cpu: &str,
+    j: &Judged,
+) -> Option<bool> {
     let machine = |l: &Line| l.origin.as_ref().map_or(cpu, |o| o.1.as_str()).to_string();
-    let single = |h: u64| {
+    let single = |h: usize| {
         lines
             .iter()
-            .find(|l| l.kind == Kind::Single && l.seed == h && l.done)
+            .find(|l| l.kind == Kind::Single && l.seed == j.singles[h] && l.done)
     };
     let ratios: Vec<f64> = finished
         .iter()
@@ -931,7 +1010,8 @@ fn wall_per_half(out: &mut String, finished: &[&Line], lines: &[Line], cpu: &str
     let Some(m) = median(&ratios) else {
         let _ = writeln!(
             out,
-            "\n**2. Wall time, per half.** Not judged yet: no first-round line and the single run of its half both in."
+            "\n**2. Wall time, per half.** Not judged yet: no {} line and the single run of its half both in.",
+            j.label
         );
         return None;
     };
@@ -940,7 +1020,8 @@ fn wall_per_half(out: &mut String, finished: &[&Line], lines: &[Line], cpu: &str
     let within = ratios.iter().filter(|&&r| r <= 0.5).count();
     let _ = write!(
         out,
-        "\n**2. Wall time, per half.** Each first-round line's wall time over that of its half's single run: a median ratio of {m:.2} over {} lines (range {lo:.2}–{hi:.2}; {within} at most 0.5).",
+        "\n**2. Wall time, per half.** Each {} line's wall time over that of its half's single run: a median ratio of {m:.2} over {} lines (range {lo:.2}–{hi:.2}; {within} at most 0.5).",
+        j.label,
         ratios.len()
     );
     for h in 0..2 {
@@ -952,12 +1033,13 @@ fn wall_per_half(out: &mut String, finished: &[&Line], lines: &[Line], cpu: &str
         if let (Some(s), Some(w)) = (single(h), median(&walls)) {
             let _ = write!(
                 out,
-                " Seeds {}–{} ({} in) on {}: median {w:.0} s against {:.0} s for `single-{h}`, {:.2}.",
+                " Seeds {}–{} ({} in) on {}: median {w:.0} s against {:.0} s for `single-{}`, {:.2}.",
                 h * 10,
                 h * 10 + 9,
                 walls.len(),
                 machine(s),
                 s.wall(),
+                s.seed,
                 w / s.wall()
             );
         }

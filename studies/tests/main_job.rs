@@ -155,14 +155,14 @@ fn a_page_rebuilt_from_the_record_shows_the_rows_the_folders_gave() {
     // A bad row is an error that names the file, the line and the column.
     std::fs::write(
         &record,
-        "pinwheel-0\tabc\tm\t1\t1.0\tx\t1\t0.1\t0\tPASS\t-\t-\t-\t-\n",
+        "pinwheel-0\tabc\tm\t1\t1.0\tx\t1\t0.1\t0\tPASS\t-\t-\t-\t-\t-\n",
     )
     .expect("bad record");
     let err = format!("{:#}", read_record(&record).expect_err("refused"));
     assert!(err.contains("line 1: cpu_s \"x\" is not a number"), "{err}");
     std::fs::write(&record, "pinwheel-0\tabc\n").expect("short record");
     let err = format!("{:#}", read_record(&record).expect_err("refused"));
-    assert!(err.contains("expected 14 tab-separated columns"), "{err}");
+    assert!(err.contains("expected 15 tab-separated columns"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -299,6 +299,74 @@ fn the_amendment_times_each_half_against_its_own_single_run() {
     assert!(
         page.contains("By the amendment's rule the candidate is **not adopted**"),
         "{page}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The second amendment's candidate is timed against its own single runs (`single-2` and
+/// `single-3`, not the first amendment's), and its rows show the first candidate's end and the
+/// settled error of the validation round whose policy the winner handed over.
+#[test]
+fn the_second_amendment_has_its_own_single_runs_and_shows_the_kept_round() {
+    let (dir, runs, plan) = scratch("main-job-second");
+    let mut text = String::from("pinwheel-3 --seed 3\nsingle-0 --seed 0\nsingle-1 --seed 1\nfirst-round-3 --seed 3\nsingle-2 --seed 2\n");
+    for s in 0..10 {
+        text.push_str(&format!("every-10-{s} --seed {s}\n"));
+    }
+    text.push_str("single-3 --seed 3\n");
+    for s in 10..20 {
+        text.push_str(&format!("every-10-{s} --seed {s}\n"));
+    }
+    std::fs::write(&plan, &text).expect("plan");
+    line(&runs, "pinwheel-3", (1.0, 0.2, 0.0), Some(true));
+    line(&runs, "first-round-3", (1.0, 0.2, 0.0), Some(true));
+    let timed = |name: &str, race: Option<bool>, wall: u32| {
+        line(&runs, name, (1.0, 0.2, 0.0), race);
+        std::fs::write(
+            runs.join(name).join("parts.txt"),
+            format!("1 0 {wall} {wall} 0\n"),
+        )
+        .expect("parts");
+    };
+    // The first amendment's single runs took far longer: they must not time this candidate.
+    timed("single-0", None, 4000);
+    timed("single-1", None, 4000);
+    timed("single-2", None, 400);
+    timed("single-3", None, 500);
+    for s in 0..20 {
+        timed(&format!("every-10-{s}"), Some(true), 100);
+    }
+    let race = r#"{"winner": 1, "why": "racer 1 (seed 9) was the first whose validation met the criteria", "racers": [{"seed": 3, "episodes": 700, "kept": null}, {"seed": 9, "episodes": 700, "kept": {"episode": 690, "error": 0.25}}]}"#;
+    std::fs::write(runs.join("every-10-3/nav-walls__dcp__0/race.json"), race).expect("race");
+    let lines = load(&plan, &runs, &BTreeMap::new()).expect("loads");
+    let page = render(&lines, &BTreeMap::new(), "abc1234", "a test machine");
+    assert!(
+        page.contains("### The second amendment's candidate: the first round that meets the criteria, rounds every 10 episodes"),
+        "{page}"
+    );
+    assert!(
+        page.contains("| 3 | 1, 9 | 700 | validation | 1.00 | 0.200 | 0.00 | yes | PASS | 100 | 100 | 1 | 1600, yes | 1600 | 0.250 |"),
+        "the defaults' and the first candidate's ends, and the kept round's error: {page}"
+    );
+    assert!(
+        page.contains("Seeds 0–9 (10 in) on a test machine: median 100 s against 400 s for `single-2`, 0.25. Seeds 10–19 (10 in) on a test machine: median 100 s against 500 s for `single-3`, 0.20."),
+        "{page}"
+    );
+    assert!(
+        page.contains("By the amendment's rule the candidate is **adopted**"),
+        "{page}"
+    );
+
+    // The record keeps the kept round's error.
+    let every_3 = lines.iter().find(|l| l.name == "every-10-3").expect("line");
+    let row = record_row(every_3, "abc1234", "a test machine").expect("finished");
+    assert!(row.ends_with("\t700\tvalidation\t0.250000"), "{row}");
+    let record = dir.join("record.tsv");
+    std::fs::write(&record, format!("{row}\n")).expect("record");
+    let kept = read_record(&record).expect("reads");
+    assert_eq!(
+        kept["every-10-3"].race.as_ref().and_then(|r| r.kept_error),
+        Some(0.25)
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
