@@ -32,6 +32,22 @@ fn line(runs: &Path, name: &str, (success, error, stuck): (f64, f64, f64), race:
     }
 }
 
+/// A finished line that delivers (success 1.00, settled error 0.2), of one part taking `wall`
+/// seconds of wall and CPU time.
+fn timed(runs: &Path, name: &str, race: Option<bool>, wall: u32) {
+    line(runs, name, (1.0, 0.2, 0.0), race);
+    std::fs::write(
+        runs.join(name).join("parts.txt"),
+        format!("1 0 {wall} {wall} 0\n"),
+    )
+    .expect("parts");
+}
+
+/// Plan lines `KIND-S --seed S` for base seeds `seeds`.
+fn plan_lines(kind: &str, seeds: std::ops::Range<u64>) -> String {
+    seeds.map(|s| format!("{kind}-{s} --seed {s}\n")).collect()
+}
+
 /// A fresh scratch folder for one test: `(folder, its runs/ folder, its plan file)`.
 fn scratch(name: &str) -> (PathBuf, PathBuf, PathBuf) {
     let dir = std::env::temp_dir().join(format!("{name}-{}", std::process::id()));
@@ -252,29 +268,18 @@ fn the_amendment_judges_its_candidate_against_its_own_single_runs() {
 fn the_amendment_times_each_half_against_its_own_single_run() {
     let (dir, runs, plan) = scratch("main-job-halves");
     let mut text = String::from("single-0 --seed 0\n");
-    for s in 0..10 {
-        text.push_str(&format!("first-round-{s} --seed {s}\n"));
-    }
+    text.push_str(&plan_lines("first-round", 0..10));
     text.push_str("single-1 --seed 1\n");
-    for s in 10..20 {
-        text.push_str(&format!("first-round-{s} --seed {s}\n"));
-    }
+    text.push_str(&plan_lines("first-round", 10..20));
     std::fs::write(&plan, &text).expect("plan");
     // A slow machine ran the first half, a fast one the second: each half's lines took just
     // under and just over half of their own single run, while the pooled medians give exactly
     // one half.
-    let timed = |name: &str, race: Option<bool>, wall: u32| {
-        line(&runs, name, (1.0, 0.2, 0.0), race);
-        std::fs::write(
-            runs.join(name).join("parts.txt"),
-            format!("1 0 {wall} {wall} 0\n"),
-        )
-        .expect("parts");
-    };
-    timed("single-0", None, 800);
-    timed("single-1", None, 300);
+    timed(&runs, "single-0", None, 800);
+    timed(&runs, "single-1", None, 300);
     for s in 0..20 {
         timed(
+            &runs,
             &format!("first-round-{s}"),
             Some(true),
             if s < 10 { 390 } else { 160 },
@@ -310,31 +315,19 @@ fn the_amendment_times_each_half_against_its_own_single_run() {
 fn the_second_amendment_has_its_own_single_runs_and_shows_the_kept_round() {
     let (dir, runs, plan) = scratch("main-job-second");
     let mut text = String::from("pinwheel-3 --seed 3\nsingle-0 --seed 0\nsingle-1 --seed 1\nfirst-round-3 --seed 3\nsingle-2 --seed 2\n");
-    for s in 0..10 {
-        text.push_str(&format!("every-10-{s} --seed {s}\n"));
-    }
+    text.push_str(&plan_lines("every-10", 0..10));
     text.push_str("single-3 --seed 3\n");
-    for s in 10..20 {
-        text.push_str(&format!("every-10-{s} --seed {s}\n"));
-    }
+    text.push_str(&plan_lines("every-10", 10..20));
     std::fs::write(&plan, &text).expect("plan");
     line(&runs, "pinwheel-3", (1.0, 0.2, 0.0), Some(true));
     line(&runs, "first-round-3", (1.0, 0.2, 0.0), Some(true));
-    let timed = |name: &str, race: Option<bool>, wall: u32| {
-        line(&runs, name, (1.0, 0.2, 0.0), race);
-        std::fs::write(
-            runs.join(name).join("parts.txt"),
-            format!("1 0 {wall} {wall} 0\n"),
-        )
-        .expect("parts");
-    };
     // The first amendment's single runs took far longer: they must not time this candidate.
-    timed("single-0", None, 4000);
-    timed("single-1", None, 4000);
-    timed("single-2", None, 400);
-    timed("single-3", None, 500);
+    timed(&runs, "single-0", None, 4000);
+    timed(&runs, "single-1", None, 4000);
+    timed(&runs, "single-2", None, 400);
+    timed(&runs, "single-3", None, 500);
     for s in 0..20 {
-        timed(&format!("every-10-{s}"), Some(true), 100);
+        timed(&runs, &format!("every-10-{s}"), Some(true), 100);
     }
     let race = r#"{"winner": 1, "why": "racer 1 (seed 9) was the first whose validation met the criteria", "racers": [{"seed": 3, "episodes": 700, "kept": null}, {"seed": 9, "episodes": 700, "kept": {"episode": 690, "error": 0.25}}]}"#;
     std::fs::write(runs.join("every-10-3/nav-walls__dcp__0/race.json"), race).expect("race");
