@@ -11,6 +11,7 @@
 pub mod hybrid;
 pub mod main_job;
 pub mod paired;
+pub mod race_rounds;
 pub mod restat;
 pub mod run_folder;
 pub mod standard_tasks;

@@ -573,13 +573,18 @@ struct Judged {
     label: &'static str,
     /// How it names the single runs.
     baseline_label: &'static str,
-    /// Aim 2 taken per half of the queue, each line against its own half's single run (the
-    /// amendment's note: its halves ran on two machines), rather than as a ratio of medians.
-    per_half: bool,
+    /// What an amendment adds: its own section and single runs, and aim 2 taken per half.
+    amendment: Option<Amendment>,
+}
+
+/// An amendment's candidate: judged in a section of its own, aim 2 per half of its queue, each
+/// line against its own half's single run (the first amendment's note: its halves ran on two
+/// machines), rather than as a ratio of medians.
+struct Amendment {
+    /// The section's heading.
+    title: &'static str,
     /// The seeds of the `single` lines that time the two halves (base seeds 0–9, then 10–19).
     singles: [u64; 2],
-    /// The amendment section's heading.
-    title: &'static str,
 }
 
 /// The protocol's aims: `train`'s defaults on the pinwheel against today's single run.
@@ -589,9 +594,7 @@ const DEFAULTS: Judged = Judged {
     heading: "### The aims",
     label: "pinwheel",
     baseline_label: "today's single run",
-    per_half: false,
-    singles: [0, 1],
-    title: "",
+    amendment: None,
 };
 
 /// The amendment's aims: the candidate stop rule against today's single run timed in its queue.
@@ -601,9 +604,10 @@ const CANDIDATE: Judged = Judged {
     heading: "#### Its aims",
     label: "first-round",
     baseline_label: "today's single run in the same queue",
-    per_half: true,
-    singles: [0, 1],
-    title: "The amendment's candidate: the first round that meets the criteria, rounds every 50 episodes",
+    amendment: Some(Amendment {
+        title: "The amendment's candidate: the first round that meets the criteria, rounds every 50 episodes",
+        singles: [0, 1],
+    }),
 };
 
 /// The second amendment's aims: rounds every 10 episodes, against today's single run timed in
@@ -614,9 +618,10 @@ const SECOND: Judged = Judged {
     heading: "#### Its aims",
     label: "every-10",
     baseline_label: "today's single run in the same queue",
-    per_half: true,
-    singles: [2, 3],
-    title: "The second amendment's candidate: the first round that meets the criteria, rounds every 10 episodes",
+    amendment: Some(Amendment {
+        title: "The second amendment's candidate: the first round that meets the criteria, rounds every 10 episodes",
+        singles: [2, 3],
+    }),
 };
 
 /// The results section: every line's row, then the aims judged by the protocol's rules (only
@@ -688,8 +693,8 @@ pub fn render(lines: &[Line], today: &BTreeMap<u64, Test>, commit: &str, cpu: &s
     single_runs(&mut out, of(Kind::Today), today);
     aims(&mut out, lines, today, cpu, &DEFAULTS);
     for j in [&CANDIDATE, &SECOND] {
-        if of(j.kind).count() > 0 {
-            candidate(&mut out, lines, today, cpu, j);
+        if let (Some(a), true) = (&j.amendment, of(j.kind).count() > 0) {
+            candidate(&mut out, lines, today, cpu, j, a);
         }
     }
     for (kind, title) in [
@@ -754,12 +759,19 @@ fn single_runs<'a>(
 /// The amendment's section: the candidate stop rule's rows beside the defaults' line of the
 /// same base seed (whose racers trained the same bytes up to the earlier stop), its single
 /// runs, its aims, and the adoption rule's decision.
-fn candidate(out: &mut String, lines: &[Line], today: &BTreeMap<u64, Test>, cpu: &str, j: &Judged) {
+fn candidate(
+    out: &mut String,
+    lines: &[Line],
+    today: &BTreeMap<u64, Test>,
+    cpu: &str,
+    j: &Judged,
+    a: &Amendment,
+) {
     let of = |k: Kind| lines.iter().filter(move |l| l.kind == k);
     // The second amendment's rows also show the first candidate's end and the validation
     // round the winner's policy came from (its protocol asks for both).
     let second = j.kind == Kind::EveryTen;
-    let _ = writeln!(out, "\n### {}\n", j.title);
+    let _ = writeln!(out, "\n### {}\n", a.title);
     let _ = writeln!(
         out,
         "| base seed | winner (racer, seed) | race ended at episode | ended by | test success | settled error | stuck | delivers | gate | wall s | CPU s | parts | the defaults' line: ended at, delivers |{}",
@@ -803,7 +815,7 @@ fn candidate(out: &mut String, lines: &[Line], today: &BTreeMap<u64, Test>, cpu:
     let _ = writeln!(out, "\n#### Today's single run, timed in the same queue\n");
     single_runs(
         out,
-        of(Kind::Single).filter(|l| j.singles.contains(&l.seed)),
+        of(Kind::Single).filter(|l| a.singles.contains(&l.seed)),
         today,
     );
     let (delivered, fast) = aims(out, lines, today, cpu, j);
@@ -927,8 +939,8 @@ fn aims(
             }
         );
     }
-    if j.per_half {
-        verdicts.1 = wall_per_half(out, &finished, lines, cpu, j);
+    if let Some(a) = &j.amendment {
+        verdicts.1 = wall_per_half(out, &finished, lines, cpu, j.label, a);
         return verdicts;
     }
     let walls: Vec<f64> = finished.iter().map(|l| l.wall()).collect();
@@ -981,10 +993,13 @@ fn aims(
 }
 
 /// The half of an amendment's queue a base seed's line ran in (0 for seeds 0–9, 1 for 10–19),
-/// which names its single line in [`Judged::singles`].
+/// which names its single line in [`Amendment::singles`].
 fn half(seed: u64) -> usize {
-    usize::from(seed >= 10)
+    usize::from(seed >= HALF as u64)
 }
+
+/// Base seeds per half of an amendment's queue.
+const HALF: usize = BASE_SEEDS / 2;
 
 /// The amendment's aim 2, judged per half (its protocol's note: the halves ran on two
 /// machines): each candidate line's wall time over that of its own half's single line, met when
@@ -995,13 +1010,14 @@ fn wall_per_half(
     finished: &[&Line],
     lines: &[Line],
     cpu: &str,
-    j: &Judged,
+    label: &str,
+    a: &Amendment,
 ) -> Option<bool> {
     let machine = |l: &Line| l.origin.as_ref().map_or(cpu, |o| o.1.as_str()).to_string();
     let single = |h: usize| {
         lines
             .iter()
-            .find(|l| l.kind == Kind::Single && l.seed == j.singles[h] && l.done)
+            .find(|l| l.kind == Kind::Single && l.seed == a.singles[h] && l.done)
     };
     let ratios: Vec<f64> = finished
         .iter()
@@ -1010,8 +1026,7 @@ fn wall_per_half(
     let Some(m) = median(&ratios) else {
         let _ = writeln!(
             out,
-            "\n**2. Wall time, per half.** Not judged yet: no {} line and the single run of its half both in.",
-            j.label
+            "\n**2. Wall time, per half.** Not judged yet: no {label} line and the single run of its half both in."
         );
         return None;
     };
@@ -1020,8 +1035,7 @@ fn wall_per_half(
     let within = ratios.iter().filter(|&&r| r <= 0.5).count();
     let _ = write!(
         out,
-        "\n**2. Wall time, per half.** Each {} line's wall time over that of its half's single run: a median ratio of {m:.2} over {} lines (range {lo:.2}–{hi:.2}; {within} at most 0.5).",
-        j.label,
+        "\n**2. Wall time, per half.** Each {label} line's wall time over that of its half's single run: a median ratio of {m:.2} over {} lines (range {lo:.2}–{hi:.2}; {within} at most 0.5).",
         ratios.len()
     );
     for h in 0..2 {
@@ -1034,8 +1048,8 @@ fn wall_per_half(
             let _ = write!(
                 out,
                 " Seeds {}–{} ({} in) on {}: median {w:.0} s against {:.0} s for `single-{}`, {:.2}.",
-                h * 10,
-                h * 10 + 9,
+                h * HALF,
+                h * HALF + HALF - 1,
                 walls.len(),
                 machine(s),
                 s.wall(),

@@ -176,6 +176,17 @@ fn a_page_rebuilt_from_the_record_shows_the_rows_the_folders_gave() {
     .expect("bad record");
     let err = format!("{:#}", read_record(&record).expect_err("refused"));
     assert!(err.contains("line 1: cpu_s \"x\" is not a number"), "{err}");
+    // The kept round's validation error is "-" or a number, nothing else.
+    std::fs::write(
+        &record,
+        "every-10-0\tabc\tm\t1\t1.0\t1.0\t1\t0.1\t0\tPASS\t1\t9\t40\tvalidation\tabout 0.2\n",
+    )
+    .expect("bad record");
+    let err = format!("{:#}", read_record(&record).expect_err("refused"));
+    assert!(
+        err.contains("line 1: kept_validation_error \"about 0.2\" is not a number"),
+        "{err}"
+    );
     std::fs::write(&record, "pinwheel-0\tabc\n").expect("short record");
     let err = format!("{:#}", read_record(&record).expect_err("refused"));
     assert!(err.contains("expected 15 tab-separated columns"), "{err}");

@@ -3,6 +3,8 @@
 /// The margin study's decisions from its committed record.
 mod main_job;
 mod margin_study;
+/// What held a race, from its folder.
+mod race_rounds;
 /// The results pages' sections rebuilt from their per-seed rows, and what a check refuses.
 mod restat;
 /// Every study's command line: a usage error is one line on stderr and a failing exit code.
