@@ -438,9 +438,9 @@ fn winner_and_why(racers: &[Finished], board: &Board) -> Result<(usize, String)>
         return Ok((
             w,
             format!(
-                "{} was the first whose validation met the criteria {} rounds in a row (at episode {episode}; at one round the better figure wins, then the lower index), so every racer stopped there",
+                "{} was the first whose validation {} (at episode {episode}; at one round the better figure wins, then the lower index), so every racer stopped there",
                 name(w),
-                v.in_a_row
+                v.met_the_criteria()
             ),
         ));
     }
@@ -459,7 +459,7 @@ fn winner_and_why(racers: &[Finished], board: &Board) -> Result<(usize, String)>
     Ok((
         w,
         format!(
-            "no racer's validation met the criteria enough rounds in a row within the budget; {} kept the best policy by the rule (meeting the criteria, then the gate, then the lower settled error)",
+            "no racer's validation ended its run within the budget; {} kept the best policy by the rule (meeting the criteria, then the gate, then the lower settled error)",
             name(w)
         ),
     ))

@@ -91,7 +91,7 @@ pub(crate) struct TrainArgs {
     config: Option<PathBuf>,
     /// Validate every N episodes (and at the end of the budget): the actor, exported as its
     /// blob, through firmware-sim's test protocol on validation starts of its own, never the
-    /// test's; the best policy by validation is the one kept [default: 100].
+    /// test's; the best policy by validation is the one kept [default: 10].
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     validate_every: Option<u64>,
     /// Validation starts per round [default: 100].
@@ -258,8 +258,9 @@ pub(crate) fn validation_summary(trainer: &Trainer) -> Option<String> {
     };
     let ended = if trainer.stopped_at_gate() {
         format!(
-            "met the criteria {} rounds in a row: stopped at episode {}",
-            v.in_a_row, trainer.episode
+            "{}: stopped at episode {}",
+            v.met_the_criteria(),
+            trainer.episode
         )
     } else if trainer.validation.iter().any(|r| r.meets) {
         "met the criteria, not enough rounds in a row to stop".to_string()

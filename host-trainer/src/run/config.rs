@@ -68,7 +68,8 @@ pub struct TrainConfig {
 impl TrainConfig {
     /// The smallest run that still exercises every code path (warm-up, updates, checkpoint,
     /// export, evaluation): 3 episodes of a 2×32 network, batch 16, T = 4, PPO rollouts of 32
-    /// steps in minibatches of 8 over 2 epochs, validation every 2 episodes on 5 starts. Smoke tests and the end-to-end test use it; it
+    /// steps in minibatches of 8 over 2 epochs, validation every 2 episodes on 5 starts (two rounds
+    /// in a row stop it). Smoke tests and the end-to-end test use it; it
     /// is far too small to learn anything.
     pub fn smoke(algo: Algo, seed: u64) -> Self {
         let mut c = TrainConfig {
@@ -89,9 +90,11 @@ impl TrainConfig {
         c.ppo.rollout = 32;
         c.ppo.minibatch = 8;
         c.ppo.epochs = 2;
+        // Two rounds in a row, so the tests see the rule at work that `in_a_row` sets.
         c.validation = Some(ValidationConfig {
             every: 2,
             starts: 5,
+            in_a_row: 2,
             ..ValidationConfig::default()
         });
         // Only what `algo` reads: a config file holding another algorithm's settings is refused.
