@@ -17,7 +17,9 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
+use host_trainer::run::race::RaceRecord;
 use host_trainer::stats::binomial::{clopper_pearson, mcnemar_exact};
+use host_trainer::sweep::record::read_report;
 use serde::Deserialize;
 
 /// A base seed *delivers* when its test success is at least this ...
@@ -179,6 +181,7 @@ impl Line {
     }
 }
 
+/// The test's figures of a finished line (`eval.json`, firmware-sim's report).
 #[derive(Deserialize)]
 struct Eval {
     success_rate: f64,
@@ -190,25 +193,6 @@ struct Eval {
 #[derive(Deserialize)]
 struct Pass {
     passed: bool,
-}
-
-#[derive(Deserialize)]
-struct RaceJson {
-    winner: Option<usize>,
-    why: String,
-    racers: Vec<RacerJson>,
-}
-
-#[derive(Deserialize)]
-struct RacerJson {
-    seed: u64,
-    episodes: usize,
-    kept: Option<RoundJson>,
-}
-
-#[derive(Deserialize)]
-struct RoundJson {
-    error: Option<f64>,
 }
 
 /// Reads every line of `plan` (in its order): from `record` (the committed rows, as
@@ -426,8 +410,7 @@ fn load_line(dir: &Path, name: &str, kind: Kind, seed: u64) -> Result<Line> {
         .filter_map(|e| e.ok().map(|e| e.path()))
         .find(|p| p.is_dir())
         .with_context(|| format!("{name}: done but no run folder"))?;
-    let eval: Eval = serde_json::from_str(&std::fs::read_to_string(run.join("eval.json"))?)
-        .with_context(|| format!("{name}: eval.json"))?;
+    let eval: Eval = read_report(&run).with_context(|| format!("{name}: the test"))?;
     line.test = Some(Test {
         success: eval.success_rate,
         error: eval.mean_error,
@@ -435,7 +418,7 @@ fn load_line(dir: &Path, name: &str, kind: Kind, seed: u64) -> Result<Line> {
         passed: eval.pass.passed,
     });
     if let Ok(text) = std::fs::read_to_string(run.join("race.json")) {
-        let race: RaceJson =
+        let race: RaceRecord =
             serde_json::from_str(&text).with_context(|| format!("{name}: race.json"))?;
         let w = race
             .winner
@@ -535,6 +518,20 @@ pub fn median(xs: &[f64]) -> Option<f64> {
         _ if n % 2 == 1 => Some(v[n / 2]),
         _ => Some((v[n / 2 - 1] + v[n / 2]) / 2.0),
     }
+}
+
+/// The least and the greatest of `xs`; `None` when empty.
+///
+/// ```
+/// assert_eq!(studies::main_job::span(&[3.0, 1.0, 2.0]), Some((1.0, 3.0)));
+/// assert_eq!(studies::main_job::span(&[]), None);
+/// ```
+pub fn span(xs: &[f64]) -> Option<(f64, f64)> {
+    let first = *xs.first()?;
+    Some(
+        xs.iter()
+            .fold((first, first), |(lo, hi), &x| (lo.min(x), hi.max(x))),
+    )
 }
 
 /// Aim 1's sensitivity: the fewest base seeds whose verdict must change to flip the aim's.
@@ -951,8 +948,7 @@ fn aims(
         .map(Line::wall)
         .collect();
     let range = |xs: &[f64]| {
-        let lo = xs.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let (lo, hi) = span(xs).unwrap_or((f64::NAN, f64::NAN));
         format!("{lo:.0}–{hi:.0}")
     };
     match (median(&walls), median(&single_walls)) {
@@ -1030,8 +1026,7 @@ fn wall_per_half(
         );
         return None;
     };
-    let lo = ratios.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = ratios.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let (lo, hi) = span(&ratios).unwrap_or((m, m));
     let within = ratios.iter().filter(|&&r| r <= 0.5).count();
     let _ = write!(
         out,

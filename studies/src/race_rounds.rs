@@ -13,9 +13,9 @@ use anyhow::{Context, Result};
 use host_trainer::run::config::TrainConfig;
 use host_trainer::run::race::RaceRecord;
 use host_trainer::run::validation::Round;
-use serde::Deserialize;
+use host_trainer::sweep::record::read_eval;
 
-use crate::main_job::median;
+use crate::main_job::{median, span};
 
 /// Where a test's settled error counts as the kept round's: the settled error is where the
 /// policy comes to rest, much the same from every start, and the main job's winners' two means
@@ -25,10 +25,6 @@ pub const SAME_ERROR: f64 = 1e-4;
 /// One racer's first rounds meeting each criterion (`None`: not before its race ended).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Racer {
-    /// The line (race folder) it ran in.
-    pub line: String,
-    /// Its seed.
-    pub seed: u64,
     /// The episode of its first round with success at least the minimum.
     pub success: Option<usize>,
     /// ... with stuck at most the maximum.
@@ -78,24 +74,17 @@ fn first(rounds: &[Round], holds: impl Fn(&Round) -> bool) -> Option<usize> {
 ///     episode, success, error: Some(error), meets, ..Round::default()
 /// };
 /// let rounds = [round(10, 0.5, 3.0, false), round(20, 0.95, 0.6, false), round(30, 0.92, 0.3, true)];
-/// let r = racer("line", 7, &rounds, 30, c);
+/// let r = racer(&rounds, 30, c);
 /// assert_eq!((r.success, r.stuck, r.error, r.all), (Some(20), Some(10), Some(30), Some(30)));
 /// ```
-pub fn racer(line: &str, seed: u64, rounds: &[Round], episodes: usize, c: Criteria) -> Racer {
+pub fn racer(rounds: &[Round], episodes: usize, c: Criteria) -> Racer {
     Racer {
-        line: line.to_string(),
-        seed,
         success: first(rounds, |r| r.success >= c.min_success),
         stuck: first(rounds, |r| r.stuck <= c.max_stuck),
         error: first(rounds, |r| r.error.is_some_and(|e| e < c.max_error)),
         all: first(rounds, |r| r.meets),
         episodes,
     }
-}
-
-#[derive(Deserialize)]
-struct Eval {
-    mean_error: f64,
 }
 
 /// The racers and the winner of the finished race in the line folder `dir` (the queue's
@@ -115,8 +104,10 @@ pub fn read_line(dir: &Path) -> Result<(Vec<Racer>, Winner)> {
     };
     let race: RaceRecord =
         serde_json::from_str(&read("race.json")?).with_context(|| format!("{name}: race.json"))?;
-    let eval: Eval =
-        serde_json::from_str(&read("eval.json")?).with_context(|| format!("{name}: eval.json"))?;
+    let test_error = read_eval(&race_dir)
+        .with_context(|| format!("{name}: the test"))?
+        .mean_error
+        .with_context(|| format!("{name}: the test has no settled error (not a navigation run)"))?;
     // Named for errors; not `.json`, which would select JSON for the TOML text.
     let config = TrainConfig::parse(&race.config_toml, &race_dir.join("race.json (config_toml)"))
         .with_context(|| format!("{name}: the race's settings"))?;
@@ -134,7 +125,7 @@ pub fn read_line(dir: &Path) -> Result<(Vec<Racer>, Winner)> {
     let racers = race
         .racers
         .iter()
-        .map(|r| racer(&name, r.seed, &r.validation, r.episodes, c))
+        .map(|r| racer(&r.validation, r.episodes, c))
         .collect();
     let winner = Winner {
         line: name.clone(),
@@ -143,7 +134,7 @@ pub fn read_line(dir: &Path) -> Result<(Vec<Racer>, Winner)> {
             .get(w)
             .and_then(|r| r.kept.as_ref())
             .and_then(|k| k.error),
-        test_error: eval.mean_error,
+        test_error,
     };
     Ok((racers, winner))
 }
@@ -165,15 +156,13 @@ pub fn summary(racers: &[Racer], winners: &[Winner]) -> String {
     for (what, pick) in criteria {
         let at: Vec<f64> = racers.iter().filter_map(pick).map(|e| e as f64).collect();
         let never = racers.len() - at.len();
-        let _ = match median(&at) {
-            Some(m) => writeln!(
+        let _ = match (median(&at), span(&at)) {
+            (Some(m), Some((lo, hi))) => writeln!(
                 out,
-                "  {what}: first met at episode {:.0}–{:.0} (median {m:.0}) by {} racers; {never} not before their race ended",
-                at.iter().copied().fold(f64::INFINITY, f64::min),
-                at.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                "  {what}: first met at episode {lo:.0}–{hi:.0} (median {m:.0}) by {} racers; {never} not before their race ended",
                 at.len(),
             ),
-            None => writeln!(out, "  {what}: met by no racer before its race ended"),
+            _ => writeln!(out, "  {what}: met by no racer before its race ended"),
         };
     }
     let mut differ: Vec<String> = Vec::new();

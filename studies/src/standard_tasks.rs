@@ -21,6 +21,8 @@ use host_trainer::stats::sensitivity::{sensitivity, Sensitivity};
 use host_trainer::stats::{ALPHA, CONFIDENCE, REPS, SEED};
 use serde_json::Value;
 
+use crate::main_job::span;
+
 /// The tasks in the protocol's order: (name, its Zoo anchor scores (agent, mean, std)).
 pub const TASKS: [&str; 5] = [
     "pendulum",
@@ -250,8 +252,8 @@ pub fn verdict(a: &[f64], b: &[f64]) -> Option<Verdict> {
     // A change: a run of either group taking the other group's lowest or highest value.
     let joined: Vec<f64> = a.iter().chain(b).copied().collect();
     let n = a.len();
-    let (a_lo, a_hi) = extremes(a);
-    let (b_lo, b_hi) = extremes(b);
+    let (a_lo, a_hi) = span(a)?;
+    let (b_lo, b_hi) = span(b)?;
     let flip = sensitivity(
         &joined,
         |i, _| {
@@ -271,12 +273,6 @@ pub fn verdict(a: &[f64], b: &[f64]) -> Option<Verdict> {
         p,
         sensitivity: flip,
     })
-}
-
-fn extremes(xs: &[f64]) -> (f64, f64) {
-    let lo = xs.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    (lo, hi)
 }
 
 fn mean(xs: &[f64]) -> f64 {

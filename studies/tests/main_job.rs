@@ -4,7 +4,34 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use host_trainer::run::race::{RaceRecord, RacerRecord};
+use host_trainer::run::validation::Round;
 use studies::main_job::{load, read_record, record_row, render, Test};
+
+/// A finished race's `race.json`, as `train` writes it: won by racer 1 for `why`, its racers'
+/// (seed, episodes trained, the settled error of the round kept).
+fn race_json(why: &str, racers: &[(u64, usize, Option<f64>)]) -> String {
+    let racer = |&(seed, episodes, kept): &(u64, usize, Option<f64>)| RacerRecord {
+        seed,
+        folder: format!("racers/nav-walls__dcp__{seed}"),
+        ending: None,
+        episodes,
+        validation: vec![],
+        kept: kept.map(|error| Round {
+            episode: episodes - 10,
+            error: Some(error),
+            ..Round::default()
+        }),
+    };
+    let record = RaceRecord {
+        base_seed: 0,
+        config_toml: String::new(),
+        racers: racers.iter().map(racer).collect(),
+        winner: Some(1),
+        why: why.into(),
+    };
+    serde_json::to_string(&record).expect("json")
+}
 
 /// A finished line: its parts, `done`, and a run folder with an `eval.json` (and a `race.json`
 /// for a race won by racer `winner` at episode 1,600, or run to its budget).
@@ -25,9 +52,7 @@ fn line(runs: &Path, name: &str, (success, error, stuck): (f64, f64, f64), race:
         } else {
             "no racer's validation met the criteria"
         };
-        let json = format!(
-            r#"{{"winner": 1, "why": "{why}", "racers": [{{"seed": 0, "episodes": 1600}}, {{"seed": 9, "episodes": 1600}}]}}"#
-        );
+        let json = race_json(why, &[(0, 1600, None), (9, 1600, None)]);
         std::fs::write(run.join("race.json"), json).expect("race");
     }
 }
@@ -340,7 +365,10 @@ fn the_second_amendment_has_its_own_single_runs_and_shows_the_kept_round() {
     for s in 0..20 {
         timed(&runs, &format!("every-10-{s}"), Some(true), 100);
     }
-    let race = r#"{"winner": 1, "why": "racer 1 (seed 9) was the first whose validation met the criteria", "racers": [{"seed": 3, "episodes": 700, "kept": null}, {"seed": 9, "episodes": 700, "kept": {"episode": 690, "error": 0.25}}]}"#;
+    let race = race_json(
+        "racer 1 (seed 9) was the first whose validation met the criteria",
+        &[(3, 700, None), (9, 700, Some(0.25))],
+    );
     std::fs::write(runs.join("every-10-3/nav-walls__dcp__0/race.json"), race).expect("race");
     let lines = load(&plan, &runs, &BTreeMap::new()).expect("loads");
     let page = render(&lines, &BTreeMap::new(), "abc1234", "a test machine");

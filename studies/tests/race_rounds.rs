@@ -52,7 +52,7 @@ fn race_line(runs: &Path, name: &str, kept: f64, test: f64) {
     .expect("race.json");
     std::fs::write(
         race_dir.join("eval.json"),
-        format!(r#"{{"mean_error": {test}}}"#),
+        format!(r#"{{"success_rate": 1.0, "mean_error": {test}, "stuck_rate": 0.0}}"#),
     )
     .expect("eval.json");
 }
@@ -119,5 +119,5 @@ fn a_backward_seed_range_is_refused() {
     );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
-    assert!(err.contains("runs backwards"), "{err}");
+    assert!(err.contains("the range 5-2 is empty"), "{err}");
 }

@@ -12,6 +12,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use clap::Parser;
+use host_trainer::sweep::plan::Seeds;
 use studies::race_rounds::{read_line, summary};
 
 #[derive(Parser, Debug)]
@@ -26,26 +27,9 @@ struct Args {
     /// The lines' name before the seed (`first-round` reads `first-round-S`).
     #[arg(long)]
     lines: String,
-    /// Their base seeds, as `A-B` or one number.
-    #[arg(long, value_parser = seeds)]
-    seeds: (u64, u64),
-}
-
-/// `A-B` (inclusive) or `A`.
-fn seeds(s: &str) -> Result<(u64, u64), String> {
-    let n = |t: &str| {
-        t.trim()
-            .parse::<u64>()
-            .map_err(|_| format!("{s:?} is not a seed or a range A-B of seeds"))
-    };
-    let (a, b) = match s.split_once('-') {
-        Some((a, b)) => (n(a)?, n(b)?),
-        None => (n(s)?, n(s)?),
-    };
-    if a > b {
-        return Err(format!("{s:?}: the range runs backwards"));
-    }
-    Ok((a, b))
+    /// Their base seeds: `0-4`, `3`, `0,2,5` or combinations like `0-2,7`.
+    #[arg(long)]
+    seeds: Seeds,
 }
 
 fn main() -> ExitCode {
@@ -60,7 +44,7 @@ fn main() -> ExitCode {
 
 fn run(args: Args) -> Result<()> {
     let (mut racers, mut winners) = (Vec::new(), Vec::new());
-    for seed in args.seeds.0..=args.seeds.1 {
+    for seed in args.seeds.0 {
         let dir = args.runs.join(format!("{}-{seed}", args.lines));
         let (r, w) = read_line(&dir).with_context(|| format!("{}", dir.display()))?;
         racers.extend(r);
