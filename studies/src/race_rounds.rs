@@ -33,8 +33,6 @@ pub struct Racer {
     pub error: Option<usize>,
     /// ... meeting every criterion (the gate included).
     pub all: Option<usize>,
-    /// Episodes it trained.
-    pub episodes: usize,
 }
 
 /// A race's winner: the kept round's validation settled error against the test's.
@@ -74,16 +72,15 @@ fn first(rounds: &[Round], holds: impl Fn(&Round) -> bool) -> Option<usize> {
 ///     episode, success, error: Some(error), meets, ..Round::default()
 /// };
 /// let rounds = [round(10, 0.5, 3.0, false), round(20, 0.95, 0.6, false), round(30, 0.92, 0.3, true)];
-/// let r = racer(&rounds, 30, c);
+/// let r = racer(&rounds, c);
 /// assert_eq!((r.success, r.stuck, r.error, r.all), (Some(20), Some(10), Some(30), Some(30)));
 /// ```
-pub fn racer(rounds: &[Round], episodes: usize, c: Criteria) -> Racer {
+pub fn racer(rounds: &[Round], c: Criteria) -> Racer {
     Racer {
         success: first(rounds, |r| r.success >= c.min_success),
         stuck: first(rounds, |r| r.stuck <= c.max_stuck),
         error: first(rounds, |r| r.error.is_some_and(|e| e < c.max_error)),
         all: first(rounds, |r| r.meets),
-        episodes,
     }
 }
 
@@ -125,7 +122,7 @@ pub fn read_line(dir: &Path) -> Result<(Vec<Racer>, Winner)> {
     let racers = race
         .racers
         .iter()
-        .map(|r| racer(&r.validation, r.episodes, c))
+        .map(|r| racer(&r.validation, c))
         .collect();
     let winner = Winner {
         line: name.clone(),
