@@ -17,6 +17,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
+use host_trainer::run::folder;
 use host_trainer::run::race::RaceRecord;
 use host_trainer::stats::binomial::{clopper_pearson, mcnemar_exact};
 use host_trainer::sweep::record::read_report;
@@ -417,7 +418,7 @@ fn load_line(dir: &Path, name: &str, kind: Kind, seed: u64) -> Result<Line> {
         stuck: eval.stuck_rate,
         passed: eval.pass.passed,
     });
-    if let Ok(text) = std::fs::read_to_string(run.join("race.json")) {
+    if let Ok(text) = std::fs::read_to_string(run.join(folder::RACE)) {
         let race: RaceRecord =
             serde_json::from_str(&text).with_context(|| format!("{name}: race.json"))?;
         let w = race

@@ -11,6 +11,7 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 use host_trainer::run::config::TrainConfig;
+use host_trainer::run::folder;
 use host_trainer::run::race::RaceRecord;
 use host_trainer::run::validation::Round;
 use host_trainer::sweep::record::read_eval;
@@ -93,14 +94,12 @@ pub fn read_line(dir: &Path) -> Result<(Vec<Racer>, Winner)> {
     let race_dir = std::fs::read_dir(dir)
         .with_context(|| format!("cannot read {}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .find(|p| p.join("race.json").is_file())
+        .find(|p| p.join(folder::RACE).is_file())
         .with_context(|| format!("{name}: no race folder (a folder with race.json)"))?;
-    let read = |file: &str| {
-        std::fs::read_to_string(race_dir.join(file))
-            .with_context(|| format!("{name}: cannot read {file}"))
-    };
+    let text = std::fs::read_to_string(race_dir.join(folder::RACE))
+        .with_context(|| format!("{name}: cannot read {}", folder::RACE))?;
     let race: RaceRecord =
-        serde_json::from_str(&read("race.json")?).with_context(|| format!("{name}: race.json"))?;
+        serde_json::from_str(&text).with_context(|| format!("{name}: {}", folder::RACE))?;
     let test_error = read_eval(&race_dir)
         .with_context(|| format!("{name}: the test"))?
         .mean_error
