@@ -103,6 +103,13 @@ pub enum Error {
         /// The parser's message (one line).
         message: String,
     },
+    /// A race's folder's `race.json` does not read as a race's record.
+    RaceRecord {
+        /// The file.
+        path: PathBuf,
+        /// The parser's message (one line).
+        message: String,
+    },
     /// A `reproduce` part that would run runs of a part already running on the same `--out`
     /// (the same part again, or one that shares runs with it).
     PartRunning {
@@ -207,6 +214,11 @@ impl fmt::Display for Error {
             Error::DamagedRun { path, problem } => write!(
                 f,
                 "run {} is damaged: {problem}; remove that folder and run the same command again to train it anew",
+                path.display()
+            ),
+            Error::RaceRecord { path, message } => write!(
+                f,
+                "{} is not a race's record ({message}); train --race writes it: restore it, or train the race anew in another folder",
                 path.display()
             ),
             Error::GridRecord { path, message } => write!(

@@ -244,5 +244,16 @@ fn bad_race_requests_are_one_line_errors_and_write_nothing() {
         "--quiet",
     ]);
     assert_one_line_error(&resumed, &["racer folder", "racers/"]);
+    // A record cut short is named as such by every command that reads it, and left as it is.
+    let race_dir = dir.join("lenient__dcp__3");
+    std::fs::write(race_dir.join("race.json"), "{\"base_seed\": 3").expect("cut");
+    for args in [
+        ["train", "--resume", s(&race_dir)],
+        ["export", "--run", s(&race_dir)],
+    ] {
+        let out = host_trainer(&args);
+        assert_one_line_error(&out, &["race.json", "is not a race's record"]);
+    }
+    assert_eq!(read(race_dir.join("race.json")), b"{\"base_seed\": 3");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -418,20 +418,15 @@ fn load_line(dir: &Path, name: &str, kind: Kind, seed: u64) -> Result<Line> {
         stuck: eval.stuck_rate,
         passed: eval.pass.passed,
     });
-    if let Ok(text) = std::fs::read_to_string(run.join(folder::RACE)) {
-        let race: RaceRecord =
-            serde_json::from_str(&text).with_context(|| format!("{name}: race.json"))?;
-        let w = race
+    if run.join(folder::RACE).is_file() {
+        let race = RaceRecord::read(&run).with_context(|| format!("{name}: the race"))?;
+        let (w, winner) = race
             .winner
+            .zip(race.winner_record())
             .with_context(|| format!("{name}: a finished race without a winner"))?;
-        let seed = race.racers.get(w).map(|r| r.seed).unwrap_or_default();
-        let kept_error = race
-            .racers
-            .get(w)
-            .and_then(|r| r.kept.as_ref())
-            .and_then(|k| k.error);
+        let kept_error = winner.kept.as_ref().and_then(|k| k.error);
         line.race = Some(Race {
-            winner: (w, seed),
+            winner: (w, winner.seed),
             ended_at: race.racers.iter().map(|r| r.episodes).max().unwrap_or(0),
             stopped_early: race.why.contains("was the first whose validation"),
             kept_error,
@@ -948,16 +943,11 @@ fn aims(
         .filter(|l| l.kind == j.baseline && l.done)
         .map(Line::wall)
         .collect();
-    let range = |xs: &[f64]| {
-        let (lo, hi) = span(xs).unwrap_or((f64::NAN, f64::NAN));
-        format!("{lo:.0}–{hi:.0}")
-    };
-    match (median(&walls), median(&single_walls)) {
-        (Some(m), Some(m0)) => {
+    match (median(&walls), span(&walls), median(&single_walls)) {
+        (Some(m), Some((lo, hi)), Some(m0)) => {
             let _ = writeln!(
                 out,
-                "\n**2. Wall time.** Median {m:.0} s (range {}, CPU median {:.0} s) over the {n} {} lines in, against {m0:.0} s for {} ({} line{} in: {}): a ratio of {:.2}.",
-                range(&walls),
+                "\n**2. Wall time.** Median {m:.0} s (range {lo:.0}–{hi:.0}, CPU median {:.0} s) over the {n} {} lines in, against {m0:.0} s for {} ({} line{} in: {}): a ratio of {:.2}.",
                 median(&cpus).unwrap_or(f64::NAN),
                 j.label,
                 j.baseline_label,

@@ -96,10 +96,7 @@ pub fn read_line(dir: &Path) -> Result<(Vec<Racer>, Winner)> {
         .filter_map(|e| e.ok().map(|e| e.path()))
         .find(|p| p.join(folder::RACE).is_file())
         .with_context(|| format!("{name}: no race folder (a folder with race.json)"))?;
-    let text = std::fs::read_to_string(race_dir.join(folder::RACE))
-        .with_context(|| format!("{name}: cannot read {}", folder::RACE))?;
-    let race: RaceRecord =
-        serde_json::from_str(&text).with_context(|| format!("{name}: {}", folder::RACE))?;
+    let race = RaceRecord::read(&race_dir).with_context(|| format!("{name}: the race"))?;
     let test_error = read_eval(&race_dir)
         .with_context(|| format!("{name}: the test"))?
         .mean_error
@@ -115,8 +112,8 @@ pub fn read_line(dir: &Path) -> Result<(Vec<Racer>, Winner)> {
         max_stuck: v.max_stuck,
         max_error: v.max_error,
     };
-    let w = race
-        .winner
+    let won = race
+        .winner_record()
         .with_context(|| format!("{name}: the race has no winner (not finished?)"))?;
     let racers = race
         .racers
@@ -125,11 +122,7 @@ pub fn read_line(dir: &Path) -> Result<(Vec<Racer>, Winner)> {
         .collect();
     let winner = Winner {
         line: name.clone(),
-        kept_error: race
-            .racers
-            .get(w)
-            .and_then(|r| r.kept.as_ref())
-            .and_then(|k| k.error),
+        kept_error: won.kept.as_ref().and_then(|k| k.error),
         test_error,
     };
     Ok((racers, winner))

@@ -7,7 +7,6 @@ use anyhow::{Context, Result};
 use clap::Args;
 use firmware_sim::outln;
 use host_trainer::blob::export::{self, ImageFormat, SlotTarget};
-use host_trainer::run::config::read_text;
 use host_trainer::run::folder::{self, RunDir};
 use host_trainer::run::lock;
 use host_trainer::run::plant::RunPlant;
@@ -191,9 +190,8 @@ fn race_winner(dir: &std::path::Path) -> Result<Option<PathBuf>> {
     if !path.is_file() {
         return Ok(None);
     }
-    let record: RaceRecord = serde_json::from_str(&read_text(&path)?)
-        .with_context(|| format!("{} is not a race's record", path.display()))?;
-    let Some(winner) = record.winner.and_then(|w| record.racers.get(w)) else {
+    let record = RaceRecord::read(dir)?;
+    let Some(winner) = record.winner_record() else {
         anyhow::bail!(
             "{} has no winner yet: continue the race with train --resume {}",
             dir.display(),

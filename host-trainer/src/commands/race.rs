@@ -19,7 +19,7 @@ use firmware_sim::plant_link::child::{ChildPlant, Timeouts};
 use firmware_sim::plant_test::{evaluate_plant, PlantTestConfig};
 use host_trainer::algorithms::Algo;
 use host_trainer::nn::workers::Workers;
-use host_trainer::run::config::{read_text, TrainConfig};
+use host_trainer::run::config::TrainConfig;
 use host_trainer::run::folder::{self, RunDir};
 use host_trainer::run::lock::{self, FolderLock};
 use host_trainer::run::metrics::EpisodeRow;
@@ -140,8 +140,7 @@ pub(crate) fn resume_race(dir: &Path, args: &TrainArgs, timeouts: Timeouts) -> R
     let race_dir = RunDir::open(dir)?;
     let lock = lock::acquire(race_dir.path())?;
     let path = race_dir.file(folder::RACE);
-    let record: RaceRecord = serde_json::from_str(&read_text(&path)?)
-        .with_context(|| format!("{} is not a race's record", path.display()))?;
+    let record = RaceRecord::read(race_dir.path())?;
     anyhow::ensure!(
         !record.racers.is_empty() && record.racers.len() <= race::MAX_RACERS,
         "{} names {} racers: expected 1 to {}",

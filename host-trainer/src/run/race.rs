@@ -354,6 +354,32 @@ pub struct RaceRecord {
     pub why: String,
 }
 
+impl RaceRecord {
+    /// Reads the record in the race's folder `race_dir`.
+    pub fn read(race_dir: &Path) -> Result<Self, Error> {
+        let path = race_dir.join(folder::RACE);
+        let text = crate::run::config::read_text(&path)?;
+        serde_json::from_str(&text).map_err(|e| Error::RaceRecord {
+            path,
+            message: crate::run::config::one_line(&e.to_string()),
+        })
+    }
+
+    /// The winner's record (`None` while the race runs, or if every racer failed).
+    ///
+    /// ```
+    /// use host_trainer::run::race::{RaceRecord, RacerRecord};
+    /// let racer = |seed| RacerRecord { seed, folder: String::new(), ending: None, episodes: 0, validation: vec![], kept: None };
+    /// let mut race = RaceRecord { base_seed: 0, config_toml: String::new(), racers: vec![racer(7), racer(9)], winner: None, why: String::new() };
+    /// assert!(race.winner_record().is_none());
+    /// race.winner = Some(1);
+    /// assert_eq!(race.winner_record().map(|r| r.seed), Some(9));
+    /// ```
+    pub fn winner_record(&self) -> Option<&RacerRecord> {
+        self.winner.and_then(|w| self.racers.get(w))
+    }
+}
+
 /// The winner of a race every racer has finished without one: the racer whose kept policy is
 /// best by [`Round::better_than`], ties to the lowest index; failed racers are out.
 ///
