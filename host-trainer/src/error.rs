@@ -218,7 +218,7 @@ impl fmt::Display for Error {
             ),
             Error::RaceRecord { path, message } => write!(
                 f,
-                "{} is not a race's record ({message}); train --race writes it: restore it, or train the race anew in another folder",
+                "{} is not a race's record ({message}); train writes it when it races seeds: restore it, or train the race anew in another folder",
                 path.display()
             ),
             Error::GridRecord { path, message } => write!(
