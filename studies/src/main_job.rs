@@ -424,12 +424,11 @@ fn load_line(dir: &Path, name: &str, kind: Kind, seed: u64) -> Result<Line> {
             .winner
             .zip(race.winner_record())
             .with_context(|| format!("{name}: a finished race without a winner"))?;
-        let kept_error = winner.kept.as_ref().and_then(|k| k.error);
         line.race = Some(Race {
             winner: (w, winner.seed),
             ended_at: race.racers.iter().map(|r| r.episodes).max().unwrap_or(0),
             stopped_early: race.why.contains("was the first whose validation"),
-            kept_error,
+            kept_error: winner.kept_error(),
         });
     }
     Ok(line)

@@ -122,7 +122,7 @@ pub fn read_line(dir: &Path) -> Result<(Vec<Racer>, Winner)> {
         .collect();
     let winner = Winner {
         line: name.clone(),
-        kept_error: won.kept.as_ref().and_then(|k| k.error),
+        kept_error: won.kept_error(),
         test_error,
     };
     Ok((racers, winner))

@@ -335,6 +335,11 @@ impl RacerRecord {
         }
         Ok(race_dir.join(&self.folder))
     }
+
+    /// The mean settled error of the round its kept policy comes from, if it has one.
+    pub fn kept_error(&self) -> Option<f64> {
+        self.kept.as_ref().and_then(|k| k.error)
+    }
 }
 
 /// The race's record, `race.json`: written when the race starts (so `--resume` finds it) and
