@@ -133,6 +133,40 @@ def test_kept_runs_outlive_the_folder_and_are_never_replaced(tmp_path: Path) -> 
     assert json.loads((kept / "pendulum" / "dcp" / "seed0" / "result.json").read_text())["test"] == {"mean_return": -140.0}
 
 
+def test_the_chip_runs_blob_is_kept_so_chip_runs_where_the_grid_was_put_back(tmp_path: Path) -> None:
+    out, kept, fresh = tmp_path / "out", tmp_path / "kept", tmp_path / "fresh"
+    for agent in ("dcp", "ddpg"):
+        run = grid.run_folder(out, "pendulum", agent, 0)
+        (run / "train" / "Pendulum-v1__x__0").mkdir(parents=True)
+        (run / "train" / "Pendulum-v1__x__0" / "policy.postcard").write_bytes(b"blob of " + agent.encode())
+        (run / "result.json").write_text("{}")
+    assert grid.keep(out, kept) == 3  # two results and the dcp run's blob, not ddpg's
+    grid.restore(kept, fresh)
+    assert grid.chip_blob(fresh, "pendulum").read_bytes() == b"blob of dcp"
+    # A fake scripts/cortex-m.sh: one report, as the real one writes it, for the blob given.
+    repo = tmp_path / "repo"
+    (repo / "scripts").mkdir(parents=True)
+    report = {"variants": [{"instructions": {"act_mean": 21267.0, "per_mac": 2.99},
+                            "flash": {"total": 76228}, "check": {"bit_exact": True}}]}
+    (repo / "scripts" / "cortex-m.sh").write_text(
+        'while [ $# -gt 0 ]; do [ "$1" = --out ] && OUT=$2; shift; done\n'
+        f"test \"$VARIANTS\" = m4f-trained && echo '{json.dumps(report)}' > \"$OUT\"\n"
+    )
+    chip = grid.chip_figures(fresh, repo, ["pendulum", "reacher"])
+    assert chip == {"pendulum": {
+        "blob": "pendulum/dcp/seed0/train/Pendulum-v1__x__0/policy.postcard",
+        "act": "21,267 instructions (2.99 per MAC), bit-exact; flash 76,228 B with the blob",
+    }}
+    assert json.loads((fresh / "pendulum" / "chip.json").read_text()) == chip["pendulum"]
+    assert grid.keep(fresh, kept) == 1  # the task's chip.json, a file of its own
+    # A failed measurement is reported and not written, so the next `chip` tries again.
+    (fresh / "pendulum" / "chip.json").unlink()
+    (repo / "scripts" / "cortex-m.sh").write_text("echo 'the example firmware holds at most 8 observations'; exit 1\n")
+    chip = grid.chip_figures(fresh, repo, ["pendulum"])
+    assert chip["pendulum"]["act"].startswith("not run: the example firmware holds at most 8")
+    assert not (fresh / "pendulum" / "chip.json").exists()
+
+
 def test_a_second_grid_in_one_folder_is_refused(tmp_path: Path) -> None:
     first = grid.GridLock(tmp_path)
     try:
@@ -158,6 +192,8 @@ def test_a_run_whose_process_dies_is_recorded_as_failed(tmp_path: Path) -> None:
         (["run", "--out", "X", "--tasks", "cartpole"], "no task 'cartpole'"),
         (["run", "--out", "X", "--jobs", "0"], "--jobs and --test-episodes must be at least 1"),
         (["serve", "cartpole"], "no task 'cartpole'"),
+        (["chip", "--out", "X"], "chip: no grid folder"),
+        (["chip", "--out", ".", "--tasks", "cartpole"], "no task 'cartpole'"),
     ],
 )
 def test_bad_arguments_get_one_line_and_exit_2(tmp_path: Path, python_env, args, message) -> None:

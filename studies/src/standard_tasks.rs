@@ -3,7 +3,7 @@
 //! verdicts and learning curves by the protocol fixed on the page before the runs.
 //!
 //! Reads `OUT/{task}/{agent}/seed{N}/result.json` (and each run's `train.jsonl` for the curves),
-//! plus, where present, `OUT/chip.json` (the DCP blobs' cost on the Cortex-M4F) and
+//! plus, where present, each task's `OUT/{task}/chip.json` (the cost of its DCP blob on the Cortex-M4F) and
 //! `OUT/speed.json` (the per-step speed measurement). Every cell of the protocol appears: a cell
 //! with runs missing says how many.
 
@@ -116,9 +116,9 @@ pub struct Grid {
     pub cells: BTreeMap<(String, String), Cell>,
     /// A uniformly random policy's mean test return per task (`OUT/{task}/random.json`).
     pub random: BTreeMap<String, f64>,
-    /// `OUT/chip.json` and `OUT/speed.json` where present.
-    pub chip: Option<Value>,
-    /// See `chip`.
+    /// Each task's chip figures (`OUT/{task}/chip.json`) where measured.
+    pub chip: BTreeMap<String, Value>,
+    /// `OUT/speed.json` where measured.
     pub speed: Option<Value>,
 }
 
@@ -137,7 +137,6 @@ fn optional_json(path: &Path) -> Result<Option<Value>> {
 /// makes) are refused unless `tiny` is set: a page of the protocol is made from its budgets.
 pub fn load(out: &Path, tiny: bool) -> Result<Grid> {
     let mut grid = Grid {
-        chip: optional_json(&out.join("chip.json"))?,
         speed: optional_json(&out.join("speed.json"))?,
         ..Grid::default()
     };
@@ -146,6 +145,9 @@ pub fn load(out: &Path, tiny: bool) -> Result<Grid> {
             if let Some(x) = v["mean_return"].as_f64() {
                 grid.random.insert(task.to_string(), x);
             }
+        }
+        if let Some(v) = optional_json(&out.join(task).join("chip.json"))? {
+            grid.chip.insert(task.to_string(), v);
         }
     }
     for task in TASKS {
@@ -600,8 +602,8 @@ fn chip(grid: &Grid) -> String {
         );
         let act = grid
             .chip
-            .as_ref()
-            .and_then(|c| c[task]["act"].as_str().map(str::to_string))
+            .get(task)
+            .and_then(|c| c["act"].as_str().map(str::to_string))
             .unwrap_or_else(|| "not measured".into());
         let _ = writeln!(
             md,

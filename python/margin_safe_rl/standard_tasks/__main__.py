@@ -5,6 +5,9 @@
 - ``run --out DIR [--tasks ...] [--agents ...] [--seeds 0-4] [--jobs N] [--steps N]``: the
   grid's runs not done yet (``--steps`` overrides every budget: for the CI's tiny grid only);
 - ``status --out DIR``: runs done, failed and left per task and agent;
+- ``chip --out DIR``: each task's DCP blob (seed 0) on the Cortex-M4F under QEMU, into the
+  task's ``chip.json``; ``speed --out DIR``: time per environment step against SB3, into
+  ``speed.json``;
 - ``keep --out DIR --to KEPT``: what the page needs of every finished run, copied into KEPT (the
   repository's ``experiments/standard-tasks/kept``), so the grid and its page outlive the
   machine; ``run --kept KEPT`` puts those runs back into a new folder before it plans.
@@ -166,6 +169,25 @@ def _speed(args: argparse.Namespace) -> int:
     return 0
 
 
+def _chip(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    if not out.is_dir():
+        raise grid.GridError(f"chip: no grid folder {out}")
+    for name in args.tasks:
+        task(name)
+    lock = grid.GridLock(out, ".chip.lock")
+    try:
+        chip = grid.chip_figures(out, Path(args.repo), args.tasks)
+    finally:
+        lock.release()
+    if not chip:
+        raise grid.GridError(f"chip: no task in {out} has its dcp seed-0 blob yet")
+    failed = [name for name, figures in chip.items() if figures["act"].startswith("not run")]
+    for name, figures in chip.items():
+        print(f"{name}: {figures['act']}")
+    return 1 if failed else 0
+
+
 def _keep(args: argparse.Namespace) -> int:
     out, kept = Path(args.out), Path(args.to)
     # The grid's writer stays out while its folder is read; one keeper at a time in KEPT.
@@ -234,7 +256,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     sp.add_argument("--host-trainer", help="the host-trainer program (default: on PATH)")
     sp.add_argument("--firmware-sim", help="the firmware-sim program (default: on PATH)")
     c = commands.add_parser("chip", help="each task's DCP blob (seed 0) on the Cortex-M4F under QEMU")
-    c.add_argument("--out", required=True, help="the grid's folder (chip.json is written there)")
+    c.add_argument("--out", required=True, help="the grid's folder (each task's chip.json is written there)")
     c.add_argument("--repo", default=".", help="the repository (for scripts/cortex-m.sh)")
     c.add_argument("--tasks", type=_names, default=grid.all_tasks())
     k = commands.add_parser("keep", help="copy what the page needs of the finished runs into a kept folder")

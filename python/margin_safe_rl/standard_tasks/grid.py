@@ -8,8 +8,9 @@ again. A run whose program fails is recorded as failed (``result.json`` with ``f
 counted on the page; ``--retry-failed`` runs it again.
 
 A run's folder stays on the machine that ran it. What the page needs of each finished run (its
-``result.json`` and ``train.jsonl``, each task's ``random.json``, the grid's ``chip.json`` and
-``speed.json``) is kept in the repository with :func:`keep` (``standard_tasks keep``), and
+``result.json`` and ``train.jsonl``, each task's ``random.json`` and ``chip.json``, the blob the
+chip figures are measured on, and the grid's ``speed.json``) is kept in the repository with
+:func:`keep` (``standard_tasks keep``), and
 ``run --kept DIR`` puts the kept runs back into a new machine's folder first, so the grid goes
 on there from where it stopped.
 
@@ -81,17 +82,33 @@ def _write_atomic(path: Path, text: str) -> None:
 
 
 RUN_FILES = ("result.json", "train.jsonl")
-TASK_FILES = ("random.json",)
-GRID_FILES = ("chip.json", "speed.json")
+# Each task's figures are files of their own, so that a task measured later adds a file and
+# never changes one already kept.
+TASK_FILES = ("random.json", "chip.json")
+GRID_FILES = ("speed.json",)
+# The run whose exported blob the chip figures are measured on; its blob is kept too (29 KB at
+# 4x48), so that `chip` runs on a machine where the grid was put back from the kept folder.
+CHIP_AGENT, CHIP_SEED = "dcp", 0
+
+
+def chip_blob(out: Path, task_name: str) -> Optional[Path]:
+    """The exported blob of ``task_name``'s chip run (``dcp``, seed 0), where it is finished."""
+    found = sorted((run_folder(out, task_name, CHIP_AGENT, CHIP_SEED) / "train").glob("*/policy.postcard"))
+    return found[0] if found else None
 
 
 def _kept_files(root: Path) -> list[Path]:
     """Every file of ``root`` that a kept grid holds, relative to it: the grid's files, each
-    task's, and each finished run's (a run without ``result.json`` is not finished)."""
+    task's, and each finished run's (a run without ``result.json`` is not finished), with the
+    chip run's blob."""
     found = [Path(name) for name in GRID_FILES if (root / name).is_file()]
     for result in sorted(root.glob("*/*/seed*/result.json")):
         run = result.parent.relative_to(root)
         found += [run / name for name in RUN_FILES if (root / run / name).is_file()]
+        if run.parts[1:] == (CHIP_AGENT, f"seed{CHIP_SEED}"):
+            blob = chip_blob(root, run.parts[0])
+            if blob is not None:
+                found.append(blob.relative_to(root))
     for t in sorted({p.parts[0] for p in found if len(p.parts) > 1}):
         found += [Path(t) / name for name in TASK_FILES if (root / t / name).is_file()]
     return found
@@ -447,6 +464,48 @@ def measure_speed(out: Path, programs: Programs, steps: int) -> dict[str, Any]:
     }
     _write_atomic(out / "speed.json", json.dumps(result, indent=1) + "\n")
     return result
+
+
+def chip_figures(out: Path, repo: Path, tasks: Iterable[str]) -> dict[str, Any]:
+    """Each task's chip blob on the Cortex-M4F under QEMU (``scripts/cortex-m.sh``, its
+    ``m4f-trained`` variant: built, bit-exact with the host, instructions per ``act``, flash),
+    written to ``OUT/{task}/chip.json`` once per task; a task whose blob the example firmware
+    cannot hold (more than 8 observations or actions) says so. Returns the figures of every
+    task measured, now or before."""
+    chip: dict[str, Any] = {}
+    for task_name in tasks:
+        task(task_name)
+        path = out / task_name / "chip.json"
+        if path.exists():
+            chip[task_name] = json.loads(path.read_text())
+            continue
+        blob = chip_blob(out, task_name)
+        if blob is None:
+            continue
+        report = out / task_name / "chip-report.json"
+        log = out / task_name / "chip.log"
+        argv = ["bash", str(repo / "scripts" / "cortex-m.sh"), "--blob", str(blob),
+                "--no-slot-cases", "--no-hil", "--out", str(report)]
+        status = _run(argv, log, dict(os.environ, VARIANTS="m4f-trained"))
+        text = log.read_text()
+        if status != 0 or not report.exists():
+            if "observations" in text and "at most" in text:
+                reason = "the example firmware holds at most 8 observations and 8 actions"
+            else:
+                reason = f"cortex-m.sh exited {status} (see {log})"
+            # Not written: a failed measurement is tried again by the next `chip`.
+            chip[task_name] = {"act": f"not run: {reason}"}
+            continue
+        variant = json.loads(report.read_text())["variants"][0]
+        ins, flash = variant["instructions"], variant["flash"]
+        exact = "bit-exact" if variant["check"]["bit_exact"] else "NOT bit-exact"
+        chip[task_name] = {
+            "blob": str(blob.relative_to(out)),
+            "act": f"{ins['act_mean']:,.0f} instructions ({ins['per_mac']:.2f} per MAC), {exact}; "
+            f"flash {flash['total']:,} B with the blob",
+        }
+        _write_atomic(path, json.dumps(chip[task_name], indent=1) + "\n")
+    return chip
 
 
 def plan(
