@@ -6,7 +6,8 @@
   grid's runs not done yet (``--steps`` overrides every budget: for the CI's tiny grid only);
 - ``status --out DIR``: runs done, failed and left per task and agent;
 - ``chip --out DIR``: each task's DCP blob (seed 0) on the Cortex-M4F under QEMU, into the
-  task's ``chip.json``; ``speed --out DIR``: time per environment step against SB3, into
+  task's ``chip.json`` (exit 1 if a task's measurement failed: it is printed, not written, and
+  tried again next time); ``speed --out DIR``: time per environment step against SB3, into
   ``speed.json``;
 - ``keep --out DIR --to KEPT``: what the page needs of every finished run, copied into KEPT (the
   repository's ``experiments/standard-tasks/kept``), so the grid and its page outlive the
