@@ -167,6 +167,23 @@ def test_the_chip_runs_blob_is_kept_so_chip_runs_where_the_grid_was_put_back(tmp
     assert not (fresh / "pendulum" / "chip.json").exists()
 
 
+def test_chip_exits_1_when_a_measurement_fails(tmp_path: Path, python_env) -> None:
+    out, repo = tmp_path / "out", tmp_path / "repo"
+    run = grid.run_folder(out, "pendulum", "dcp", 0)
+    (run / "train" / "r").mkdir(parents=True)
+    (run / "train" / "r" / "policy.postcard").write_bytes(b"blob")
+    (repo / "scripts").mkdir(parents=True)
+    (repo / "scripts" / "cortex-m.sh").write_text("exit 3\n")
+    done = subprocess.run(
+        [sys.executable, "-m", "margin_safe_rl.standard_tasks", "chip", "--out", str(out),
+         "--repo", str(repo), "--tasks", "pendulum"],
+        capture_output=True, text=True, env=python_env,
+    )
+    assert done.returncode == 1, done
+    assert "pendulum: not run: cortex-m.sh exited 3" in done.stdout
+    assert not (out / "pendulum" / "chip.json").exists()
+
+
 def test_a_second_grid_in_one_folder_is_refused(tmp_path: Path) -> None:
     first = grid.GridLock(tmp_path)
     try:
