@@ -1,12 +1,14 @@
 """The standard-tasks benchmark's machinery: the task table, the recorder's margin figures, the
-grid's plan, lock and failure records, and the command line's errors. The grid end to end (the
+grid's plan, lock, failure records and Ctrl-C, and the command line's errors. The grid end to end (the
 toolkit's agents through host-trainer and firmware-sim) runs in CI's tiny grid (.ci/run)."""
 
 from __future__ import annotations
 
 import json
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -200,6 +202,49 @@ def test_a_run_whose_process_dies_is_recorded_as_failed(tmp_path: Path) -> None:
     assert "without a result" in result["failed"]
     saved = json.loads((grid.run_folder(tmp_path, "pendulum", "dcp", 0) / "result.json").read_text())
     assert saved["failed"] == result["failed"]
+
+
+def _fake_program(path: Path, text: str) -> str:
+    path.write_text("#!/usr/bin/env bash\n" + text)
+    path.chmod(0o755)
+    return str(path)
+
+
+@pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM])
+def test_a_stopped_grid_stops_its_runs_at_a_checkpoint_and_counts_none_as_failed(
+    tmp_path: Path, python_env, stop: int
+) -> None:
+    # A trainer that answers SIGINT as host-trainer does (a checkpoint, then exit 130), and a
+    # simulator that only lists test starts: the grid's own handling of the press is tested.
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    trainer = _fake_program(
+        bin_dir / "host-trainer",
+        "trap 'echo stopping after this episode and writing a checkpoint; exit 130' INT\n"
+        f"touch {tmp_path / 'trainer-started'}\n"
+        "while :; do sleep 0.05; done\n",
+    )
+    sim = _fake_program(bin_dir / "firmware-sim", 'for i in $(seq "$3"); do echo "$i"; done\n')
+    out = tmp_path / "grid"
+    running = subprocess.Popen(
+        [sys.executable, "-m", "margin_safe_rl.standard_tasks", "run", "--out", str(out),
+         "--tasks", "pendulum", "--agents", "dcp", "--seeds", "0,1", "--jobs", "1", "--steps", "10",
+         "--test-episodes", "2", "--host-trainer", trainer, "--firmware-sim", sim],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=python_env,
+        start_new_session=True,  # the signal below reaches the grid alone: it must pass it on
+    )
+    deadline = time.monotonic() + 60
+    while not (tmp_path / "trainer-started").exists():  # with its trap set
+        assert running.poll() is None and time.monotonic() < deadline, running.communicate()
+        time.sleep(0.05)
+    running.send_signal(stop)
+    stdout, stderr = running.communicate(timeout=60)
+    assert running.returncode == 130, (stdout, stderr)
+    assert "2 runs not finished (none counted as failed)" in stdout, stdout
+    log = grid.run_folder(out, "pendulum", "dcp", 0) / "log.txt"
+    assert "stopping after this episode" in log.read_text()  # the press reached the trainer
+    assert not list(out.glob("pendulum/dcp/seed*/result.json"))
+    assert grid.plan(out, ["pendulum"], ["dcp"], [0, 1], False) == [("pendulum", "dcp", 0), ("pendulum", "dcp", 1)]
 
 
 @pytest.mark.parametrize(

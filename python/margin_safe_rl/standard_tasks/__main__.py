@@ -4,6 +4,8 @@
   link), every episode measured and appended to FILE;
 - ``run --out DIR [--tasks ...] [--agents ...] [--seeds 0-4] [--jobs N] [--steps N]``: the
   grid's runs not done yet (``--steps`` overrides every budget: for the CI's tiny grid only);
+  Ctrl-C or SIGTERM stops it (exit 130): no new run starts, the running toolkit runs stop at a
+  checkpoint and the next ``run`` continues them, and no stopped run is counted as failed;
 - ``status --out DIR``: runs done, failed and left per task and agent;
 - ``chip --out DIR``: each task's DCP blob (seed 0) on the Cortex-M4F under QEMU, into the
   task's ``chip.json`` (exit 1 if a task's measurement failed: it is printed, not written, and
@@ -19,6 +21,7 @@ import argparse
 import concurrent.futures
 import os
 import shutil
+import signal
 import sys
 from pathlib import Path
 from typing import Any, Optional, Sequence
@@ -103,6 +106,14 @@ def _programs(args: argparse.Namespace) -> grid.Programs:
     return grid.Programs(found["host-trainer"], found["firmware-sim"])
 
 
+def _stop_on_signals() -> None:
+    # Ctrl-C and SIGTERM (a job scheduler's stop) alike stop a grid or a run at a checkpoint, as
+    # they stop host-trainer; SIGINT too where it came in ignored (a job started with `&` from a
+    # script), so that the grid's press passed on to a run is never lost.
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, signal.default_int_handler)
+
+
 def _run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     lock = grid.GridLock(out)
@@ -128,16 +139,42 @@ def _run(args: argparse.Namespace) -> int:
             # other's way, and a run that crashes Python is a failed run, not a failed grid.
             return grid.run_in_process(out, item, programs, args.steps, args.test_episodes)
 
-        failed = 0
-        with concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs) as pool:
-            for item, result in zip(todo, pool.map(one, todo)):
-                name = "/".join([item[0], item[1], f"seed{item[2]}"])
-                if "failed" in result:
-                    failed += 1
-                    print(f"{name}: FAILED: {result['failed']}", flush=True)
-                else:
-                    t = result["test"]
-                    print(f"{name}: mean return {t['mean_return']:.2f}, {result['train_seconds']:.0f} s", flush=True)
+        pool = concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs)
+        futures = [pool.submit(one, item) for item in todo]
+        try:
+            concurrent.futures.wait(futures)
+        except KeyboardInterrupt:
+            # Ctrl-C: no new run starts; the running ones stop at their checkpoint (the trainer
+            # writes one) and are neither failed nor finished. A second Ctrl-C is passed on too:
+            # host-trainer then stops at once, keeping its last checkpoint.
+            print("interrupted: no new run starts; the running ones stop at a checkpoint", flush=True)
+            pool.shutdown(wait=False, cancel_futures=True)
+            grid.interrupt_children()
+            # Only the started ones: `wait` never counts a future cancelled in the queue as done.
+            started = [f for f in futures if not f.cancelled()]
+            while True:
+                try:
+                    concurrent.futures.wait(started)
+                    break
+                except KeyboardInterrupt:
+                    grid.interrupt_children()
+        pool.shutdown()
+        failed = stopped = 0
+        for item, future in zip(todo, futures):
+            name = "/".join([item[0], item[1], f"seed{item[2]}"])
+            if future.cancelled() or isinstance(future.exception(), grid.Interrupted):
+                stopped += 1
+                continue
+            result = future.result()
+            if "failed" in result:
+                failed += 1
+                print(f"{name}: FAILED: {result['failed']}", flush=True)
+            else:
+                t = result["test"]
+                print(f"{name}: mean return {t['mean_return']:.2f}, {result['train_seconds']:.0f} s", flush=True)
+        if stopped:
+            print(f"interrupted: {stopped} runs not finished (none counted as failed); run again to continue them")
+            return 130
         return 1 if failed else 0
     finally:
         lock.release()
@@ -270,6 +307,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         if args.command == "serve":
             return _serve(args)
         if args.command == "one":
+            _stop_on_signals()
             return _one(args)
         if args.command == "chip":
             return _chip(args)
@@ -282,11 +320,17 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         if args.command == "run":
             if args.jobs < 1 or (args.steps is not None and args.steps < 2) or args.test_episodes < 1:
                 raise grid.GridError("--jobs and --test-episodes must be at least 1, --steps at least 2")
+            _stop_on_signals()
             return _run(args)
         return _status(args)
     except (grid.GridError, KeyError) as e:
         _log(str(e.args[0]) if e.args else str(e))
         return 2
+    except (grid.Interrupted, KeyboardInterrupt):
+        # Stopped by a signal: not an error, and nothing half-written (every file the grid
+        # writes is written whole, and a stopped run writes no result).
+        _log("interrupted")
+        return 130
 
 
 if __name__ == "__main__":

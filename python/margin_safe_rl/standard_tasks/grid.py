@@ -5,7 +5,9 @@ A run's folder is ``OUT/{task}/{agent}/seed{N}/``; it is done when ``result.json
 be run in parts (``--tasks``, ``--agents``, ``--seeds``) or after a kill. A toolkit run killed
 mid-way continues from its last checkpoint (``host-trainer train --resume``); an SB3 run starts
 again. A run whose program fails is recorded as failed (``result.json`` with ``failed``) and
-counted on the page; ``--retry-failed`` runs it again.
+counted on the page; ``--retry-failed`` runs it again. A run stopped by Ctrl-C or SIGTERM has
+neither failed nor finished: nothing is written for it (:class:`Interrupted`), the trainer has
+written its checkpoint, and the next ``run`` continues it.
 
 A run's folder stays on the machine that ran it. What the page needs of each finished run (its
 ``result.json`` and ``train.jsonl``, each task's ``random.json`` and ``chip.json``, the blob the
@@ -29,8 +31,10 @@ import json
 import os
 import re
 import shlex
+import signal
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -51,6 +55,31 @@ PAPER_DCP = '[dcp]\nscoring = "critic"\ntarget_smoothing = false\nn_step = 1\n'
 
 class GridError(Exception):
     """A grid that cannot run as asked (one line)."""
+
+
+class Interrupted(Exception):
+    """A run stopped by a signal before it finished: not a failed run (nothing is written for
+    it; the next ``run`` continues it from the trainer's checkpoint)."""
+
+
+# How a program the grid starts reports a stop by signal: host-trainer and firmware-sim exit
+# 130 for SIGINT, SIGTERM and SIGHUP alike (after writing their checkpoint); a Python child
+# exits 130 (see ``_one``) or dies by the signal itself (a negative status).
+INTERRUPTED_STATUSES = (130, -signal.SIGINT, -signal.SIGTERM, -signal.SIGHUP)
+
+# The programs running now, so that the grid's main thread can pass a Ctrl-C on to them: a
+# `kill -INT` of the grid alone reaches no child, and a terminal's Ctrl-C reaches them too
+# (host-trainer counts two deliveries within half a second as one press).
+_children: set[subprocess.Popen] = set()
+_children_lock = threading.Lock()
+
+
+def interrupt_children() -> None:
+    """Sends SIGINT to every program the grid is running now."""
+    with _children_lock:
+        for child in _children:
+            if child.poll() is None:
+                child.send_signal(signal.SIGINT)
 
 
 @dataclass(frozen=True)
@@ -210,10 +239,30 @@ def judged(status: int) -> bool:
 
 
 def _run(argv: Sequence[str], log: Path, env: Optional[dict] = None) -> int:
+    """Runs a program to its end and returns its exit status; raises :class:`Interrupted` if it
+    stopped by a signal. A Ctrl-C here is passed on and the program waited for, not killed
+    (``subprocess.run`` would kill it after a quarter second, before its checkpoint)."""
     with open(log, "a") as f:
         f.write(f"$ {shlex.join(argv)}\n")
         f.flush()
-        return subprocess.run(argv, stdout=f, stderr=subprocess.STDOUT, env=env).returncode
+        child = subprocess.Popen(argv, stdout=f, stderr=subprocess.STDOUT, env=env)
+        with _children_lock:
+            _children.add(child)
+        interrupted = False
+        try:
+            while True:
+                try:
+                    status = child.wait()
+                    break
+                except KeyboardInterrupt:
+                    interrupted = True
+                    child.send_signal(signal.SIGINT)
+        finally:
+            with _children_lock:
+                _children.discard(child)
+    if interrupted or status in INTERRUPTED_STATUSES:
+        raise Interrupted(f"{Path(argv[0]).name} stopped by a signal (exit {status})")
+    return status
 
 
 def run_toolkit(
@@ -311,6 +360,8 @@ def run_one(
             result["library"] = "toolkit"
             result.update(run_toolkit(t, agent, seed, folder, programs, steps, len(seeds)))
             result["budget"] = t.budget if steps is None else steps
+    except Interrupted:
+        raise  # neither failed nor finished: nothing is written
     except Exception as e:  # noqa: BLE001 - a run's failure is a result, counted on the page
         result["failed"] = f"{type(e).__name__}: {e}"
     if "failed" not in result:
@@ -323,7 +374,7 @@ def run_in_process(
     out: Path, item: tuple[str, str, int], programs: Programs, steps: Optional[int], test_episodes: int
 ) -> dict[str, Any]:
     """:func:`run_one` in a child Python (``... standard_tasks one``); a child that dies
-    without a result is a failed run."""
+    without a result is a failed run, one stopped by a signal :class:`Interrupted`."""
     task_name, agent, seed = item
     folder = run_folder(out, task_name, agent, seed)
     folder.mkdir(parents=True, exist_ok=True)
@@ -334,8 +385,13 @@ def run_in_process(
     ]
     if steps is not None:
         argv += ["--steps", str(steps)]
-    status = _run(argv, folder / "log.txt")
     done = folder / "result.json"
+    try:
+        status = _run(argv, folder / "log.txt")
+    except Interrupted:
+        if done.exists():  # stopped after its result was written: finished
+            return json.loads(done.read_text())
+        raise
     if done.exists():
         return json.loads(done.read_text())
     result = {"task": task_name, "agent": agent, "seed": seed, "steps_override": steps,
