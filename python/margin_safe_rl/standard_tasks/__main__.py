@@ -24,7 +24,7 @@ import shutil
 import signal
 import sys
 from pathlib import Path
-from typing import Any, Optional, Sequence
+from typing import Any, Iterable, Optional, Sequence
 
 from ..plant_link import GymnasiumPlant, StepReply, serve
 from . import grid
@@ -140,9 +140,30 @@ def _run(args: argparse.Namespace) -> int:
             return grid.run_in_process(out, item, programs, args.steps, args.test_episodes)
 
         pool = concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs)
-        futures = [pool.submit(one, item) for item in todo]
+        futures = {pool.submit(one, item): item for item in todo}
+        counts = {"done": 0, "failed": 0, "stopped": 0}
+        reported: set[concurrent.futures.Future] = set()
+
+        def report(done: Iterable[concurrent.futures.Future]) -> None:
+            # Each run's line as it ends, so a long grid shows its progress.
+            for future in done:
+                reported.add(future)
+                task_name, agent, seed = futures[future]
+                name = f"{task_name}/{agent}/seed{seed}"
+                if isinstance(future.exception(), grid.Interrupted):
+                    counts["stopped"] += 1
+                    continue
+                result = future.result()
+                if "failed" in result:
+                    counts["failed"] += 1
+                    print(f"{name}: FAILED: {result['failed']}", flush=True)
+                else:
+                    counts["done"] += 1
+                    t = result["test"]
+                    print(f"{name}: mean return {t['mean_return']:.2f}, {result['train_seconds']:.0f} s", flush=True)
+
         try:
-            concurrent.futures.wait(futures)
+            report(concurrent.futures.as_completed(futures))
         except KeyboardInterrupt:
             # Ctrl-C: no new run starts; the running ones stop at their checkpoint (the trainer
             # writes one) and are neither failed nor finished. A second Ctrl-C is passed on too:
@@ -150,32 +171,21 @@ def _run(args: argparse.Namespace) -> int:
             print("interrupted: no new run starts; the running ones stop at a checkpoint", flush=True)
             pool.shutdown(wait=False, cancel_futures=True)
             grid.interrupt_children()
-            # Only the started ones: `wait` never counts a future cancelled in the queue as done.
-            started = [f for f in futures if not f.cancelled()]
-            while True:
+            # The started runs not reported yet (a run cancelled in the queue never completes).
+            left = [f for f in futures if not f.cancelled() and f not in reported]
+            while left:
                 try:
-                    concurrent.futures.wait(started)
-                    break
+                    report(concurrent.futures.as_completed(left))
+                    left = []
                 except KeyboardInterrupt:
                     grid.interrupt_children()
+                    left = [f for f in left if f not in reported]
+            counts["stopped"] += sum(f.cancelled() for f in futures)
         pool.shutdown()
-        failed = stopped = 0
-        for item, future in zip(todo, futures):
-            name = "/".join([item[0], item[1], f"seed{item[2]}"])
-            if future.cancelled() or isinstance(future.exception(), grid.Interrupted):
-                stopped += 1
-                continue
-            result = future.result()
-            if "failed" in result:
-                failed += 1
-                print(f"{name}: FAILED: {result['failed']}", flush=True)
-            else:
-                t = result["test"]
-                print(f"{name}: mean return {t['mean_return']:.2f}, {result['train_seconds']:.0f} s", flush=True)
-        if stopped:
-            print(f"interrupted: {stopped} runs not finished (none counted as failed); run again to continue them")
+        if counts["stopped"]:
+            print(f"interrupted: {counts['stopped']} runs not finished (none counted as failed); run again to continue them")
             return 130
-        return 1 if failed else 0
+        return 1 if counts["failed"] else 0
     finally:
         lock.release()
 
