@@ -163,9 +163,12 @@ def test_the_chip_runs_blob_is_kept_so_chip_runs_where_the_grid_was_put_back(tmp
     assert grid.keep(fresh, kept) == 1  # the task's chip.json, a file of its own
     # A failed measurement is reported and not written, so the next `chip` tries again.
     (fresh / "pendulum" / "chip.json").unlink()
-    (repo / "scripts" / "cortex-m.sh").write_text("echo 'the example firmware holds at most 8 observations'; exit 1\n")
+    # What cortex-m.sh prints for a blob with more observations than the firmware holds.
+    (repo / "scripts" / "cortex-m.sh").write_text(
+        "echo \"host-check: error: observation size 10 beyond the firmware's maximum of 8\"; exit 1\n"
+    )
     chip = grid.chip_figures(fresh, repo, ["pendulum"])
-    assert chip["pendulum"]["act"].startswith("not run: the example firmware holds at most 8")
+    assert chip["pendulum"]["act"] == "not run: the example firmware holds at most 8 observations, the blob has 10"
     assert not (fresh / "pendulum" / "chip.json").exists()
 
 

@@ -544,8 +544,11 @@ def chip_figures(out: Path, repo: Path, tasks: Iterable[str]) -> dict[str, Any]:
         status = _run(argv, log, dict(os.environ, VARIANTS="m4f-trained"))
         text = log.read_text()
         if status != 0 or not report.exists():
-            if "observations" in text and "at most" in text:
-                reason = "the example firmware holds at most 8 observations and 8 actions"
+            # policy-core's SizeBeyondMaximum, as host-check prints it.
+            beyond = re.search(r"(observation|action) size (\d+) beyond the firmware's maximum of (\d+)", text)
+            if beyond:
+                what, found, most = beyond.groups()
+                reason = f"the example firmware holds at most {most} {what}s, the blob has {found}"
             else:
                 reason = f"cortex-m.sh exited {status} (see {log})"
             # Not written: a failed measurement is tried again by the next `chip`.
