@@ -5,6 +5,7 @@ toolkit's agents through host-trainer and firmware-sim) runs in CI's tiny grid (
 from __future__ import annotations
 
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -236,12 +237,19 @@ def test_a_stopped_grid_stops_its_runs_at_a_checkpoint_and_counts_none_as_failed
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=python_env,
         start_new_session=True,  # the signal below reaches the grid alone: it must pass it on
     )
-    deadline = time.monotonic() + 60
-    while not (tmp_path / "trainer-started").exists():  # with its trap set
-        assert running.poll() is None and time.monotonic() < deadline, running.communicate()
-        time.sleep(0.05)
-    running.send_signal(stop)
-    stdout, stderr = running.communicate(timeout=60)
+    try:
+        deadline = time.monotonic() + 60
+        while not (tmp_path / "trainer-started").exists():  # with its trap set
+            assert running.poll() is None and time.monotonic() < deadline, running.communicate()
+            time.sleep(0.05)
+        running.send_signal(stop)
+        stdout, stderr = running.communicate(timeout=60)
+    finally:  # a grid (or a run of it) that does not stop leaves nothing behind the test
+        try:
+            os.killpg(running.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        running.wait()
     assert running.returncode == 130, (stdout, stderr)
     assert "2 runs not finished (none counted as failed)" in stdout, stdout
     log = grid.run_folder(out, "pendulum", "dcp", 0) / "log.txt"
