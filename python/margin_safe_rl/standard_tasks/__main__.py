@@ -141,7 +141,7 @@ def _run(args: argparse.Namespace) -> int:
 
         pool = concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs)
         futures = {pool.submit(one, item): item for item in todo}
-        counts = {"done": 0, "failed": 0, "stopped": 0}
+        counts = {"failed": 0, "stopped": 0}
         reported: set[concurrent.futures.Future] = set()
 
         def report(done: Iterable[concurrent.futures.Future]) -> None:
@@ -158,29 +158,26 @@ def _run(args: argparse.Namespace) -> int:
                     counts["failed"] += 1
                     print(f"{name}: FAILED: {result['failed']}", flush=True)
                 else:
-                    counts["done"] += 1
                     t = result["test"]
                     print(f"{name}: mean return {t['mean_return']:.2f}, {result['train_seconds']:.0f} s", flush=True)
 
-        try:
-            report(concurrent.futures.as_completed(futures))
-        except KeyboardInterrupt:
-            # Ctrl-C: no new run starts; the running ones stop at their checkpoint (the trainer
-            # writes one) and are neither failed nor finished. A second Ctrl-C is passed on too:
-            # host-trainer then stops at once, keeping its last checkpoint.
-            print("interrupted: no new run starts; the running ones stop at a checkpoint", flush=True)
-            pool.shutdown(wait=False, cancel_futures=True)
-            grid.interrupt_children()
-            # The started runs not reported yet (a run cancelled in the queue never completes).
-            left = [f for f in futures if not f.cancelled() and f not in reported]
-            while left:
-                try:
-                    report(concurrent.futures.as_completed(left))
-                    left = []
-                except KeyboardInterrupt:
-                    grid.interrupt_children()
-                    left = [f for f in left if f not in reported]
-            counts["stopped"] += sum(f.cancelled() for f in futures)
+        # Ctrl-C: no new run starts; the running ones stop at their checkpoint (the trainer
+        # writes one) and are neither failed nor finished. A second Ctrl-C is passed on too:
+        # host-trainer then stops at once, keeping its last checkpoint.
+        left, stopping = list(futures), False
+        while left:
+            try:
+                report(concurrent.futures.as_completed(left))
+                left = []
+            except KeyboardInterrupt:
+                if not stopping:
+                    stopping = True
+                    print("interrupted: no new run starts; the running ones stop at a checkpoint", flush=True)
+                    pool.shutdown(wait=False, cancel_futures=True)
+                grid.interrupt_children()
+                # The started runs not reported yet (a run cancelled in the queue never completes).
+                left = [f for f in futures if not f.cancelled() and f not in reported]
+        counts["stopped"] += sum(f.cancelled() for f in futures)
         pool.shutdown()
         if counts["stopped"]:
             print(f"interrupted: {counts['stopped']} runs not finished (none counted as failed); run again to continue them")
