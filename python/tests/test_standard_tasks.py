@@ -283,3 +283,75 @@ def test_bad_arguments_get_one_line_and_exit_2(tmp_path: Path, python_env, args,
 def test_a_run_whose_blob_fails_the_gate_has_finished(status: int, finished: bool) -> None:
     # host-trainer and firmware-sim exit 1 on the gate's FAIL: a judged run, not an error.
     assert grid.judged(status) is finished
+
+
+def _episodes_without_clock(path: Path) -> list[dict]:
+    # Every field of every episode but the recorder's clock (wall time differs run to run).
+    return [{k: v for k, v in json.loads(line).items() if k != "env_seconds"} for line in path.read_text().splitlines()]
+
+
+@pytest.mark.parametrize(
+    "task_name, algo, stop_at",
+    [
+        ("pendulum", "td3", 350),  # mid-episode, after the updates begin (Gaussian noise)
+        ("mountain-car", "td3", 250),  # in the first, seeded, episode (Ornstein-Uhlenbeck noise)
+        ("mountain-car", "sac", 250),  # 32 steps an iteration, gSDE's exploration matrix
+        ("nav-walls", "ddpg", 350),  # a firmware-sim process: its start seed drawn in Python
+    ],
+)
+def test_an_sb3_run_stopped_and_continued_ends_as_one_never_stopped(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, request: pytest.FixtureRequest,
+    task_name: str, algo: str, stop_at: int,
+) -> None:
+    pytest.importorskip("stable_baselines3")
+    from margin_safe_rl.standard_tasks import sb3_agents
+
+    if task_name == "nav-walls":
+        monkeypatch.setenv("FIRMWARE_SIM", request.getfixturevalue("firmware_sim"))
+
+    t, test_seeds = task(task_name), [11, 12]
+    straight, stopped = tmp_path / "straight", tmp_path / "stopped"
+    straight.mkdir()
+    stopped.mkdir()
+    figures = sb3_agents.train_and_test(t, algo, 3, straight, test_seeds, steps=600)
+
+    # The stop comes as a Ctrl-C does, in the middle of an environment step.
+    steps = {"n": 0}
+    real_make_env = sb3_agents.make_env
+
+    def make_env_that_is_stopped(*args, **kwargs):
+        env = real_make_env(*args, **kwargs)
+        real_step = env.step
+
+        def step(action):
+            steps["n"] += 1
+            if steps["n"] == stop_at:
+                signal.raise_signal(signal.SIGINT)
+            return real_step(action)
+
+        env.step = step
+        return env
+
+    monkeypatch.setattr(sb3_agents, "make_env", make_env_that_is_stopped)
+    with pytest.raises(KeyboardInterrupt):
+        sb3_agents.train_and_test(t, algo, 3, stopped, test_seeds, steps=600)
+    assert (stopped / sb3_agents.CHECKPOINT).exists() and not (stopped / "test.jsonl").exists()
+    monkeypatch.setattr(sb3_agents, "make_env", real_make_env)
+    continued = sb3_agents.train_and_test(t, algo, 3, stopped, test_seeds, steps=600)
+
+    assert continued["env_steps"] == figures["env_steps"] >= 600  # SAC here collects 32 steps at a time
+    assert not (stopped / sb3_agents.CHECKPOINT).exists()
+    for name in ("train.jsonl", "test.jsonl"):
+        assert _episodes_without_clock(stopped / name) == _episodes_without_clock(straight / name), name
+
+
+def test_an_unreadable_sb3_checkpoint_is_named_and_left_alone(tmp_path: Path) -> None:
+    pytest.importorskip("stable_baselines3")
+    from margin_safe_rl.standard_tasks import sb3_agents
+
+    (tmp_path / sb3_agents.CHECKPOINT).write_bytes(b"half a checkpoint")
+    (tmp_path / "train.jsonl").write_text('{"return": -1.0}\n')
+    with pytest.raises(RuntimeError, match="cannot be read .*remove it to start the run again"):
+        sb3_agents.train_and_test(task("pendulum"), "td3", 0, tmp_path, [1], steps=10)
+    assert (tmp_path / sb3_agents.CHECKPOINT).read_bytes() == b"half a checkpoint"
+    assert (tmp_path / "train.jsonl").read_text() == '{"return": -1.0}\n'

@@ -3,8 +3,9 @@
 A run's folder is ``OUT/{task}/{agent}/seed{N}/``; it is done when ``result.json`` is in it
 (written last, atomically). Running the grid again runs only what is not done, so the grid can
 be run in parts (``--tasks``, ``--agents``, ``--seeds``) or after a kill. A toolkit run killed
-mid-way continues from its last checkpoint (``host-trainer train --resume``); an SB3 run starts
-again. A run whose program fails is recorded as failed (``result.json`` with ``failed``) and
+mid-way continues from its last checkpoint (``host-trainer train --resume``), an SB3 run from its
+own (``sb3_agents``: written on a stop and every ten minutes), each ending as a run never stopped
+would. A run whose program fails is recorded as failed (``result.json`` with ``failed``) and
 counted on the page; ``--retry-failed`` runs it again. A run stopped by Ctrl-C or SIGTERM has
 neither failed nor finished: nothing is written for it (:class:`Interrupted`), the trainer has
 written its checkpoint, and the next ``run`` continues it.
