@@ -482,24 +482,18 @@ fn curves(grid: &Grid, task: &str) -> String {
     )
 }
 
-/// Claim 1 on standard tasks, by the protocol's rule, and the aggregate across tasks.
-fn claim_one(grid: &Grid) -> String {
-    let mut md = String::from("### Claim 1 on standard tasks\n\n");
+/// Claim 1 on one network row: the tasks where a margin binds in DDPG's test episodes, DCP's
+/// verdict on each with the fewest runs that flip it, and the rule's word.
+fn claim_one_row(grid: &Grid, row: &str, dcp: &str, ddpg: &str, md: &mut String) {
     let mut binding = Vec::new();
     let mut unjudged = Vec::new();
     for task in TASKS {
-        let ddpg = cell(grid, task, "ddpg");
-        let complete =
-            ddpg.runs.len() as u64 == SEEDS && cell(grid, task, "dcp").runs.len() as u64 == SEEDS;
-        if !complete {
+        let (d, g) = (cell(grid, task, dcp), cell(grid, task, ddpg));
+        if d.runs.len() as u64 != SEEDS || g.runs.len() as u64 != SEEDS {
             unjudged.push(task);
             continue;
         }
-        let binds = ddpg
-            .share("at_bound_share")
-            .max(ddpg.share("contact_share"))
-            > BINDS;
-        if binds {
+        if g.share("at_bound_share").max(g.share("contact_share")) > BINDS {
             binding.push(task);
         }
     }
@@ -507,8 +501,8 @@ fn claim_one(grid: &Grid) -> String {
         .iter()
         .filter_map(|t| {
             verdict(
-                &cell(grid, t, "dcp").returns(),
-                &cell(grid, t, "ddpg").returns(),
+                &cell(grid, t, dcp).returns(),
+                &cell(grid, t, ddpg).returns(),
             )
             .map(|v| (*t, v))
         })
@@ -517,7 +511,7 @@ fn claim_one(grid: &Grid) -> String {
     let behind = verdicts.iter().filter(|v| v.1.word == "behind").count();
     let _ = writeln!(
         md,
-        "Tasks where a margin binds in DDPG's test episodes (over {:.0} % of steps at the action bound or the limit): {}. DCP (4×48) against DDPG (4×48) there: ahead on {ahead}, behind on {behind}, tied on {}.",
+        "**The {row} row.** Tasks where a margin binds in DDPG's test episodes (over {:.0} % of steps at the action bound or the limit): {}. DCP against DDPG there: ahead on {ahead}, behind on {behind}, tied on {}.",
         100.0 * BINDS,
         if binding.is_empty() { "none yet".to_string() } else { binding.join(", ") },
         verdicts.len() - ahead - behind
@@ -534,10 +528,33 @@ fn claim_one(grid: &Grid) -> String {
     } else {
         "not reproduced".to_string()
     };
+    // What the word rests on: each binding task's verdict and how many runs flip it (a task's
+    // flip can flip the row's word).
+    let rests_on = if unjudged.is_empty() && !verdicts.is_empty() {
+        let each: Vec<String> = verdicts
+            .iter()
+            .map(|(t, v)| format!("{t}: {}, {}, {}", v.word, v.p, v.sensitivity))
+            .collect();
+        format!(" It rests on {}.", each.join("; "))
+    } else {
+        String::new()
+    };
     let _ = writeln!(
         md,
-        "\n**Verdict on claim 1 (the protocol's rule): {word}.**\n"
+        "\n**Verdict on claim 1, {row} row (the protocol's rule): {word}.**{rests_on}\n"
     );
+}
+
+/// Claim 1 on standard tasks, by the protocol's rule for each network row, and the aggregate
+/// across tasks.
+fn claim_one(grid: &Grid) -> String {
+    let mut md = String::from("### Claim 1 on standard tasks\n\n");
+    for (row, dcp, ddpg) in [
+        ("4×48", "dcp", "ddpg"),
+        ("2×400", "dcp@zoo-net", "ddpg@zoo-net"),
+    ] {
+        claim_one_row(grid, row, dcp, ddpg, &mut md);
+    }
     // Across the tasks whose cells are complete: IQM of normalised returns and P(DCP > DDPG).
     let mut dcp_tasks = Vec::new();
     let mut ddpg_tasks = Vec::new();
@@ -717,7 +734,7 @@ mod tests {
         // The margin binds (50 % of steps at the bound), DCP ahead on the only judged task,
         // but the other tasks' cells are not complete yet.
         assert!(
-            md.contains("**Verdict on claim 1 (the protocol's rule): not yet judged"),
+            md.contains("**Verdict on claim 1, 4×48 row (the protocol's rule): not yet judged"),
             "{md}"
         );
         assert!(
@@ -726,6 +743,32 @@ mod tests {
         );
         assert_eq!(figures.len(), 1);
         assert!(figures[0].1.starts_with("<svg"));
+        std::fs::remove_dir_all(&out).expect("clean up");
+    }
+
+    #[test]
+    fn claim_one_is_judged_per_network_row_with_what_flips_it() {
+        let out = scratch("claim");
+        for task in TASKS {
+            for seed in 0..SEEDS {
+                write_run(&out, task, "dcp", seed, -150.0 - seed as f64, false);
+                write_run(&out, task, "ddpg", seed, -400.0 - seed as f64, false);
+            }
+        }
+        let (md, _) = render(
+            &load(&out, false).expect("loads"),
+            "abc1234",
+            "standard-tasks",
+        );
+        assert!(
+            md.contains("**Verdict on claim 1, 4×48 row (the protocol's rule): reproduced.** It rests on pendulum: ahead, p = 0.0079 (exact over 252), 2 runs flip it (45 sets of 2 of the 10 can); mountain-car: ahead"),
+            "{md}"
+        );
+        assert!(md.contains("; nav-walls: ahead, p = 0.0079"), "{md}");
+        assert!(
+            md.contains("**Verdict on claim 1, 2×400 row (the protocol's rule): not yet judged: the cells of pendulum, mountain-car"),
+            "{md}"
+        );
         std::fs::remove_dir_all(&out).expect("clean up");
     }
 
