@@ -74,7 +74,7 @@
 #
 # Usage: bash scripts/cortex-m.sh [--blob FILE] [--out FILE] [--install-only]
 #   --blob FILE     a trained policy blob (e.g. from host-trainer; any shape up to 64 wide, up to
-#                   8 observations and 8 actions: the firmware runs the blob's sizes), run by the
+#                   16 observations and 8 actions: the firmware runs the blob's sizes), run by the
 #                   *-trained* variants (skipped without it).
 #   --integer-blob FILE the trained actor in the integer encoding, run by the *-trained-integer*
 #                   variants (default: --blob's file with -integer before .postcard, if it

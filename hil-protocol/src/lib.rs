@@ -52,8 +52,8 @@ use serde::{Deserialize, Serialize};
 
 /// The protocol version every frame carries. Raised whenever a message changes.
 pub const VERSION: u16 = 1;
-/// The most values an observation or action holds.
-pub const MAX_VALUES: usize = 8;
+/// The most values an observation or action holds (the example firmware's most observations).
+pub const MAX_VALUES: usize = 16;
 /// The longest encoded frame, delimiter included (a hello with two long reasons is about 200).
 pub const MAX_FRAME: usize = 256;
 /// The most bytes of a slot's failure reason (policy-core's one-line errors; longer is cut).

@@ -166,10 +166,10 @@ def test_the_chip_runs_blob_is_kept_so_chip_runs_where_the_grid_was_put_back(tmp
     (fresh / "pendulum" / "chip.json").unlink()
     # What cortex-m.sh prints for a blob with more observations than the firmware holds.
     (repo / "scripts" / "cortex-m.sh").write_text(
-        "echo \"host-check: error: observation size 10 beyond the firmware's maximum of 8\"; exit 1\n"
+        "echo \"host-check: error: observation size 17 beyond the firmware's maximum of 16\"; exit 1\n"
     )
     chip = grid.chip_figures(fresh, repo, ["pendulum"])
-    assert chip["pendulum"]["act"] == "not run: the example firmware holds at most 8 observations, the blob has 10"
+    assert chip["pendulum"]["act"] == "not run: the example firmware holds at most 16 observations, the blob has 17"
     assert not (fresh / "pendulum" / "chip.json").exists()
 
 

@@ -351,7 +351,8 @@ mod tests {
         let info = BlobInfo::of(&cart).unwrap();
         assert_eq!(info.name(), "3x40 3obs-1act");
         assert_eq!((info.observations(), info.tanh_calls()), (3, 1));
-        assert!(parse_shape("3x40", (9, 1)).is_err());
+        assert!(parse_shape("3x40", (10, 2)).is_ok()); // MuJoCo's reacher
+        assert!(parse_shape("3x40", (17, 1)).is_err() && parse_shape("3x40", (2, 9)).is_err());
         assert!(parse_shape("3x40", (2, 0)).is_err());
     }
 

@@ -527,7 +527,7 @@ def chip_figures(out: Path, repo: Path, tasks: Iterable[str]) -> dict[str, Any]:
     """Each task's chip blob on the Cortex-M4F under QEMU (``scripts/cortex-m.sh``, its
     ``m4f-trained`` variant: built, bit-exact with the host, instructions per ``act``, flash),
     written to ``OUT/{task}/chip.json`` once per task; a task whose blob the example firmware
-    cannot hold (more than 8 observations or actions) says so. Returns the figures of every
+    cannot hold (more than 16 observations or 8 actions) says so. Returns the figures of every
     task measured, now or before."""
     chip: dict[str, Any] = {}
     for task_name in tasks:
