@@ -355,3 +355,24 @@ def test_an_unreadable_sb3_checkpoint_is_named_and_left_alone(tmp_path: Path) ->
         sb3_agents.train_and_test(task("pendulum"), "td3", 0, tmp_path, [1], steps=10)
     assert (tmp_path / sb3_agents.CHECKPOINT).read_bytes() == b"half a checkpoint"
     assert (tmp_path / "train.jsonl").read_text() == '{"return": -1.0}\n'
+
+
+@pytest.mark.parametrize("task_name, algo", [("pendulum", "td3"), ("mountain-car", "sac")])
+def test_the_learning_loop_written_out_is_sb3s_learn_to_the_bit(tmp_path: Path, task_name: str, algo: str) -> None:
+    # The checkpoints need SB3's `learn` written out; the runs before it used `learn` itself.
+    pytest.importorskip("stable_baselines3")
+    import io
+
+    import torch
+    from margin_safe_rl.standard_tasks import sb3_agents
+
+    t = task(task_name)
+    theirs, budget = sb3_agents.build(t, algo, 5, make_env(t, out=io.StringIO()), 600)
+    sb3_agents.quiet_logger(theirs, tmp_path / "a")
+    theirs.learn(total_timesteps=budget)
+    ours, _ = sb3_agents.build(t, algo, 5, sb3_agents.EpisodeReplay(make_env(t, out=io.StringIO())), 600)
+    sb3_agents.quiet_logger(ours, tmp_path / "b")
+    sb3_agents._learn(ours, budget, sb3_agents._Stop(), lambda: None)
+    assert ours.num_timesteps == theirs.num_timesteps
+    for a, b in zip(theirs.policy.parameters(), ours.policy.parameters()):
+        assert torch.equal(a, b)
