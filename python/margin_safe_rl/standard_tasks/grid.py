@@ -41,6 +41,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Optional, Sequence
 
+from .files import write_whole
 from .tasks import TASKS, Task, task
 
 TOOLKIT = ("dcp", "dcp-paper", "ddpg", "td3")
@@ -100,15 +101,6 @@ class Programs:
 
 def run_folder(out: Path, task_name: str, agent: str, seed: int) -> Path:
     return out / task_name / agent / f"seed{seed}"
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "w") as f:
-        f.write(text)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
 
 
 RUN_FILES = ("result.json", "train.jsonl")
@@ -367,7 +359,7 @@ def run_one(
         result["failed"] = f"{type(e).__name__}: {e}"
     if "failed" not in result:
         result["test"] = test_figures(_episodes(folder / "test.jsonl"), t.success_return)
-    _write_atomic(folder / "result.json", json.dumps(result, indent=1) + "\n")
+    write_whole(folder / "result.json", json.dumps(result, indent=1) + "\n")
     return result
 
 
@@ -397,7 +389,7 @@ def run_in_process(
         return json.loads(done.read_text())
     result = {"task": task_name, "agent": agent, "seed": seed, "steps_override": steps,
               "failed": f"the run's process exited {status} without a result (see log.txt)"}
-    _write_atomic(done, json.dumps(result, indent=1) + "\n")
+    write_whole(done, json.dumps(result, indent=1) + "\n")
     return result
 
 
@@ -423,7 +415,7 @@ def random_baseline(out: Path, t: Task, seeds: Sequence[int]) -> dict[str, Any]:
             done = terminated or truncated
     env.close()
     result = test_figures(env.episodes, t.success_return)
-    _write_atomic(path, json.dumps(result, indent=1) + "\n")
+    write_whole(path, json.dumps(result, indent=1) + "\n")
     return result
 
 
@@ -519,7 +511,7 @@ def measure_speed(out: Path, programs: Programs, steps: int) -> dict[str, Any]:
         "cpu": _cpu_name(),
         "rows": rows,
     }
-    _write_atomic(out / "speed.json", json.dumps(result, indent=1) + "\n")
+    write_whole(out / "speed.json", json.dumps(result, indent=1) + "\n")
     return result
 
 
@@ -563,7 +555,7 @@ def chip_figures(out: Path, repo: Path, tasks: Iterable[str]) -> dict[str, Any]:
             "act": f"{ins['act_mean']:,.0f} instructions ({ins['per_mac']:.2f} per MAC), {exact}; "
             f"flash {flash['total']:,} B with the blob",
         }
-        _write_atomic(path, json.dumps(chip[task_name], indent=1) + "\n")
+        write_whole(path, json.dumps(chip[task_name], indent=1) + "\n")
     return chip
 
 

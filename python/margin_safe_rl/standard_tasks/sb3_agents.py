@@ -31,6 +31,7 @@ from typing import Any, Optional, Sequence
 import gymnasium
 import numpy as np
 
+from .files import write_whole
 from .recorder import make_env
 from .tasks import Task
 
@@ -140,15 +141,6 @@ class _Stop:
             signal.signal(sig, handler)
 
 
-def _write_whole(path: Path, data: bytes) -> None:
-    part = path.with_name(path.name + ".part")
-    with open(part, "wb") as f:
-        f.write(data)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(part, path)
-
-
 def _save(path: Path, model: Any, budget: int, wrapper: EpisodeReplay, train_log: Any,
           train_seconds: float, env_seconds: float) -> None:
     import cloudpickle
@@ -169,7 +161,7 @@ def _save(path: Path, model: Any, budget: int, wrapper: EpisodeReplay, train_log
         })
     finally:
         model.env = env
-    _write_whole(path, data)
+    write_whole(path, data)
 
 
 def _learn(model: Any, budget: int, stop: _Stop, save: Any) -> None:
