@@ -376,3 +376,30 @@ def test_the_learning_loop_written_out_is_sb3s_learn_to_the_bit(tmp_path: Path, 
     assert ours.num_timesteps == theirs.num_timesteps
     for a, b in zip(theirs.policy.parameters(), ours.policy.parameters()):
         assert torch.equal(a, b)
+
+
+def test_a_checkpoint_of_another_budget_is_refused_and_left_alone(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    pytest.importorskip("stable_baselines3")
+    from margin_safe_rl.standard_tasks import sb3_agents
+
+    real_make_env = sb3_agents.make_env
+
+    def make_env_that_is_stopped(*args, **kwargs):
+        env = real_make_env(*args, **kwargs)
+        real_step = env.step
+
+        def step(action):
+            signal.raise_signal(signal.SIGINT)
+            return real_step(action)
+
+        env.step = step
+        return env
+
+    monkeypatch.setattr(sb3_agents, "make_env", make_env_that_is_stopped)
+    with pytest.raises(KeyboardInterrupt):
+        sb3_agents.train_and_test(task("pendulum"), "td3", 0, tmp_path, [1], steps=300)
+    monkeypatch.setattr(sb3_agents, "make_env", real_make_env)
+    saved = (tmp_path / sb3_agents.CHECKPOINT).read_bytes()
+    with pytest.raises(RuntimeError, match="written by a run of 300 steps, not 400: run with the same --steps"):
+        sb3_agents.train_and_test(task("pendulum"), "td3", 0, tmp_path, [1], steps=400)
+    assert (tmp_path / sb3_agents.CHECKPOINT).read_bytes() == saved
