@@ -403,3 +403,67 @@ def test_a_checkpoint_of_another_budget_is_refused_and_left_alone(tmp_path: Path
     with pytest.raises(RuntimeError, match="written by a run of 300 steps, not 400: run with the same --steps"):
         sb3_agents.train_and_test(task("pendulum"), "td3", 0, tmp_path, [1], steps=400)
     assert (tmp_path / sb3_agents.CHECKPOINT).read_bytes() == saved
+
+
+def test_a_run_killed_after_its_checkpoint_continues_from_it_and_refuses_an_environment_that_does_not_replay(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    pytest.importorskip("stable_baselines3")
+    from margin_safe_rl.standard_tasks import sb3_agents
+
+    t, test_seeds = task("pendulum"), [11, 12]
+    straight, stopped = tmp_path / "straight", tmp_path / "stopped"
+    straight.mkdir()
+    stopped.mkdir()
+    figures = sb3_agents.train_and_test(t, "td3", 3, straight, test_seeds, steps=600)
+
+    real_make_env = sb3_agents.make_env
+
+    def make_env_with(step_hook):
+        def make(*args, **kwargs):
+            env = real_make_env(*args, **kwargs)
+            real_step = env.step
+
+            def step(action):
+                step_hook(env)
+                return real_step(action)
+
+            env.step = step
+            return env
+
+        return make
+
+    steps = {"n": 0}
+
+    def stop_at_350(env) -> None:
+        steps["n"] += 1
+        if steps["n"] == 350:  # mid-way through the second 200-step episode
+            signal.raise_signal(signal.SIGINT)
+
+    monkeypatch.setattr(sb3_agents, "make_env", make_env_with(stop_at_350))
+    with pytest.raises(KeyboardInterrupt):
+        sb3_agents.train_and_test(t, "td3", 3, stopped, test_seeds, steps=600)
+    # As if the run had gone on past its last checkpoint and been killed: a later episode on
+    # record that the checkpoint knows nothing of.
+    with open(stopped / "train.jsonl", "a") as f:
+        f.write('{"return": -1.0, "steps": 200}\n')
+    checkpoint, record = (stopped / sb3_agents.CHECKPOINT).read_bytes(), (stopped / "train.jsonl").read_bytes()
+
+    # A fresh environment that does not follow the old one (here a pendulum under another
+    # gravity, as another version of a task might): refused, and nothing touched.
+    def other_gravity(env) -> None:
+        env.unwrapped.g = 9.0
+
+    monkeypatch.setattr(sb3_agents, "make_env", make_env_with(other_gravity))
+    with pytest.raises(RuntimeError, match="replayed from .* is not where the run stopped"):
+        sb3_agents.train_and_test(t, "td3", 3, stopped, test_seeds, steps=600)
+    assert (stopped / sb3_agents.CHECKPOINT).read_bytes() == checkpoint
+    assert (stopped / "train.jsonl").read_bytes() == record
+
+    # The right environment continues from the checkpoint: the killed run's later episode is
+    # dropped and recorded again as the run goes on, and the run ends as one never stopped.
+    monkeypatch.setattr(sb3_agents, "make_env", real_make_env)
+    continued = sb3_agents.train_and_test(t, "td3", 3, stopped, test_seeds, steps=600)
+    assert continued["env_steps"] == figures["env_steps"]
+    for name in ("train.jsonl", "test.jsonl"):
+        assert _episodes_without_clock(stopped / name) == _episodes_without_clock(straight / name), name

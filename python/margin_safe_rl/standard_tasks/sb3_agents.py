@@ -20,7 +20,6 @@ them, and checked against the observation the model saved.
 """
 from __future__ import annotations
 
-import os
 import random
 import signal
 import threading
@@ -229,14 +228,15 @@ def train_and_test(
     train_path = folder / "train.jsonl"
     budget = task.zoo[algo].n_timesteps if steps is None else steps
     saved = _read(checkpoint) if checkpoint.exists() else None
-    if saved is not None:
-        # Episodes recorded after the checkpoint are recorded again as the run continues.
-        os.truncate(train_path, saved["train_bytes"])
     with open(train_path, "w" if saved is None else "a") as train_log, _Stop() as stop:
         recorder = make_env(task, out=train_log)
         wrapper = EpisodeReplay(recorder)
         if saved is not None:
             model = _continue(saved, checkpoint, wrapper, budget)
+            # Episodes recorded after the checkpoint are recorded again as the run continues;
+            # cut only now, so a checkpoint refused above leaves the record as it was.
+            train_log.truncate(saved["train_bytes"])
+            train_log.seek(saved["train_bytes"])  # truncate leaves the position where it was
             saved["model"] = None  # the replay buffer is large: one copy of it, not two
             recorder.env_seconds = saved["env_seconds"]
             seconds_before = saved["train_seconds"]
