@@ -263,7 +263,8 @@ def test_a_stopped_grid_stops_its_runs_at_a_checkpoint_and_counts_none_as_failed
     [
         (["run", "--out", "X", "--agents", "dqn"], "no agent 'dqn'"),
         (["run", "--out", "X", "--tasks", "cartpole"], "no task 'cartpole'"),
-        (["run", "--out", "X", "--jobs", "0"], "--jobs and --test-episodes must be at least 1"),
+        (["run", "--out", "X", "--jobs", "0"], "--jobs, --threads and --test-episodes must be at least 1"),
+        (["run", "--out", "X", "--threads", "0"], "--jobs, --threads and --test-episodes must be at least 1"),
         (["serve", "cartpole"], "no task 'cartpole'"),
         (["chip", "--out", "X"], "chip: no grid folder"),
         (["chip", "--out", ".", "--tasks", "cartpole"], "no task 'cartpole'"),

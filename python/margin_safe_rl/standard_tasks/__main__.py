@@ -2,8 +2,10 @@
 
 - ``serve TASK [--record FILE]``: the task's environment as a plant on stdin/stdout (the plant
   link), every episode measured and appended to FILE;
-- ``run --out DIR [--tasks ...] [--agents ...] [--seeds 0-4] [--jobs N] [--steps N]``: the
-  grid's runs not done yet (``--steps`` overrides every budget: for the CI's tiny grid only);
+- ``run --out DIR [--tasks ...] [--agents ...] [--seeds 0-4] [--jobs N] [--threads N] [--steps N]``:
+  the grid's runs not done yet, ``--jobs`` at a time, each toolkit run on ``--threads`` trainer
+  threads (the same bytes at any count: a long run alone on a machine can use every core; SB3
+  keeps the protocol's one thread); ``--steps`` overrides every budget (the CI's tiny grid only);
   Ctrl-C or SIGTERM stops it (exit 130): no new run starts, the running toolkit runs stop at a
   checkpoint and the next ``run`` continues them, and no stopped run is counted as failed;
 - ``status --out DIR``: runs done, failed and left per task and agent;
@@ -137,7 +139,7 @@ def _run(args: argparse.Namespace) -> int:
         def one(item: tuple[str, str, int]) -> dict[str, Any]:
             # Each run in a process of its own: SB3's torch and the GIL stay out of each
             # other's way, and a run that crashes Python is a failed run, not a failed grid.
-            return grid.run_in_process(out, item, programs, args.steps, args.test_episodes)
+            return grid.run_in_process(out, item, programs, args.steps, args.test_episodes, args.threads)
 
         pool = concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs)
         futures = {pool.submit(one, item): item for item in todo}
@@ -193,7 +195,7 @@ def _one(args: argparse.Namespace) -> int:
     # starts) find the simulator here.
     os.environ["FIRMWARE_SIM"] = args.firmware_sim
     seeds = grid.test_seeds(programs, args.test_episodes)
-    grid.run_one(Path(args.out), task(args.task), args.agent, args.seed, programs, seeds, args.steps)
+    grid.run_one(Path(args.out), task(args.task), args.agent, args.seed, programs, seeds, args.steps, args.threads)
     return 0
 
 
@@ -278,7 +280,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     r.add_argument("--tasks", type=_names, default=grid.all_tasks())
     r.add_argument("--agents", type=_names, default=list(grid.AGENTS))
     r.add_argument("--seeds", type=_seeds, default=list(range(5)))
-    r.add_argument("--jobs", type=int, default=1, help="runs at a time (each uses one core)")
+    r.add_argument("--jobs", type=int, default=1, help="runs at a time")
+    r.add_argument("--threads", type=int, default=1, help="trainer threads of each toolkit run (same bytes at any count)")
     r.add_argument("--steps", type=int, default=None, help="override every budget (tiny grids)")
     r.add_argument("--test-episodes", type=int, default=grid.TEST_EPISODES)
     r.add_argument("--retry-failed", action="store_true")
@@ -292,6 +295,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     o.add_argument("--out", required=True)
     o.add_argument("--steps", type=int, default=None)
     o.add_argument("--test-episodes", type=int, default=grid.TEST_EPISODES)
+    o.add_argument("--threads", type=int, default=1)
     o.add_argument("--host-trainer", required=True)
     o.add_argument("--firmware-sim", required=True)
     sp = commands.add_parser("speed", help="time per environment step: the toolkit's TD3 against SB3's")
@@ -325,8 +329,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                 raise grid.GridError("--steps must be at least 2000 (1000 of them before the first update)")
             return _speed(args)
         if args.command == "run":
-            if args.jobs < 1 or (args.steps is not None and args.steps < 2) or args.test_episodes < 1:
-                raise grid.GridError("--jobs and --test-episodes must be at least 1, --steps at least 2")
+            if args.jobs < 1 or args.threads < 1 or (args.steps is not None and args.steps < 2) or args.test_episodes < 1:
+                raise grid.GridError("--jobs, --threads and --test-episodes must be at least 1, --steps at least 2")
             _stop_on_signals()
             return _run(args)
         return _status(args)

@@ -260,10 +260,11 @@ def _run(argv: Sequence[str], log: Path, env: Optional[dict] = None) -> int:
 
 def run_toolkit(
     t: Task, agent: str, seed: int, folder: Path, programs: Programs, steps: Optional[int],
-    eval_episodes: int,
+    eval_episodes: int, threads: int = 1,
 ) -> dict[str, Any]:
-    """Trains a toolkit agent through the plant link, then tests its exported blob in
-    firmware-sim on the same plant, recording every test episode."""
+    """Trains a toolkit agent through the plant link on ``threads`` worker threads (the trainer
+    gives the same bytes at any count, so this changes the wall time only), then tests its
+    exported blob in firmware-sim on the same plant, recording every test episode."""
     algo, _, net = agent.partition("@")
     hidden = ZOO_NET if net == "zoo-net" else DEFAULT_NET
     budget = t.budget if steps is None else steps
@@ -272,7 +273,7 @@ def run_toolkit(
     existing = [p for p in train_dir.glob("*/checkpoint.postcard")] if train_dir.exists() else []
     started = time.perf_counter()
     if existing:
-        argv = [programs.host_trainer, "train", "--resume", str(existing[0].parent), "--threads", "1", "--quiet"]
+        argv = [programs.host_trainer, "train", "--resume", str(existing[0].parent), "--threads", str(threads), "--quiet"]
     else:
         train_dir.mkdir(parents=True, exist_ok=True)
         argv = [
@@ -280,7 +281,7 @@ def run_toolkit(
             "--plant-cmd", programs.serve(t.name, record=folder / "train.jsonl"),
             "--algo", "dcp" if algo == "dcp-paper" else algo, "--hidden", hidden,
             "--env-steps", str(budget), "--episodes", str(min(budget, 1_000_000)),
-            "--seed", str(seed), "--out", str(train_dir), "--threads", "1", "--quiet",
+            "--seed", str(seed), "--out", str(train_dir), "--threads", str(threads), "--quiet",
         ]
         # The test protocol's episode count; DCP's paper settings for dcp-paper.
         config = folder / "toolkit.toml"
@@ -324,6 +325,7 @@ def run_toolkit(
         "env_steps": steps_trained,
         "train_seconds": float(trained.group(1)) if trained else seconds,
         "hidden": hidden,
+        "trainer_threads": threads,
         "blob": {
             "path": str(run / "policy.postcard"),
             "bytes": (run / "policy.postcard").stat().st_size,
@@ -336,7 +338,7 @@ def run_toolkit(
 
 def run_one(
     out: Path, t: Task, agent: str, seed: int, programs: Programs, seeds: Sequence[int],
-    steps: Optional[int] = None,
+    steps: Optional[int] = None, threads: int = 1,
 ) -> dict[str, Any]:
     """Runs one cell's seed and writes its ``result.json``; returns the result."""
     folder = run_folder(out, t.name, agent, seed)
@@ -351,7 +353,7 @@ def run_one(
             result["budget"] = t.zoo[agent[4:]].n_timesteps if steps is None else steps
         else:
             result["library"] = "toolkit"
-            result.update(run_toolkit(t, agent, seed, folder, programs, steps, len(seeds)))
+            result.update(run_toolkit(t, agent, seed, folder, programs, steps, len(seeds), threads))
             result["budget"] = t.budget if steps is None else steps
     except Interrupted:
         raise  # neither failed nor finished: nothing is written
@@ -364,7 +366,8 @@ def run_one(
 
 
 def run_in_process(
-    out: Path, item: tuple[str, str, int], programs: Programs, steps: Optional[int], test_episodes: int
+    out: Path, item: tuple[str, str, int], programs: Programs, steps: Optional[int], test_episodes: int,
+    threads: int = 1,
 ) -> dict[str, Any]:
     """:func:`run_one` in a child Python (``... standard_tasks one``); a child that dies
     without a result is a failed run, one stopped by a signal :class:`Interrupted`."""
@@ -373,7 +376,7 @@ def run_in_process(
     folder.mkdir(parents=True, exist_ok=True)
     argv = [
         programs.python, "-m", "margin_safe_rl.standard_tasks", "one", task_name, agent, str(seed),
-        "--out", str(out), "--test-episodes", str(test_episodes),
+        "--out", str(out), "--test-episodes", str(test_episodes), "--threads", str(threads),
         "--host-trainer", programs.host_trainer, "--firmware-sim", programs.firmware_sim,
     ]
     if steps is not None:
