@@ -485,20 +485,29 @@ fn curves(grid: &Grid, task: &str) -> String {
 /// Claim 1 on one network row: the tasks where a margin binds in DDPG's test episodes, DCP's
 /// verdict on each with the fewest runs that flip it, and the rule's word.
 fn claim_one_row(grid: &Grid, row: &str, dcp: &str, ddpg: &str, md: &mut String) {
+    // Whether a margin binds is DDPG's cell's alone, so it is known as soon as that cell is
+    // complete; the verdict there waits for DCP's cell too.
     let mut binding = Vec::new();
     let mut unjudged = Vec::new();
+    let mut waiting = Vec::new();
     for task in TASKS {
         let (d, g) = (cell(grid, task, dcp), cell(grid, task, ddpg));
-        if d.runs.len() as u64 != SEEDS || g.runs.len() as u64 != SEEDS {
+        let dcp_done = d.runs.len() as u64 == SEEDS;
+        if !dcp_done || g.runs.len() as u64 != SEEDS {
             unjudged.push(task);
-            continue;
         }
-        if g.share("at_bound_share").max(g.share("contact_share")) > BINDS {
+        if g.runs.len() as u64 == SEEDS
+            && g.share("at_bound_share").max(g.share("contact_share")) > BINDS
+        {
             binding.push(task);
+            if !dcp_done {
+                waiting.push(task);
+            }
         }
     }
     let verdicts: Vec<(&str, Verdict)> = binding
         .iter()
+        .filter(|t| !waiting.contains(t))
         .filter_map(|t| {
             verdict(
                 &cell(grid, t, dcp).returns(),
@@ -509,9 +518,17 @@ fn claim_one_row(grid: &Grid, row: &str, dcp: &str, ddpg: &str, md: &mut String)
         .collect();
     let ahead = verdicts.iter().filter(|v| v.1.word == "ahead").count();
     let behind = verdicts.iter().filter(|v| v.1.word == "behind").count();
+    let waiting = if waiting.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; not yet on {} (DCP's cell incomplete)",
+            waiting.join(", ")
+        )
+    };
     let _ = writeln!(
         md,
-        "**The {row} row.** Tasks where a margin binds in DDPG's test episodes (over {:.0} % of steps at the action bound or the limit): {}. DCP against DDPG there: ahead on {ahead}, behind on {behind}, tied on {}.",
+        "**The {row} row.** Tasks where a margin binds in DDPG's test episodes (over {:.0} % of steps at the action bound or the limit), of those whose DDPG cell is complete: {}. DCP against DDPG there: ahead on {ahead}, behind on {behind}, tied on {}{waiting}.",
         100.0 * BINDS,
         if binding.is_empty() { "none yet".to_string() } else { binding.join(", ") },
         verdicts.len() - ahead - behind
@@ -767,6 +784,19 @@ mod tests {
         assert!(md.contains("; nav-walls: ahead, p = 0.0079"), "{md}");
         assert!(
             md.contains("**Verdict on claim 1, 2×400 row (the protocol's rule): not yet judged: the cells of pendulum, mountain-car"),
+            "{md}"
+        );
+        // DDPG's cell alone tells whether the margin binds; DCP's is awaited for the verdict.
+        for seed in 0..SEEDS {
+            write_run(&out, "nav-walls", "ddpg@zoo-net", seed, -60.0, false);
+        }
+        let (md, _) = render(
+            &load(&out, false).expect("loads"),
+            "abc1234",
+            "standard-tasks",
+        );
+        assert!(
+            md.contains("**The 2×400 row.** Tasks where a margin binds in DDPG's test episodes (over 10 % of steps at the action bound or the limit), of those whose DDPG cell is complete: nav-walls. DCP against DDPG there: ahead on 0, behind on 0, tied on 0; not yet on nav-walls (DCP's cell incomplete)."),
             "{md}"
         );
         std::fs::remove_dir_all(&out).expect("clean up");
