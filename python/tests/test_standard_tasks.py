@@ -291,6 +291,41 @@ def _episodes_without_clock(path: Path) -> list[dict]:
     return [{k: v for k, v in json.loads(line).items() if k != "env_seconds"} for line in path.read_text().splitlines()]
 
 
+def _sb3_envs_calling(monkeypatch: pytest.MonkeyPatch, before_step) -> None:
+    """SB3's runs get environments that call ``before_step(env)`` before each step (to stop a
+    run as Ctrl-C does, mid-step, or to change the environment); ``None`` restores the real ones."""
+    from margin_safe_rl.standard_tasks import recorder, sb3_agents
+
+    if before_step is None:
+        monkeypatch.setattr(sb3_agents, "make_env", recorder.make_env)
+        return
+
+    def make_env(*args, **kwargs):
+        env = recorder.make_env(*args, **kwargs)
+        real_step = env.step
+
+        def step(action):
+            before_step(env)
+            return real_step(action)
+
+        env.step = step
+        return env
+
+    monkeypatch.setattr(sb3_agents, "make_env", make_env)
+
+
+def _stop_at_step(n: int):
+    """A ``before_step`` that raises SIGINT before the ``n``-th step of the run."""
+    steps = {"n": 0}
+
+    def before_step(env) -> None:
+        steps["n"] += 1
+        if steps["n"] == n:
+            signal.raise_signal(signal.SIGINT)
+
+    return before_step
+
+
 @pytest.mark.parametrize(
     "task_name, algo, stop_at",
     [
@@ -317,27 +352,11 @@ def test_an_sb3_run_stopped_and_continued_ends_as_one_never_stopped(
     figures = sb3_agents.train_and_test(t, algo, 3, straight, test_seeds, steps=600)
 
     # The stop comes as a Ctrl-C does, in the middle of an environment step.
-    steps = {"n": 0}
-    real_make_env = sb3_agents.make_env
-
-    def make_env_that_is_stopped(*args, **kwargs):
-        env = real_make_env(*args, **kwargs)
-        real_step = env.step
-
-        def step(action):
-            steps["n"] += 1
-            if steps["n"] == stop_at:
-                signal.raise_signal(signal.SIGINT)
-            return real_step(action)
-
-        env.step = step
-        return env
-
-    monkeypatch.setattr(sb3_agents, "make_env", make_env_that_is_stopped)
+    _sb3_envs_calling(monkeypatch, _stop_at_step(stop_at))
     with pytest.raises(KeyboardInterrupt):
         sb3_agents.train_and_test(t, algo, 3, stopped, test_seeds, steps=600)
     assert (stopped / sb3_agents.CHECKPOINT).exists() and not (stopped / "test.jsonl").exists()
-    monkeypatch.setattr(sb3_agents, "make_env", real_make_env)
+    _sb3_envs_calling(monkeypatch, None)
     continued = sb3_agents.train_and_test(t, algo, 3, stopped, test_seeds, steps=600)
 
     assert continued["env_steps"] == figures["env_steps"] >= 600  # SAC here collects 32 steps at a time
@@ -383,23 +402,10 @@ def test_a_checkpoint_of_another_budget_is_refused_and_left_alone(tmp_path: Path
     pytest.importorskip("stable_baselines3")
     from margin_safe_rl.standard_tasks import sb3_agents
 
-    real_make_env = sb3_agents.make_env
-
-    def make_env_that_is_stopped(*args, **kwargs):
-        env = real_make_env(*args, **kwargs)
-        real_step = env.step
-
-        def step(action):
-            signal.raise_signal(signal.SIGINT)
-            return real_step(action)
-
-        env.step = step
-        return env
-
-    monkeypatch.setattr(sb3_agents, "make_env", make_env_that_is_stopped)
+    _sb3_envs_calling(monkeypatch, _stop_at_step(1))
     with pytest.raises(KeyboardInterrupt):
         sb3_agents.train_and_test(task("pendulum"), "td3", 0, tmp_path, [1], steps=300)
-    monkeypatch.setattr(sb3_agents, "make_env", real_make_env)
+    _sb3_envs_calling(monkeypatch, None)
     saved = (tmp_path / sb3_agents.CHECKPOINT).read_bytes()
     with pytest.raises(RuntimeError, match="written by a run of 300 steps, not 400: run with the same --steps"):
         sb3_agents.train_and_test(task("pendulum"), "td3", 0, tmp_path, [1], steps=400)
@@ -418,30 +424,7 @@ def test_a_run_killed_after_its_checkpoint_continues_from_it_and_refuses_an_envi
     stopped.mkdir()
     figures = sb3_agents.train_and_test(t, "td3", 3, straight, test_seeds, steps=600)
 
-    real_make_env = sb3_agents.make_env
-
-    def make_env_with(step_hook):
-        def make(*args, **kwargs):
-            env = real_make_env(*args, **kwargs)
-            real_step = env.step
-
-            def step(action):
-                step_hook(env)
-                return real_step(action)
-
-            env.step = step
-            return env
-
-        return make
-
-    steps = {"n": 0}
-
-    def stop_at_350(env) -> None:
-        steps["n"] += 1
-        if steps["n"] == 350:  # mid-way through the second 200-step episode
-            signal.raise_signal(signal.SIGINT)
-
-    monkeypatch.setattr(sb3_agents, "make_env", make_env_with(stop_at_350))
+    _sb3_envs_calling(monkeypatch, _stop_at_step(350))  # mid-way through the second 200-step episode
     with pytest.raises(KeyboardInterrupt):
         sb3_agents.train_and_test(t, "td3", 3, stopped, test_seeds, steps=600)
     # As if the run had gone on past its last checkpoint and been killed: a later episode on
@@ -455,7 +438,7 @@ def test_a_run_killed_after_its_checkpoint_continues_from_it_and_refuses_an_envi
     def other_gravity(env) -> None:
         env.unwrapped.g = 9.0
 
-    monkeypatch.setattr(sb3_agents, "make_env", make_env_with(other_gravity))
+    _sb3_envs_calling(monkeypatch, other_gravity)
     with pytest.raises(RuntimeError, match="replayed from .* is not where the run stopped"):
         sb3_agents.train_and_test(t, "td3", 3, stopped, test_seeds, steps=600)
     assert (stopped / sb3_agents.CHECKPOINT).read_bytes() == checkpoint
@@ -463,7 +446,7 @@ def test_a_run_killed_after_its_checkpoint_continues_from_it_and_refuses_an_envi
 
     # The right environment continues from the checkpoint: the killed run's later episode is
     # dropped and recorded again as the run goes on, and the run ends as one never stopped.
-    monkeypatch.setattr(sb3_agents, "make_env", real_make_env)
+    _sb3_envs_calling(monkeypatch, None)
     continued = sb3_agents.train_and_test(t, "td3", 3, stopped, test_seeds, steps=600)
     assert continued["env_steps"] == figures["env_steps"]
     for name in ("train.jsonl", "test.jsonl"):
