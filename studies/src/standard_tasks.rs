@@ -307,6 +307,7 @@ pub fn render(grid: &Grid, commit: &str, figures: &str) -> (String, Vec<(String,
         "Measured at commit {commit}: {done} of the protocol's {total} runs done, {failed} failed, {} not yet run.\n",
         total - done - failed
     );
+    md.push_str(&progress(grid));
     for task in TASKS {
         let _ = writeln!(md, "### {task}\n");
         let any = AGENTS.iter().any(|a| !cell(grid, task, a).runs.is_empty());
@@ -439,6 +440,30 @@ const COLORS: [&str; 11] = [
 
 /// Each agent's training return against env steps, averaged over its runs in 20 bins of the
 /// budget (a bin's value: the mean return of the episodes that ended in it).
+/// Which cells are done: runs finished (and failed) of each cell's five, an agent a row, so a
+/// reader sees at a glance what the grid still lacks.
+fn progress(grid: &Grid) -> String {
+    let mut md = format!(
+        "Runs finished per cell, of {SEEDS} seeds (a failed run is named beside them):\n\n| agent | {} |\n|---|{}\n",
+        TASKS.join(" | "),
+        "---|".repeat(TASKS.len())
+    );
+    for agent in AGENTS {
+        let _ = write!(md, "| {agent} |");
+        for task in TASKS {
+            let c = cell(grid, task, agent);
+            let _ = write!(md, " {}/{SEEDS}", c.runs.len());
+            if !c.failed.is_empty() {
+                let _ = write!(md, " ({} failed)", c.failed.len());
+            }
+            md.push_str(" |");
+        }
+        md.push('\n');
+    }
+    md.push('\n');
+    md
+}
+
 fn curves(grid: &Grid, task: &str) -> String {
     let mut series = Vec::new();
     for (agent, color) in AGENTS.iter().zip(COLORS) {
@@ -722,6 +747,9 @@ mod tests {
             write_run(&out, "pendulum", "dcp", seed, -150.0 - seed as f64, false);
             write_run(&out, "pendulum", "ddpg", seed, -400.0 - seed as f64, false);
         }
+        let failed = out.join("pendulum/td3/seed2");
+        std::fs::create_dir_all(&failed).expect("scratch folder");
+        std::fs::write(failed.join("result.json"), r#"{"failed": "diverged"}"#).expect("result");
         let grid = load(&out, false).expect("loads");
         // The trainer's test episodes after the budget are not training episodes.
         let run = &cell(&grid, "pendulum", "dcp").runs[0];
@@ -729,7 +757,7 @@ mod tests {
         let (md, figures) = render(&grid, "abc1234", "standard-tasks");
         assert!(
             md.contains(
-                "commit abc1234: 10 of the protocol's 275 runs done, 0 failed, 265 not yet run"
+                "commit abc1234: 10 of the protocol's 275 runs done, 1 failed, 264 not yet run"
             ),
             "{md}"
         );
@@ -748,6 +776,20 @@ mod tests {
             "{md}"
         );
         assert!(md.contains("### mountain-car\n\nNot yet run."), "{md}");
+        // The cells at a glance: pendulum's DCP and DDPG done, every other cell empty.
+        assert!(
+            md.contains("| agent | pendulum | mountain-car | inverted-pendulum | reacher | nav-walls |\n|---|---|---|---|---|---|\n| sb3-td3 | 0/5 | 0/5 | 0/5 | 0/5 | 0/5 |"),
+            "{md}"
+        );
+        assert!(md.contains("| dcp | 5/5 | 0/5 | 0/5 | 0/5 | 0/5 |"), "{md}");
+        assert!(
+            md.contains("| ddpg | 5/5 | 0/5 | 0/5 | 0/5 | 0/5 |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| td3 | 0/5 (1 failed) | 0/5 | 0/5 | 0/5 | 0/5 |"),
+            "{md}"
+        );
         // The margin binds (50 % of steps at the bound), DCP ahead on the only judged task,
         // but the other tasks' cells are not complete yet.
         assert!(
