@@ -342,6 +342,19 @@ pub fn render(grid: &Grid, commit: &str, figures: &str) -> (String, Vec<(String,
                         / x.result["env_steps"].as_f64().unwrap_or(f64::NAN)
                 })
                 .collect();
+            // A run on more than one trainer thread (`run --threads N`) is the same computation
+            // in less wall time: the column says how many of the cell's runs had more cores.
+            let threads = |x: &Run| x.result["trainer_threads"].as_u64().unwrap_or(1);
+            let multi: Vec<u64> = c.runs.iter().map(threads).filter(|&t| t > 1).collect();
+            let wall = match multi.iter().max() {
+                None => format!("{:.2}", mean(&per_k)),
+                Some(most) => format!(
+                    "{:.2} ({} of {} on up to {most} threads)",
+                    mean(&per_k),
+                    multi.len(),
+                    c.runs.len()
+                ),
+            };
             let runs = if c.runs.len() as u64 == SEEDS {
                 format!("{}", c.runs.len())
             } else {
@@ -360,7 +373,7 @@ pub fn render(grid: &Grid, commit: &str, figures: &str) -> (String, Vec<(String,
             };
             let _ = writeln!(
                 md,
-                "| {agent} | {runs} | {interval} | {} | {:.0}/{:.0} = {:.2} [{lo:.2}, {hi:.2}] | {:.1} % | {:.1} %; {:.0}/{:.0} | {:.2} |",
+                "| {agent} | {runs} | {interval} | {} | {:.0}/{:.0} = {:.2} [{lo:.2}, {hi:.2}] | {:.1} % | {:.1} %; {:.0}/{:.0} | {wall} |",
                 fmt_values(&r),
                 k,
                 n,
@@ -369,7 +382,6 @@ pub fn render(grid: &Grid, commit: &str, figures: &str) -> (String, Vec<(String,
                 100.0 * c.share("contact_share"),
                 contact_eps,
                 n,
-                mean(&per_k),
             );
         }
         let _ = writeln!(
@@ -747,6 +759,13 @@ mod tests {
             write_run(&out, "pendulum", "dcp", seed, -150.0 - seed as f64, false);
             write_run(&out, "pendulum", "ddpg", seed, -400.0 - seed as f64, false);
         }
+        // DDPG's seed 4 trained on two threads: the wall-time column says so.
+        let threaded = out.join("pendulum/ddpg/seed4/result.json");
+        let mut result: Value =
+            serde_json::from_str(&std::fs::read_to_string(&threaded).expect("result"))
+                .expect("json");
+        result["trainer_threads"] = serde_json::json!(2);
+        std::fs::write(&threaded, result.to_string()).expect("result");
         let failed = out.join("pendulum/td3/seed2");
         std::fs::create_dir_all(&failed).expect("scratch folder");
         std::fs::write(failed.join("result.json"), r#"{"failed": "diverged"}"#).expect("result");
@@ -790,6 +809,8 @@ mod tests {
             md.contains("| td3 | 0/5 (1 failed) | 0/5 | 0/5 | 0/5 | 0/5 |"),
             "{md}"
         );
+        assert!(md.contains("| 5.00 |"), "{md}");
+        assert!(md.contains("| 5.00 (1 of 5 on up to 2 threads) |"), "{md}");
         // The margin binds (50 % of steps at the bound), DCP ahead on the only judged task,
         // but the other tasks' cells are not complete yet.
         assert!(
