@@ -523,15 +523,16 @@ fn curves(grid: &Grid, task: &str) -> String {
 /// verdict on each with the fewest runs that flip it, and the rule's word.
 fn claim_one_row(grid: &Grid, row: &str, dcp: &str, ddpg: &str, md: &mut String) {
     // Whether a margin binds is DDPG's cell's alone, so it is known as soon as that cell is
-    // complete; the verdict there waits for DCP's cell too.
+    // complete; the verdict there waits for DCP's cell too. A task whose margin does not bind
+    // is outside the rule, so its DCP cell is not waited for.
     let mut binding = Vec::new();
-    let mut unjudged = Vec::new();
+    let mut unknown = Vec::new();
     let mut waiting = Vec::new();
     for task in TASKS {
         let (d, g) = (cell(grid, task, dcp), cell(grid, task, ddpg));
         let dcp_done = d.runs.len() as u64 == SEEDS;
-        if !dcp_done || g.runs.len() as u64 != SEEDS {
-            unjudged.push(task);
+        if g.runs.len() as u64 != SEEDS {
+            unknown.push(task);
         }
         if g.runs.len() as u64 == SEEDS
             && g.share("at_bound_share").max(g.share("contact_share")) > BINDS
@@ -555,6 +556,20 @@ fn claim_one_row(grid: &Grid, row: &str, dcp: &str, ddpg: &str, md: &mut String)
         .collect();
     let ahead = verdicts.iter().filter(|v| v.1.word == "ahead").count();
     let behind = verdicts.iter().filter(|v| v.1.word == "behind").count();
+    let mut pending = Vec::new();
+    if !unknown.is_empty() {
+        pending.push(format!(
+            "whether a margin binds is not yet known on {} (DDPG's cell incomplete)",
+            unknown.join(", ")
+        ));
+    }
+    if !waiting.is_empty() {
+        pending.push(format!(
+            "DCP's cell is incomplete on {}, where one binds",
+            waiting.join(", ")
+        ));
+    }
+    let judged = pending.is_empty();
     let waiting = if waiting.is_empty() {
         String::new()
     } else {
@@ -570,11 +585,8 @@ fn claim_one_row(grid: &Grid, row: &str, dcp: &str, ddpg: &str, md: &mut String)
         if binding.is_empty() { "none yet".to_string() } else { binding.join(", ") },
         verdicts.len() - ahead - behind
     );
-    let word = if !unjudged.is_empty() {
-        format!(
-            "not yet judged: the cells of {} are incomplete",
-            unjudged.join(", ")
-        )
+    let word = if !judged {
+        format!("not yet judged: {}", pending.join("; "))
     } else if binding.is_empty() {
         "not judged: no margin binds".to_string()
     } else if 2 * ahead > verdicts.len() && behind == 0 {
@@ -584,7 +596,7 @@ fn claim_one_row(grid: &Grid, row: &str, dcp: &str, ddpg: &str, md: &mut String)
     };
     // What the word rests on: each binding task's verdict and how many runs flip it (a task's
     // flip can flip the row's word).
-    let rests_on = if unjudged.is_empty() && !verdicts.is_empty() {
+    let rests_on = if judged && !verdicts.is_empty() {
         let each: Vec<String> = verdicts
             .iter()
             .map(|(t, v)| format!("{t}: {}, {}, {}", v.word, v.p, v.sensitivity))
@@ -746,6 +758,22 @@ mod tests {
         std::fs::write(folder.join("train.jsonl"), lines).expect("curve");
     }
 
+    /// Changes one field of a written run's `result.json`.
+    fn patch_run(out: &Path, task: &str, agent: &str, seed: u64, key: &str, value: Value) {
+        let path = out
+            .join(task)
+            .join(agent)
+            .join(format!("seed{seed}"))
+            .join("result.json");
+        let mut result: Value =
+            serde_json::from_str(&std::fs::read_to_string(&path).expect("result")).expect("json");
+        match key.split_once('.') {
+            Some((outer, inner)) => result[outer][inner] = value,
+            None => result[key] = value,
+        }
+        std::fs::write(&path, result.to_string()).expect("result");
+    }
+
     fn scratch(name: &str) -> std::path::PathBuf {
         let dir = std::env::temp_dir().join(format!("studies-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
@@ -760,12 +788,7 @@ mod tests {
             write_run(&out, "pendulum", "ddpg", seed, -400.0 - seed as f64, false);
         }
         // DDPG's seed 4 trained on two threads: the wall-time column says so.
-        let threaded = out.join("pendulum/ddpg/seed4/result.json");
-        let mut result: Value =
-            serde_json::from_str(&std::fs::read_to_string(&threaded).expect("result"))
-                .expect("json");
-        result["trainer_threads"] = serde_json::json!(2);
-        std::fs::write(&threaded, result.to_string()).expect("result");
+        patch_run(&out, "pendulum", "ddpg", 4, "trainer_threads", 2.into());
         let failed = out.join("pendulum/td3/seed2");
         std::fs::create_dir_all(&failed).expect("scratch folder");
         std::fs::write(failed.join("result.json"), r#"{"failed": "diverged"}"#).expect("result");
@@ -846,7 +869,7 @@ mod tests {
         );
         assert!(md.contains("; nav-walls: ahead, p = 0.0079"), "{md}");
         assert!(
-            md.contains("**Verdict on claim 1, 2×400 row (the protocol's rule): not yet judged: the cells of pendulum, mountain-car"),
+            md.contains("**Verdict on claim 1, 2×400 row (the protocol's rule): not yet judged: whether a margin binds is not yet known on pendulum, mountain-car, inverted-pendulum, reacher, nav-walls (DDPG's cell incomplete).**"),
             "{md}"
         );
         // DDPG's cell alone tells whether the margin binds; DCP's is awaited for the verdict.
@@ -860,6 +883,37 @@ mod tests {
         );
         assert!(
             md.contains("**The 2×400 row.** Tasks where a margin binds in DDPG's test episodes (over 10 % of steps at the action bound or the limit), of those whose DDPG cell is complete: nav-walls. DCP against DDPG there: ahead on 0, behind on 0, tied on 0; not yet on nav-walls (DCP's cell incomplete)."),
+            "{md}"
+        );
+        assert!(
+            md.contains("(the protocol's rule): not yet judged: whether a margin binds is not yet known on pendulum, mountain-car, inverted-pendulum, reacher (DDPG's cell incomplete); DCP's cell is incomplete on nav-walls, where one binds.**"),
+            "{md}"
+        );
+        // Where DDPG's margin does not bind the task is outside the rule, so its DCP cell is
+        // not waited for: nav-walls alone decides the row.
+        for task in ["pendulum", "mountain-car", "inverted-pendulum", "reacher"] {
+            for seed in 0..SEEDS {
+                write_run(&out, task, "ddpg@zoo-net", seed, -60.0, false);
+                patch_run(
+                    &out,
+                    task,
+                    "ddpg@zoo-net",
+                    seed,
+                    "test.at_bound_share",
+                    0.0.into(),
+                );
+            }
+        }
+        for seed in 0..SEEDS {
+            write_run(&out, "nav-walls", "dcp@zoo-net", seed, -10.0, false);
+        }
+        let (md, _) = render(
+            &load(&out, false).expect("loads"),
+            "abc1234",
+            "standard-tasks",
+        );
+        assert!(
+            md.contains("**Verdict on claim 1, 2×400 row (the protocol's rule): reproduced.** It rests on nav-walls: ahead, p = 0.0079"),
             "{md}"
         );
         std::fs::remove_dir_all(&out).expect("clean up");
