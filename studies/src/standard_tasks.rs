@@ -60,6 +60,9 @@ pub const ZOO_SCORES: [(&str, &str, f64, f64); 6] = [
 /// position limit.
 pub const BINDS: f64 = 0.10;
 
+/// Training episodes as (env steps so far, return).
+pub type Curve = Vec<(f64, f64)>;
+
 /// One finished run.
 #[derive(Clone, Debug)]
 pub struct Run {
@@ -67,8 +70,11 @@ pub struct Run {
     pub seed: u64,
     /// The run's `result.json`.
     pub result: Value,
-    /// Training episodes as (env steps so far, return), from `train.jsonl`.
-    pub curve: Vec<(f64, f64)>,
+    /// Training episodes, from `train.jsonl`.
+    pub curve: Curve,
+    /// The episodes `train.jsonl` holds after the training ones (the toolkit's trainer records
+    /// its own test there, the blob's to the bit), each as the recorder wrote it.
+    pub after: Vec<Value>,
 }
 
 impl Run {
@@ -173,11 +179,12 @@ pub fn load(out: &Path, tiny: bool) -> Result<Grid> {
                     );
                 }
                 let steps = result["env_steps"].as_f64().unwrap_or(f64::INFINITY);
-                let curve = read_curve(&folder.join("train.jsonl"), steps)?;
+                let (curve, after) = read_curve(&folder.join("train.jsonl"), steps)?;
                 cell.runs.push(Run {
                     seed,
                     result,
                     curve,
+                    after,
                 });
             }
             grid.cells
@@ -187,23 +194,99 @@ pub fn load(out: &Path, tiny: bool) -> Result<Grid> {
     Ok(grid)
 }
 
-/// The training episodes of a run: (env steps at the episode's end, return), up to `steps`
-/// (the trainer's own test episodes follow in the same file and are left out).
-fn read_curve(path: &Path, steps: f64) -> Result<Vec<(f64, f64)>> {
+/// The training episodes of a run: (env steps at the episode's end, return), up to `steps`;
+/// and the episodes after those (the trainer's own test episodes follow in the same file).
+fn read_curve(path: &Path, steps: f64) -> Result<(Curve, Vec<Value>)> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut total = 0.0;
     let mut curve = Vec::new();
+    let mut after = Vec::new();
     for line in text.lines().filter(|l| !l.trim().is_empty()) {
-        if total >= steps {
-            break;
-        }
         let e: Value = serde_json::from_str(line)
             .with_context(|| format!("{}: a line that is not JSON", path.display()))?;
+        if total >= steps {
+            after.push(e);
+            continue;
+        }
         total += e["steps"].as_f64().unwrap_or(0.0);
         curve.push((total, e["return"].as_f64().unwrap_or(f64::NAN)));
     }
-    Ok(curve)
+    Ok((curve, after))
+}
+
+/// Nav-walls' episode length and exit penalty (`firmware-sim/scenarios/nav-walls.toml`:
+/// `time_limit`; the worst step reward −√2 over 1 − γ, γ 0.99). An episode that leaves the
+/// arena earns the penalty on its last step and nothing positive before it.
+const NAV_TIME_LIMIT: f64 = 200.0;
+const NAV_EXIT_PENALTY: f64 = -std::f64::consts::SQRT_2 / (1.0 - 0.99);
+
+/// Nav-walls' test episodes that ended at the goal (within 0.1 of the centre for 10 steps)
+/// before the plant's settled flag could rise (20 steps within 2 of it): shorter than the time
+/// limit, flag down, and a return above the exit penalty, so they did not leave the arena.
+/// Counted from the trainer's test episodes in `train.jsonl`, and only where they are the
+/// run's test (as many, the same mean return); `None` otherwise.
+fn ended_at_goal(run: &Run) -> Option<usize> {
+    let episodes = run.test("episodes");
+    let mean_after = run
+        .after
+        .iter()
+        .map(|e| e["return"].as_f64().unwrap_or(f64::NAN))
+        .sum::<f64>()
+        / run.after.len() as f64;
+    if run.after.len() as f64 != episodes || (mean_after - run.mean_return()).abs() > 1e-9 {
+        return None;
+    }
+    Some(
+        run.after
+            .iter()
+            .filter(|e| {
+                e["steps"].as_f64().unwrap_or(NAV_TIME_LIMIT) < NAV_TIME_LIMIT
+                    && e["success"].as_bool() == Some(false)
+                    && e["return"].as_f64().unwrap_or(f64::NEG_INFINITY) > NAV_EXIT_PENALTY
+            })
+            .count(),
+    )
+}
+
+/// The line under nav-walls' table: the cells whose success column misses episodes that ended
+/// at the goal, and their count with those episodes taken as settled.
+fn goal_endings(grid: &Grid) -> String {
+    let mut each = Vec::new();
+    let mut uncounted = Vec::new();
+    for agent in AGENTS {
+        let c = cell(grid, "nav-walls", agent);
+        if c.runs.is_empty() {
+            continue;
+        }
+        let counts: Option<Vec<usize>> = c.runs.iter().map(ended_at_goal).collect();
+        let Some(counts) = counts else {
+            uncounted.push(agent);
+            continue;
+        };
+        let goal: usize = counts.iter().sum();
+        if goal > 0 {
+            let k: f64 = c.runs.iter().map(|x| x.test("successes")).sum();
+            let n: f64 = c.runs.iter().map(|x| x.test("episodes")).sum();
+            each.push(format!(
+                "{agent} {goal} (settled or at the goal: {:.0}/{n:.0})",
+                k + goal as f64
+            ));
+        }
+    }
+    let mut line = format!(
+        "Test episodes that ended at the goal (within 0.1 of the centre for 10 steps) before the plant's settled flag could rise (20 steps within 2), so the success column leaves them out: {}",
+        if each.is_empty() { "none".to_string() } else { each.join("; ") }
+    );
+    if !uncounted.is_empty() {
+        let _ = write!(
+            line,
+            "; not counted for {} (no test episodes in `train.jsonl`)",
+            uncounted.join(", ")
+        );
+    }
+    line.push_str(". Counted from each run's test episodes in `train.jsonl`: shorter than 200 steps, the flag down, and a return above the exit penalty (−141.42).\n");
+    line
 }
 
 /// "Ahead", "tied" or "behind" by the protocol's rule, with what it rests on.
@@ -388,6 +471,9 @@ pub fn render(grid: &Grid, commit: &str, figures: &str) -> (String, Vec<(String,
             md,
             "\nThe last column is each run's training wall time as it ran, on a machine shared with other work: not a speed comparison (that is [Speed](#speed))."
         );
+        if task == "nav-walls" {
+            let _ = write!(md, "\n{}", goal_endings(grid));
+        }
         let _ = writeln!(md);
         for (agent, score, std) in ZOO_SCORES
             .iter()
@@ -914,6 +1000,41 @@ mod tests {
         );
         assert!(
             md.contains("**Verdict on claim 1, 2×400 row (the protocol's rule): reproduced.** It rests on nav-walls: ahead, p = 0.0079"),
+            "{md}"
+        );
+        std::fs::remove_dir_all(&out).expect("clean up");
+    }
+
+    #[test]
+    fn nav_walls_episodes_that_end_at_the_goal_are_counted_apart() {
+        let out = scratch("goal");
+        // Three test episodes after the two training ones: one ends at the goal in 40 steps with
+        // the flag down, one leaves the arena in 3 (the exit penalty), one runs to the limit and
+        // settles.
+        write_run(&out, "nav-walls", "dcp", 0, -185.0 / 3.0, false);
+        patch_run(&out, "nav-walls", "dcp", 0, "test.episodes", 3.into());
+        patch_run(&out, "nav-walls", "dcp", 0, "test.successes", 1.into());
+        let lines = [
+            r#"{"steps": 200, "return": -900.0, "success": false}"#,
+            r#"{"steps": 200, "return": -400.0, "success": false}"#,
+            r#"{"steps": 40, "return": -10.0, "success": false}"#,
+            r#"{"steps": 3, "return": -145.0, "success": false}"#,
+            r#"{"steps": 200, "return": -30.0, "success": true}"#,
+        ];
+        std::fs::write(
+            out.join("nav-walls/dcp/seed0/train.jsonl"),
+            lines.join("\n") + "\n",
+        )
+        .expect("curve");
+        // A run whose record holds no test episodes is named, not guessed at.
+        write_run(&out, "nav-walls", "ddpg", 0, -60.0, false);
+        let (md, _) = render(
+            &load(&out, false).expect("loads"),
+            "abc1234",
+            "standard-tasks",
+        );
+        assert!(
+            md.contains("so the success column leaves them out: dcp 1 (settled or at the goal: 2/3); not counted for ddpg (no test episodes in `train.jsonl`)."),
             "{md}"
         );
         std::fs::remove_dir_all(&out).expect("clean up");
