@@ -12,6 +12,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{Context, Result};
+use firmware_sim::nav::reward::Reward;
+use firmware_sim::nav::scenario::Scenario;
 use host_trainer::run::plot::{svg, Panel, Series};
 use host_trainer::stats::aggregate::{iqm_ci, probability_of_improvement_ci};
 use host_trainer::stats::binomial::clopper_pearson;
@@ -215,18 +217,23 @@ fn read_curve(path: &Path, steps: f64) -> Result<(Curve, Vec<Value>)> {
     Ok((curve, after))
 }
 
-/// Nav-walls' episode length and exit penalty (`firmware-sim/scenarios/nav-walls.toml`:
-/// `time_limit`; the worst step reward −√2 over 1 − γ, γ 0.99). An episode that leaves the
-/// arena earns the penalty on its last step and nothing positive before it.
-const NAV_TIME_LIMIT: f64 = 200.0;
-const NAV_EXIT_PENALTY: f64 = -std::f64::consts::SQRT_2 / (1.0 - 0.99);
+/// Nav-walls' episode length and exit penalty, from the shipped scenario the Gymnasium
+/// environment serves (its reward GR; the penalty is the worst step reward over 1 − γ). An
+/// episode that leaves the arena earns the penalty on its last step and nothing positive before.
+fn nav_limits() -> Option<(f64, f64)> {
+    let s = Scenario::builtin("nav-walls")?;
+    Some((
+        f64::from(s.time_limit),
+        f64::from(Reward::Gr.exit_penalty(s.gamma)),
+    ))
+}
 
 /// Nav-walls' test episodes that ended at the goal (within 0.1 of the centre for 10 steps)
 /// before the plant's settled flag could rise (20 steps within 2 of it): shorter than the time
 /// limit, flag down, and a return above the exit penalty, so they did not leave the arena.
 /// Counted from the trainer's test episodes in `train.jsonl`, and only where they are the
 /// run's test (as many, the same mean return); `None` otherwise.
-fn ended_at_goal(run: &Run) -> Option<usize> {
+fn ended_at_goal(run: &Run, (time_limit, exit_penalty): (f64, f64)) -> Option<usize> {
     let episodes = run.test("episodes");
     let mean_after = run
         .after
@@ -241,9 +248,9 @@ fn ended_at_goal(run: &Run) -> Option<usize> {
         run.after
             .iter()
             .filter(|e| {
-                e["steps"].as_f64().unwrap_or(NAV_TIME_LIMIT) < NAV_TIME_LIMIT
+                e["steps"].as_f64().unwrap_or(time_limit) < time_limit
                     && e["success"].as_bool() == Some(false)
-                    && e["return"].as_f64().unwrap_or(f64::NEG_INFINITY) > NAV_EXIT_PENALTY
+                    && e["return"].as_f64().unwrap_or(f64::NEG_INFINITY) > exit_penalty
             })
             .count(),
     )
@@ -252,6 +259,9 @@ fn ended_at_goal(run: &Run) -> Option<usize> {
 /// The line under nav-walls' table: the cells whose success column misses episodes that ended
 /// at the goal, and their count with those episodes taken as settled.
 fn goal_endings(grid: &Grid) -> String {
+    let (Some(limits), Some(nav)) = (nav_limits(), Scenario::builtin("nav-walls")) else {
+        return "The shipped nav-walls scenario does not parse: episodes that ended at the goal are not counted.\n".to_string();
+    };
     let mut each = Vec::new();
     let mut uncounted = Vec::new();
     for agent in AGENTS {
@@ -259,7 +269,7 @@ fn goal_endings(grid: &Grid) -> String {
         if c.runs.is_empty() {
             continue;
         }
-        let counts: Option<Vec<usize>> = c.runs.iter().map(ended_at_goal).collect();
+        let counts: Option<Vec<usize>> = c.runs.iter().map(|r| ended_at_goal(r, limits)).collect();
         let Some(counts) = counts else {
             uncounted.push(agent);
             continue;
@@ -275,7 +285,11 @@ fn goal_endings(grid: &Grid) -> String {
         }
     }
     let mut line = format!(
-        "Test episodes that ended at the goal (within 0.1 of the centre for 10 steps) before the plant's settled flag could rise (20 steps within 2), so the success column leaves them out: {}",
+        "Test episodes that ended at the goal (within {} of the centre for {} steps) before the plant's settled flag could rise ({} steps within {}), so the success column leaves them out: {}",
+        nav.goal_radius,
+        nav.goal_hold,
+        nav.metrics.settle_window,
+        nav.metrics.success_radius,
         if each.is_empty() { "none".to_string() } else { each.join("; ") }
     );
     if !uncounted.is_empty() {
@@ -285,7 +299,11 @@ fn goal_endings(grid: &Grid) -> String {
             uncounted.join(", ")
         );
     }
-    line.push_str(". Counted from each run's test episodes in `train.jsonl`: shorter than 200 steps, the flag down, and a return above the exit penalty (−141.42).\n");
+    let _ = writeln!(
+        line,
+        ". Counted from each run's test episodes in `train.jsonl`: shorter than {:.0} steps, the flag down, and a return above the exit penalty ({:.2}).",
+        limits.0, limits.1
+    );
     line
 }
 
