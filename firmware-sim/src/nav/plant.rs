@@ -41,6 +41,10 @@ pub struct NavEnv {
     /// Consecutive steps within the success radius: the plant's success flag is the
     /// scenario's settled rule ([`crate::nav::scenario::Metrics::settled`]) on them.
     settled: u32,
+    /// The goal ended the episode with the agent within the success radius: a success too,
+    /// though the episode is over before `settle_window` steps could fill (the trainer's rule
+    /// for a scenario's episodes, host-trainer's `run_episode`, counts it the same way).
+    reached: bool,
     ended: Option<(bool, bool)>,
     goal_terminates: bool,
 }
@@ -69,6 +73,7 @@ impl NavEnv {
             steps: 0,
             hold: 0,
             settled: 0,
+            reached: false,
             ended: None,
             goal_terminates: true,
             scenario: scenario.clone(),
@@ -187,9 +192,10 @@ impl NavEnv {
 }
 
 impl NavEnv {
-    /// The last `settle_window` steps were all within the success radius.
+    /// The plant's success flag: the last `settle_window` steps were all within the success
+    /// radius, or the goal ended the episode within it.
     fn is_settled(&self) -> bool {
-        self.settled >= self.scenario.metrics.settle_window
+        self.reached || self.settled >= self.scenario.metrics.settle_window
     }
 }
 
@@ -209,6 +215,7 @@ impl Env for NavEnv {
         self.steps = 0;
         self.hold = 0;
         self.settled = 0;
+        self.reached = false;
         self.ended = None;
         self.observation()
     }
@@ -252,7 +259,11 @@ impl Env for NavEnv {
         } else {
             s.reward.of_step(d0, d1, s.max_step, s.arena_half_size)
         };
-        let terminated = left || (self.goal_terminates && self.hold >= s.goal_hold);
+        let at_goal = self.goal_terminates && self.hold >= s.goal_hold;
+        let terminated = left || at_goal;
+        // A goal radius wider than the success radius is allowed, so the goal alone is not
+        // enough: the episode must end within the success radius too.
+        self.reached = at_goal && !left && s.metrics.settled([d1]);
         let truncated = !terminated && self.steps >= s.time_limit;
         if terminated || truncated {
             self.ended = Some((terminated, truncated));
@@ -367,6 +378,40 @@ mod tests {
             let s = e.step(&[0.0, 0.0]);
             assert_eq!(s.terminated, k == 10, "step {k}");
         }
+    }
+
+    #[test]
+    fn an_episode_the_goal_ends_is_a_success_before_the_settle_window_fills() {
+        let mut e = env("nav-walls");
+        e.reset(1);
+        e.set_position(Vec2::new(0.05, 0.0));
+        let flags: Vec<bool> = (0..12)
+            .map(|_| e.step(&[0.0, 0.0]).info.success == Some(true))
+            .collect();
+        // Ten steps at the goal end it (the settle window is 20); the flag rises on the last
+        // and stays up on the steps past the end.
+        assert_eq!(flags, [vec![false; 9], vec![true; 3]].concat());
+        // Within the goal, not yet ended (the harness runs full episodes): the window decides.
+        e.reset(1);
+        e.set_goal_terminates(false);
+        e.set_position(Vec2::new(0.05, 0.0));
+        let first_up = (1..=30).find(|_| e.step(&[0.0, 0.0]).info.success == Some(true));
+        assert_eq!(first_up, Some(20));
+    }
+
+    #[test]
+    fn a_goal_wider_than_the_success_radius_is_not_a_success_by_itself() {
+        let mut s = Scenario::builtin("nav-open").expect("builtin");
+        s.goal_radius = 3.0;
+        s.metrics.success_radius = 1.0;
+        let mut e = NavEnv::new(&s).expect("a scenario with a wide goal is valid");
+        e.reset(1);
+        e.set_position(Vec2::new(2.0, 0.0));
+        let last = (0..s.goal_hold)
+            .map(|_| e.step(&[0.0, 0.0]))
+            .last()
+            .expect("steps");
+        assert!(last.terminated && last.info.success == Some(false));
     }
 
     #[test]
