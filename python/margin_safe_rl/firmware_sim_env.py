@@ -37,7 +37,8 @@ class FirmwareSimEnv(gymnasium.Env[np.ndarray, np.ndarray]):
     plant, so the same seed gives the start firmware-sim gives; without a seed, one is drawn
     from ``self.np_random``. ``step`` returns Gymnasium's five values with ``info`` holding
     ``margin_touched`` (a wall or limit was touched), ``applied`` (the motion carried out, in
-    action units) and ``success`` (the plant's verdict) where the plant gives one.
+    action units) and ``success`` (the plant's verdict) where the plant gives one, also as
+    ``is_success``, the key Stable-Baselines3 reads for its success rate.
 
     Args:
         scenario: firmware-sim's scenario name or TOML file (``nav-walls``, ``nav-open``, ...).
@@ -100,6 +101,7 @@ class FirmwareSimEnv(gymnasium.Env[np.ndarray, np.ndarray]):
         }
         if reply.success is not None:
             info["success"] = reply.success
+            info["is_success"] = reply.success
         observation = np.asarray(reply.observation, dtype=np.float32)
         return observation, reply.reward, reply.terminated, reply.truncated, info
 

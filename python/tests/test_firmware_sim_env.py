@@ -88,6 +88,23 @@ def test_step_reports_the_margin_and_the_motion(env: FirmwareSimEnv) -> None:
     assert touched, "heading for the centre from seed 0 meets a wall"
 
 
+def test_an_episode_the_goal_ends_is_a_success(firmware_sim: str) -> None:
+    # Straight in on the open arena and hold the centre: the goal (10 steps within 0.1) ends the
+    # episode before the settle window (20 steps within 2) fills, and it counts.
+    env = FirmwareSimEnv("nav-open", binary=firmware_sim)
+    try:
+        observation, _ = env.reset(seed=3)
+        for step in range(1, 200):
+            action = np.clip(-observation, -0.25, 0.25)
+            observation, _, terminated, truncated, info = env.step(action)
+            if terminated or truncated:
+                break
+        assert terminated and not truncated and step < 200
+        assert info["success"] is True and info["is_success"] is True
+    finally:
+        env.close()
+
+
 def test_reward_form_is_passed_to_the_plant(firmware_sim: str) -> None:
     rewards = {}
     for form in ("lr", "gr"):
