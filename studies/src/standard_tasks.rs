@@ -231,6 +231,8 @@ fn nav_limits() -> Option<(f64, f64)> {
 /// Nav-walls' test episodes that ended at the goal (within 0.1 of the centre for 10 steps)
 /// before the plant's settled flag could rise (20 steps within 2 of it): shorter than the time
 /// limit, flag down, and a return above the exit penalty, so they did not leave the arena.
+/// Only the grid's pinned plant leaves them out; firmware-sim's plant has since raised the flag
+/// on such an episode, so runs on it count none here.
 /// Counted from the trainer's test episodes in `train.jsonl`, and only where they are the
 /// run's test (as many, the same mean return); `None` otherwise.
 fn ended_at_goal(run: &Run, (time_limit, exit_penalty): (f64, f64)) -> Option<usize> {
