@@ -39,7 +39,8 @@ pub struct NavEnv {
     steps: u32,
     hold: u32,
     /// Consecutive steps within the success radius: the plant's success flag is the
-    /// scenario's settled rule ([`crate::nav::scenario::Metrics::settled`]) on them.
+    /// scenario's settled rule ([`crate::nav::scenario::Metrics::settled`]) on them, or
+    /// `reached`.
     settled: u32,
     /// The goal ended the episode with the agent within the success radius: a success too,
     /// though the episode is over before `settle_window` steps could fill (the trainer's rule
@@ -194,7 +195,7 @@ impl NavEnv {
 impl NavEnv {
     /// The plant's success flag: the last `settle_window` steps were all within the success
     /// radius, or the goal ended the episode within it.
-    fn is_settled(&self) -> bool {
+    fn success(&self) -> bool {
         self.reached || self.settled >= self.scenario.metrics.settle_window
     }
 }
@@ -227,7 +228,7 @@ impl Env for NavEnv {
             let info = StepInfo {
                 applied: vec![0.0; 2],
                 margin_touched: false,
-                success: Some(self.is_settled()),
+                success: Some(self.success()),
             };
             return Step {
                 observation: self.observation(),
@@ -272,7 +273,7 @@ impl Env for NavEnv {
         let info = StepInfo {
             applied: vec![moved.x as f32, moved.y as f32],
             margin_touched: motion.touched,
-            success: Some(self.is_settled()),
+            success: Some(self.success()),
         };
         Step {
             observation: self.observation(),
