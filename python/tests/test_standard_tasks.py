@@ -451,3 +451,47 @@ def test_a_run_killed_after_its_checkpoint_continues_from_it_and_refuses_an_envi
     assert continued["env_steps"] == figures["env_steps"]
     for name in ("train.jsonl", "test.jsonl"):
         assert _episodes_without_clock(stopped / name) == _episodes_without_clock(straight / name), name
+
+
+def test_a_continued_toolkit_runs_time_adds_its_earlier_parts_by_the_trainers_clock() -> None:
+    # metrics.csv's rows: episode, steps, steps per second (the trainer's clock per episode).
+    metrics = ["episode,return,steps,total_steps,steps_per_s", "1,-5,100,100,50", "2,-4,100,200,25",
+               "3,-3,100,300,10"]
+    one_part = "trained RUN (3 episodes, 300 env steps in 12.5 s, 24 steps/s incl. updates)\n"
+    assert grid.training_seconds(one_part, metrics) == 12.5
+    # Stopped after episode 2, continued for episode 3: the last part's own figure (the
+    # `trained` line times that part alone) plus episodes 1 and 2 (2 s + 4 s).
+    continued = (
+        "host-trainer: interrupted after episode 2 of 300; checkpoint written.\n"
+        "trained RUN (3 episodes, 300 env steps in all; this part: 1 episodes, 100 env steps in"
+        " 10.5 s, 10 steps/s incl. updates)\n"
+    )
+    assert grid.training_seconds(continued, metrics) == 6.0 + 10.5
+    assert (grid.training_parts(one_part), grid.training_parts(continued)) == (1, 2)
+    assert grid.training_seconds("host-trainer: interrupted after episode 2\n", metrics) is None
+
+
+def test_a_plant_appending_to_a_record_carries_its_environment_clock_on(
+    tmp_path: Path, python_env: dict[str, str]
+) -> None:
+    from margin_safe_rl import plant_link as pl
+    from margin_safe_rl.standard_tasks.recorder import recorded_seconds
+
+    record = tmp_path / "train.jsonl"
+    assert recorded_seconds(record) == 0.0  # no record yet: the clock starts at 0
+    record.write_text('{"steps": 200, "env_seconds": 5.0}\n{"steps": 200, "env_se\n')
+    assert recorded_seconds(record) == 5.0  # a line cut short is skipped
+    record.write_text('{"steps": 200, "env_seconds": 5.0}\n')
+    client = pl.PlantClient(
+        [sys.executable, "-m", "margin_safe_rl.standard_tasks", "serve", "pendulum", "--record", str(record)],
+        environ=python_env,
+    )
+    try:
+        client.reset(0)
+        while not client.step([0.0]).truncated:
+            pass
+    finally:
+        assert client.close() == 0
+    lines = [json.loads(line) for line in record.read_text().splitlines()]
+    assert len(lines) == 2 and lines[0]["env_seconds"] == 5.0
+    assert 5.0 < lines[1]["env_seconds"] < 5.0 + 60  # carried on, not started again at 0

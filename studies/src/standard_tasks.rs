@@ -77,6 +77,10 @@ pub struct Run {
     /// The episodes `train.jsonl` holds after the training ones (the toolkit's trainer records
     /// its own test there, the blob's to the bit), each as the recorder wrote it.
     pub after: Vec<Value>,
+    /// Whether the training episodes' environment clock (`env_seconds`) goes back: a plant
+    /// started afresh on the record, a run continued from its checkpoint before the recorder
+    /// carried its clock on.
+    pub clock_restarted: bool,
 }
 
 impl Run {
@@ -86,6 +90,13 @@ impl Run {
     /// The mean test return.
     pub fn mean_return(&self) -> f64 {
         self.test("mean_return")
+    }
+    /// Whether `train_seconds` times the run's last part alone: a toolkit run continued from
+    /// its checkpoint by a grid runner that took the trainer's last `trained` line as the run's
+    /// time. Such a run's record restarted its clock, and its result has no `train_parts`
+    /// (which the runner writes since it adds the earlier parts' time).
+    pub fn timed_last_part_alone(&self) -> bool {
+        self.clock_restarted && self.result.get("train_parts").is_none()
     }
 }
 
@@ -181,12 +192,14 @@ pub fn load(out: &Path, tiny: bool) -> Result<Grid> {
                     );
                 }
                 let steps = result["env_steps"].as_f64().unwrap_or(f64::INFINITY);
-                let (curve, after) = read_curve(&folder.join("train.jsonl"), steps)?;
+                let (curve, after, clock_restarted) =
+                    read_curve(&folder.join("train.jsonl"), steps)?;
                 cell.runs.push(Run {
                     seed,
                     result,
                     curve,
                     after,
+                    clock_restarted,
                 });
             }
             grid.cells
@@ -197,13 +210,15 @@ pub fn load(out: &Path, tiny: bool) -> Result<Grid> {
 }
 
 /// The training episodes of a run: (env steps at the episode's end, return), up to `steps`;
-/// and the episodes after those (the trainer's own test episodes follow in the same file).
-fn read_curve(path: &Path, steps: f64) -> Result<(Curve, Vec<Value>)> {
+/// the episodes after those (the trainer's own test episodes follow in the same file); and
+/// whether the training episodes' environment clock goes back somewhere.
+fn read_curve(path: &Path, steps: f64) -> Result<(Curve, Vec<Value>, bool)> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut total = 0.0;
     let mut curve = Vec::new();
     let mut after = Vec::new();
+    let (mut clock, mut restarted) = (f64::NEG_INFINITY, false);
     for line in text.lines().filter(|l| !l.trim().is_empty()) {
         let e: Value = serde_json::from_str(line)
             .with_context(|| format!("{}: a line that is not JSON", path.display()))?;
@@ -213,8 +228,12 @@ fn read_curve(path: &Path, steps: f64) -> Result<(Curve, Vec<Value>)> {
         }
         total += e["steps"].as_f64().unwrap_or(0.0);
         curve.push((total, e["return"].as_f64().unwrap_or(f64::NAN)));
+        if let Some(seconds) = e["env_seconds"].as_f64() {
+            restarted |= seconds < clock;
+            clock = seconds;
+        }
     }
-    Ok((curve, after))
+    Ok((curve, after, restarted))
 }
 
 /// Nav-walls' episode length and exit penalty, from the shipped scenario the Gymnasium
@@ -437,9 +456,12 @@ pub fn render(grid: &Grid, commit: &str, figures: &str) -> (String, Vec<(String,
             let n: f64 = c.runs.iter().map(|x| x.test("episodes")).sum();
             let (lo, hi) = clopper_pearson(k as u64, n as u64, CONFIDENCE);
             let contact_eps: f64 = c.runs.iter().map(|x| x.test("contact_episodes")).sum();
+            // A run timed by its last part alone says nothing of a run's time: left out, counted.
+            let part_timed = c.runs.iter().filter(|x| x.timed_last_part_alone()).count();
             let per_k: Vec<f64> = c
                 .runs
                 .iter()
+                .filter(|x| !x.timed_last_part_alone())
                 .map(|x| {
                     1000.0 * x.result["train_seconds"].as_f64().unwrap_or(f64::NAN)
                         / x.result["env_steps"].as_f64().unwrap_or(f64::NAN)
@@ -449,15 +471,28 @@ pub fn render(grid: &Grid, commit: &str, figures: &str) -> (String, Vec<(String,
             // in less wall time: the column says how many of the cell's runs had more cores.
             let threads = |x: &Run| x.result["trainer_threads"].as_u64().unwrap_or(1);
             let multi: Vec<u64> = c.runs.iter().map(threads).filter(|&t| t > 1).collect();
-            let wall = match multi.iter().max() {
-                None => format!("{:.2}", mean(&per_k)),
-                Some(most) => format!(
-                    "{:.2} ({} of {} on up to {most} threads)",
-                    mean(&per_k),
+            let mut notes = Vec::new();
+            if let Some(most) = multi.iter().max() {
+                notes.push(format!(
+                    "{} of {} on up to {most} threads",
                     multi.len(),
                     c.runs.len()
-                ),
+                ));
+            }
+            if part_timed > 0 {
+                notes.push(format!(
+                    "{part_timed} of {} left out, timed by their last part",
+                    c.runs.len()
+                ));
+            }
+            let mut wall = if per_k.is_empty() {
+                "–".to_string()
+            } else {
+                format!("{:.2}", mean(&per_k))
             };
+            if !notes.is_empty() {
+                wall = format!("{wall} ({})", notes.join("; "));
+            }
             let runs = if c.runs.len() as u64 == SEEDS {
                 format!("{}", c.runs.len())
             } else {
@@ -489,7 +524,7 @@ pub fn render(grid: &Grid, commit: &str, figures: &str) -> (String, Vec<(String,
         }
         let _ = writeln!(
             md,
-            "\nThe last column is each run's training wall time as it ran, on a machine shared with other work: not a speed comparison (that is [Speed](#speed))."
+            "\nThe last column is each run's training wall time as it ran, on a machine shared with other work: not a speed comparison (that is [Speed](#speed)). A run continued from its checkpoint by the grid runner before it added the earlier parts' time (its `result.json` has no `train_parts`) is timed by its last part alone: such a run is left out of the column, and counted beside it."
         );
         if task == "nav-walls" {
             let _ = write!(md, "\n{}", goal_endings(grid));
@@ -884,6 +919,35 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("studies-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         dir
+    }
+
+    #[test]
+    fn a_run_timed_by_its_last_part_alone_is_left_out_of_the_time_column() {
+        let out = scratch("parts");
+        for seed in 0..SEEDS {
+            write_run(&out, "reacher", "dcp", seed, -5.0, false);
+        }
+        // Seeds 3 and 4 were continued from a checkpoint: the plant started afresh, its clock
+        // at 0 again. Seed 3's runner timed the last part alone (0.2 s, no `train_parts`);
+        // seed 4's added the earlier part (2 s in all, `train_parts` 2).
+        let restarted = "{\"steps\": 200, \"return\": -9.0, \"env_seconds\": 0.5}\n{\"steps\": 200, \"return\": -5.0, \"env_seconds\": 0.1}\n";
+        for seed in [3, 4] {
+            let folder = out.join(format!("reacher/dcp/seed{seed}"));
+            std::fs::write(folder.join("train.jsonl"), restarted).expect("curve");
+        }
+        patch_run(&out, "reacher", "dcp", 3, "train_seconds", 0.2.into());
+        patch_run(&out, "reacher", "dcp", 4, "train_parts", 2.into());
+        let grid = load(&out, false).expect("loads");
+        let runs = &cell(&grid, "reacher", "dcp").runs;
+        let part_timed: Vec<bool> = runs.iter().map(Run::timed_last_part_alone).collect();
+        assert_eq!(part_timed, [false, false, false, true, false]);
+        let (md, _) = render(&grid, "abc1234", "standard-tasks");
+        // 2 s for 400 steps on every run counted: 5 s per 1,000 steps, not 4.1 with seed 3's.
+        assert!(
+            md.contains("| 5.00 (1 of 5 left out, timed by their last part) |"),
+            "{md}"
+        );
+        let _ = std::fs::remove_dir_all(&out);
     }
 
     #[test]

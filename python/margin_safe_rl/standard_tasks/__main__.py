@@ -61,11 +61,13 @@ def _serve(args: argparse.Namespace) -> int:
     except KeyError as e:
         _log(str(e.args[0]))
         return 2
-    from .recorder import make_env
+    from .recorder import make_env, recorded_seconds
 
+    # A continued run's plant appends to its record: the environment clock carries on too.
+    clock = recorded_seconds(Path(args.record)) if args.record else 0.0
     record = open(args.record, "a") if args.record else None
     try:
-        env = make_env(t, out=record)
+        env = make_env(t, out=record, env_seconds=clock)
     except Exception as e:  # noqa: BLE001 - one line, as every CLI error here
         _log(f"cannot make {t.env_id}: {type(e).__name__}: {e}")
         return 2

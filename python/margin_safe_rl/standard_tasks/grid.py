@@ -191,6 +191,38 @@ def _episodes(path: Path) -> list[dict[str, Any]]:
         return [json.loads(line) for line in f if line.strip()]
 
 
+def training_seconds(log: str, metrics: list[str]) -> Optional[float]:
+    """The seconds a toolkit run trained, over all its parts: the trainer's own figure for its
+    training loop (no export, no test) from the last part's ``trained`` line in ``log``, plus,
+    for a run continued from a checkpoint, the earlier parts' episodes by the trainer's clock
+    in ``metrics.csv`` (``metrics``: its lines; steps / steps per second, summed), since the
+    ``trained`` line times its own part alone. None if the log has no ``trained`` line."""
+    trained = re.findall(
+        r"\((\d+) episodes, \d+ env steps(?: in all; this part: (\d+) episodes, \d+ env steps)? in ([0-9.]+) s",
+        log,
+    )
+    if not trained:
+        return None
+    episodes, this_part, seconds = trained[-1]
+    earlier = int(episodes) - int(this_part or episodes)
+    if earlier == 0:
+        return float(seconds)
+    header = metrics[0].split(",")
+    episode, steps, rate = (header.index(c) for c in ("episode", "steps", "steps_per_s"))
+    before = 0.0
+    for line in metrics[1:]:
+        cells = line.split(",")
+        if int(cells[episode]) <= earlier:
+            before += float(cells[steps]) / float(cells[rate])
+    return before + float(seconds)
+
+
+def training_parts(log: str) -> int:
+    """The parts a toolkit run trained in: one, and one more after each stop at a checkpoint
+    that ``log`` records (``train_seconds`` counts them all)."""
+    return log.count("; checkpoint written.") + 1
+
+
 def training_episodes(path: Path, steps: int) -> list[dict[str, Any]]:
     """The training episodes a plant recorded: those within the run's first ``steps`` steps
     (the trainer's test episodes, recorded after them by the same plant, are left out)."""
@@ -315,15 +347,17 @@ def run_toolkit(
     header = metrics[0].split(",")
     last = dict(zip(header, metrics[-1].split(",")))
     steps_trained = int(last["total_steps"])
-    # The recorder's clock is cumulative: the last training episode's is the run's time in the
-    # Python environment (the trainer's own test episodes follow in the same file).
+    # The recorder's clock is cumulative, over every part of a continued run too: the last
+    # training episode's is the run's time in the Python environment (the trainer's own test
+    # episodes follow in the same file).
     training = training_episodes(folder / "train.jsonl", steps_trained)
     env_seconds = training[-1]["env_seconds"] if training else 0.0
-    # The trainer's own figure for its training loop alone (no export, no test).
-    trained = re.search(r"env steps(?: in all)?[^)]*? in ([0-9.]+) s", (folder / "log.txt").read_text())
+    log_text = log.read_text()
+    train_seconds = training_seconds(log_text, metrics)
     return {
         "env_steps": steps_trained,
-        "train_seconds": float(trained.group(1)) if trained else seconds,
+        "train_seconds": seconds if train_seconds is None else train_seconds,
+        "train_parts": training_parts(log_text),
         "hidden": hidden,
         "trainer_threads": threads,
         "blob": {

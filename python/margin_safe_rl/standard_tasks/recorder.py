@@ -4,8 +4,11 @@
 plant server that ``host-trainer`` and ``firmware-sim`` drive (so a blob's test episodes are
 measured), and around the environment SB3's policies are tested on. Per episode it writes one
 JSON line: the reset seed, the return, the steps, the steps with an action component at the
-action bound, the steps in contact with the task's position limit, and the success flag where
-the plant gives one.
+action bound, the steps in contact with the task's position limit, the success flag where
+the plant gives one, and the seconds spent in the environment's ``reset`` and ``step`` so far
+(``env_seconds``). That clock runs over the whole record: a plant that appends to a record
+(a run continued from its checkpoint) carries it on from the record's last line
+(:func:`recorded_seconds`), so the last line holds the time of every part.
 
 - **At the action bound**: a component of the (clipped) action within 1 % of the box's width
   of either edge. A tanh-squashed actor never reaches its edge exactly, so "equal to the bound"
@@ -20,6 +23,7 @@ from __future__ import annotations
 
 import json
 import time
+from pathlib import Path
 from typing import IO, Any, Callable, Optional
 
 import gymnasium
@@ -64,7 +68,9 @@ def contact_detector(env: Any, contact: Optional[str]) -> Optional[Callable[[Any
 class Recorder(gymnasium.Wrapper):
     """Writes one JSON line per finished episode to ``out`` (see the module docs)."""
 
-    def __init__(self, env: Any, contact: Optional[str], out: Optional[IO[str]]) -> None:
+    def __init__(
+        self, env: Any, contact: Optional[str], out: Optional[IO[str]], env_seconds: float = 0.0
+    ) -> None:
         super().__init__(env)
         self._touching = contact_detector(env, contact)
         self._out = out
@@ -73,7 +79,7 @@ class Recorder(gymnasium.Wrapper):
         self._low, self._high = low, high
         self._edge = BOUND_SHARE * (high - low)
         self.episodes: list[dict[str, Any]] = []
-        self.env_seconds = 0.0
+        self.env_seconds = env_seconds
         self._open: Optional[dict[str, Any]] = None
         self.last_contact = False
 
@@ -124,9 +130,30 @@ class Recorder(gymnasium.Wrapper):
             self._out.flush()
 
 
-def make_env(task: Any, contact: bool = True, out: Optional[IO[str]] = None) -> Recorder:
-    """The task's environment, wrapped in a :class:`Recorder` writing to ``out``."""
+def recorded_seconds(path: Path) -> float:
+    """The environment clock a record ends on: its last readable line's ``env_seconds``, or 0
+    for a record that is missing, empty or has no such line (a line cut short by a killed
+    plant is skipped: the clock then misses that open episode's time alone)."""
+    try:
+        lines = path.read_text().splitlines()
+    except FileNotFoundError:
+        return 0.0
+    for line in reversed(lines):
+        try:
+            seconds = json.loads(line).get("env_seconds")
+        except (ValueError, AttributeError):
+            continue
+        if isinstance(seconds, (int, float)):
+            return float(seconds)
+    return 0.0
+
+
+def make_env(
+    task: Any, contact: bool = True, out: Optional[IO[str]] = None, env_seconds: float = 0.0
+) -> Recorder:
+    """The task's environment, wrapped in a :class:`Recorder` writing to ``out``, its clock
+    starting at ``env_seconds``."""
     if task.env_id.startswith("margin_safe_rl/"):
         import margin_safe_rl.firmware_sim_env  # noqa: F401 - registers the environments
     env = gymnasium.make(task.env_id, **task.env_kwargs)
-    return Recorder(env, task.contact if contact else None, out)
+    return Recorder(env, task.contact if contact else None, out, env_seconds)
