@@ -467,6 +467,8 @@ def test_a_continued_toolkit_runs_time_adds_its_earlier_parts_by_the_trainers_cl
         " 10.5 s, 10 steps/s incl. updates)\n"
     )
     assert grid.training_seconds(continued, metrics) == 6.0 + 10.5
+    # A row without a rate (or cut short) adds nothing rather than stopping the run's record.
+    assert grid.training_seconds(continued, [*metrics[:2], "2,-4,100,200,", *metrics[3:]]) == 2.0 + 10.5
     assert (grid.training_parts(one_part), grid.training_parts(continued)) == (1, 2)
     assert grid.training_seconds("host-trainer: interrupted after episode 2\n", metrics) is None
 

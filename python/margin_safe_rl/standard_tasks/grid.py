@@ -211,9 +211,13 @@ def training_seconds(log: str, metrics: list[str]) -> Optional[float]:
     episode, steps, rate = (header.index(c) for c in ("episode", "steps", "steps_per_s"))
     before = 0.0
     for line in metrics[1:]:
-        cells = line.split(",")
-        if int(cells[episode]) <= earlier:
-            before += float(cells[steps]) / float(cells[rate])
+        try:
+            cells = line.split(",")
+            n, r = float(cells[steps]), float(cells[rate])
+            if int(cells[episode]) <= earlier and r > 0:  # as the trainer's reader skips them
+                before += n / r
+        except (ValueError, IndexError):
+            continue  # a row the trainer did not finish writing: its seconds are not known
     return before + float(seconds)
 
 
