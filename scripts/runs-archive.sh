@@ -42,9 +42,15 @@ die() {
 # tar and xz die with this script: killed with SIGKILL it runs no trap, and a pipeline left
 # behind would go on writing a full-size temporary archive nobody will link into place. Each is
 # a simple command of the script itself (not of a function or subshell), so its parent is this
-# shell and the death signal follows the shell.
+# shell and the death signal follows the shell. The signal is armed only once setpriv runs, a
+# moment after the fork: a shell killed in that moment would leave the child armed against its
+# new parent (init), so, once armed, the child checks that its parent is still this shell and
+# quits if not (the usual PR_SET_PDEATHSIG race, closed by the same check as in C).
 with_us=()
-if setpriv --pdeathsig KILL true 2>/dev/null; then with_us=(setpriv --pdeathsig KILL); fi
+if setpriv --pdeathsig KILL true 2>/dev/null; then
+    # shellcheck disable=SC2016 # expanded by the child's bash, not here
+    with_us=(setpriv --pdeathsig KILL -- bash -c '[[ $PPID == "$1" ]] || exit 1; shift; exec "$@"' with-us "$$")
+fi
 
 # Temporaries are named for this machine and the writer's pid (`.HOST.PID.`), and only this
 # machine's are judged by pid: an archive folder on shared storage may hold another node's save

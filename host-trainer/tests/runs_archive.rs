@@ -189,14 +189,43 @@ fn live_members(pgid: u32) -> Vec<String> {
     live
 }
 
+/// A `setpriv` that waits `delay` before running the real one: it holds the pipeline's children
+/// in the moment between their fork and the arming of their death signal, where a loaded
+/// machine once caught them.
+fn slow_setpriv(dir: &Path, delay: &str) -> PathBuf {
+    let real = std::env::split_paths(&std::env::var_os("PATH").expect("PATH is set"))
+        .map(|d| d.join("setpriv"))
+        .find(|p| p.is_file())
+        .expect("setpriv (util-linux) is installed");
+    let bin = dir.join("slow-bin");
+    std::fs::create_dir_all(&bin).expect("scratch files");
+    let wrapper = bin.join("setpriv");
+    std::fs::write(
+        &wrapper,
+        format!("#!/bin/sh\nsleep {delay}\nexec {} \"$@\"\n", real.display()),
+    )
+    .expect("scratch files");
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&wrapper, std::fs::Permissions::from_mode(0o755))
+        .expect("scratch files");
+    bin
+}
+
 /// A save killed with SIGKILL (no trap runs) once left its `tar | xz` pipeline running, which
 /// went on writing a full-size hidden temporary archive. Now the pipeline dies with the script
-/// and the next save removes the dead save's temporary.
+/// and the next save removes the dead save's temporary. The save is killed while its children
+/// are still on their way to arming their death signal (a slow `setpriv`), the moment a loaded
+/// machine once hit by chance.
 #[test]
 fn a_killed_save_leaves_no_pipeline_and_its_temporary_is_removed() {
     use std::os::unix::process::CommandExt;
     let dir = scratch("archive-killed");
     let out = grid_folder(&dir, 1);
+    let slow = slow_setpriv(&dir, "0.3");
+    let path = std::env::join_paths(std::iter::once(slow).chain(std::env::split_paths(
+        &std::env::var_os("PATH").expect("PATH is set"),
+    )))
+    .expect("a PATH");
     // Incompressible bytes, enough to keep xz -9 busy for seconds.
     let mut x = 0x9E37_79B9_7F4A_7C15_u64;
     let noise: Vec<u8> = (0..24_000_000)
@@ -214,6 +243,7 @@ fn a_killed_save_leaves_no_pipeline_and_its_temporary_is_removed() {
         .arg(script())
         .args([Path::new("save"), &out, &archives])
         .process_group(0)
+        .env("PATH", path)
         .stdout(std::process::Stdio::null())
         .spawn()
         .expect("bash runs");
@@ -228,7 +258,7 @@ fn a_killed_save_leaves_no_pipeline_and_its_temporary_is_removed() {
     save.kill().expect("kill the save");
     save.wait().expect("reap the save");
     let mut live = live_members(save.id());
-    for _ in 0..50 {
+    for _ in 0..250 {
         if live.is_empty() {
             break;
         }
