@@ -130,8 +130,11 @@ save() {
     cd "$out"
 
     # Runs in earlier archives, as their eval.json paths and failure markers.
-    saved="$(mktemp)"
-    list="$(mktemp)"
+    # Named like the other temporaries, so the next save removes a killed save's lists too.
+    local scratch="${TMPDIR:-/tmp}/runs-archive.$host.$$"
+    remove_stale "${TMPDIR:-/tmp}/runs-archive.$host.*"
+    saved="$(mktemp "$scratch.saved.XXXXXX")"
+    list="$(mktemp "$scratch.list.XXXXXX")"
     trap 'rm -f "$saved" "$list" "${tmp:-}"' EXIT
     # Each earlier archive is verified whole first: a corrupt one would hide the runs it holds
     # from this list, so they would be saved again, and restore refuses the whole set anyway.

@@ -222,6 +222,8 @@ fn a_killed_save_leaves_no_pipeline_and_its_temporary_is_removed() {
     let dir = scratch("archive-killed");
     let out = grid_folder(&dir, 1);
     let slow = slow_setpriv(&dir, "0.3");
+    let tmp = dir.join("tmp");
+    std::fs::create_dir_all(&tmp).expect("scratch files");
     let path = std::env::join_paths(std::iter::once(slow).chain(std::env::split_paths(
         &std::env::var_os("PATH").expect("PATH is set"),
     )))
@@ -244,6 +246,7 @@ fn a_killed_save_leaves_no_pipeline_and_its_temporary_is_removed() {
         .args([Path::new("save"), &out, &archives])
         .process_group(0)
         .env("PATH", path)
+        .env("TMPDIR", &tmp)
         .stdout(std::process::Stdio::null())
         .spawn()
         .expect("bash runs");
@@ -271,9 +274,19 @@ fn a_killed_save_leaves_no_pipeline_and_its_temporary_is_removed() {
     );
 
     std::fs::write(&metrics, "small").expect("scratch files");
-    let again = runs_archive(&[Path::new("save"), &out, &archives]);
+    let again = Command::new("bash")
+        .arg(script())
+        .args([Path::new("save"), &out, &archives])
+        .env("TMPDIR", &tmp)
+        .output()
+        .expect("bash runs");
     assert!(again.status.success(), "{again:?}");
     assert_eq!(crate::support::entries(&archives), ["001.tar.xz"]);
+    assert!(
+        crate::support::entries(&tmp).is_empty(),
+        "the killed save's lists are left in TMPDIR: {:?}",
+        crate::support::entries(&tmp)
+    );
     std::fs::remove_dir_all(&dir).expect("scratch files");
 }
 
