@@ -548,12 +548,18 @@ pub fn render(grid: &Grid, commit: &str, figures: &str) -> (String, Vec<(String,
                 if holds { "holds" } else { "does not hold" }
             );
         }
+        // Claim 1's comparison in each network row, then the protocol's secondary ones in each
+        // row: the paper's DCP against DDPG, and DCP against SB3's TD3 and DDPG (at 2×400 the
+        // toolkit's network holds every unit of the Zoo's [400, 300]).
         for (a, b) in [
             ("dcp", "ddpg"),
             ("dcp@zoo-net", "ddpg@zoo-net"),
             ("dcp-paper", "ddpg"),
+            ("dcp-paper@zoo-net", "ddpg@zoo-net"),
             ("dcp", "sb3-td3"),
             ("dcp", "sb3-ddpg"),
+            ("dcp@zoo-net", "sb3-td3"),
+            ("dcp@zoo-net", "sb3-ddpg"),
         ] {
             match verdict(
                 &cell(grid, task, a).returns(),
@@ -983,6 +989,17 @@ mod tests {
             md.contains("dcp@zoo-net against ddpg@zoo-net: not judged"),
             "{md}"
         );
+        // The secondary comparisons are named in both network rows, judged or not.
+        for pair in [
+            "dcp-paper against ddpg: not judged",
+            "dcp-paper@zoo-net against ddpg@zoo-net: not judged",
+            "dcp against sb3-td3: not judged",
+            "dcp against sb3-ddpg: not judged",
+            "dcp@zoo-net against sb3-td3: not judged",
+            "dcp@zoo-net against sb3-ddpg: not judged",
+        ] {
+            assert!(md.contains(pair), "{pair} missing: {md}");
+        }
         assert!(
             md.contains("| sb3-td3 | 0 done, 0 failed, 5 to run |"),
             "{md}"
