@@ -114,6 +114,10 @@ impl Cell {
     pub fn returns(&self) -> Vec<f64> {
         self.runs.iter().map(Run::mean_return).collect()
     }
+    /// Every seed finished: the cell a verdict, an anchor or a scale may use.
+    fn complete(&self) -> bool {
+        self.runs.len() as u64 == SEEDS
+    }
     fn missing(&self) -> u64 {
         SEEDS - self.runs.len() as u64 - self.failed.len() as u64
     }
@@ -493,7 +497,7 @@ pub fn render(grid: &Grid, commit: &str, figures: &str) -> (String, Vec<(String,
             if !notes.is_empty() {
                 wall = format!("{wall} ({})", notes.join("; "));
             }
-            let runs = if c.runs.len() as u64 == SEEDS {
+            let runs = if c.complete() {
                 format!("{}", c.runs.len())
             } else {
                 format!(
@@ -542,7 +546,7 @@ pub fn render(grid: &Grid, commit: &str, figures: &str) -> (String, Vec<(String,
             let m = mean(&c.returns());
             // The protocol compares the cell's mean of five runs: a part of the cell is shown,
             // not judged.
-            let judged = if c.runs.len() as u64 == SEEDS {
+            let judged = if c.complete() {
                 if (m - score).abs() <= std {
                     "holds"
                 } else {
@@ -686,15 +690,12 @@ fn claim_one_row(grid: &Grid, row: &str, dcp: &str, ddpg: &str, md: &mut String)
     let mut waiting = Vec::new();
     for task in TASKS {
         let (d, g) = (cell(grid, task, dcp), cell(grid, task, ddpg));
-        let dcp_done = d.runs.len() as u64 == SEEDS;
-        if g.runs.len() as u64 != SEEDS {
+        if !g.complete() {
             unknown.push(task);
         }
-        if g.runs.len() as u64 == SEEDS
-            && g.share("at_bound_share").max(g.share("contact_share")) > BINDS
-        {
+        if g.complete() && g.share("at_bound_share").max(g.share("contact_share")) > BINDS {
             binding.push(task);
-            if !dcp_done {
+            if !d.complete() {
                 waiting.push(task);
             }
         }
@@ -784,16 +785,11 @@ fn claim_one(grid: &Grid) -> String {
     for task in TASKS {
         let anchor = cell(grid, task, "sb3-td3");
         let random = grid.random.get(task).copied();
-        let (d, g) = (
-            cell(grid, task, "dcp").returns(),
-            cell(grid, task, "ddpg").returns(),
-        );
-        if [d.len(), g.len(), anchor.runs.len()]
-            .iter()
-            .any(|&n| n as u64 != SEEDS)
-        {
+        let (d, g) = (cell(grid, task, "dcp"), cell(grid, task, "ddpg"));
+        if ![d, g, anchor].iter().all(|c| c.complete()) {
             continue;
         }
+        let (d, g) = (d.returns(), g.returns());
         let Some(random) = random else { continue };
         let top = mean(&anchor.returns());
         let scale = |x: f64| (x - random) / (top - random);
